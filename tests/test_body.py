@@ -1,0 +1,89 @@
+"""The human models: DOF counts, anthropometry, scaling and errors."""
+
+import mujoco
+import numpy as np
+import pytest
+
+from stumble.body import build
+from stumble.body.anthropometry import mass_fraction
+from stumble.body.joints import JOINTS_3D, hinge_names
+from stumble.errors import InputError
+
+
+def test_3d_model_has_16_joints_36_internal_dof_42_total():
+    body = build()
+    m = body.model
+    assert sum(2 if j.sided else 1 for j in JOINTS_3D) == 16
+    assert (m.nq, m.nv, m.nu) == (43, 42, 36)
+    assert len(body.joints) == 36
+    assert sorted(body.joints) == sorted(hinge_names())
+    three = [j for j in JOINTS_3D if len(j.hinges) == 3]
+    assert sorted(j.name for j in three) == ["chest", "hip", "neck", "shoulder"]
+    # every joint's first hinge is its sagittal pitch
+    for j in JOINTS_3D:
+        assert "flexion" in j.hinges[0].name or j.hinges[0].name in (
+            "lumbar_extension", "knee_angle", "ankle_angle", "mtp_angle", "wrist_flexion")
+
+
+def test_planar_model_root_and_sagittal_joints():
+    body = build(planar=True)
+    assert (body.model.nq, body.model.nv) == (10, 10)
+    assert body.describe()["root"] == ["pelvis_tx", "pelvis_ty", "pelvis_tilt"]
+    assert body.joints == ["lumbar_extension", "hip_flexion_r", "knee_angle_r", "ankle_angle_r",
+                           "hip_flexion_l", "knee_angle_l", "ankle_angle_l"]
+
+
+@pytest.mark.parametrize("planar", [False, True])
+@pytest.mark.parametrize(("mass", "height", "sex"), [(70.0, 1.75, "male"), (55.0, 1.60, "female"),
+                                                      (95.0, 1.90, "male")])
+def test_total_mass_and_segment_shares_follow_de_leva(planar, mass, height, sex):
+    body = build(planar=planar, mass_kg=mass, height_m=height, sex=sex)
+    assert body.model.body_mass.sum() == pytest.approx(mass, rel=1e-9)
+    segs = body.segments
+    thigh = segs["thigh_r"]
+    assert thigh == pytest.approx(mass_fraction("thigh", sex) * mass)  # de Leva 1996
+    assert segs["shank_l"] == pytest.approx(mass_fraction("shank", sex) * mass)
+
+
+def test_height_scales_standing_height_and_segment_lengths():
+    for h in (1.6, 1.75, 1.9):
+        body = build(height_m=h)
+        m, d = body.model, mujoco.MjData(body.model)
+        mujoco.mj_forward(m, d)
+        top = d.geom_xpos[m.geom("head_geom").id][2] + m.geom_size[m.geom("head_geom").id][0]
+        sole = d.geom_xpos[m.geom("foot_r_geom").id][2] - m.geom_size[m.geom("foot_r_geom").id][2]
+        # head sphere top at the stature within 3 cm (the skull is not a sphere)
+        assert top - sole == pytest.approx(h, abs=0.03)
+        knee = d.xpos[m.body("shank_r").id][2] - sole
+        assert knee / h == pytest.approx(0.285, abs=0.02)  # Winter 2009 knee height 0.285 H
+
+
+def test_female_segments_differ_from_male():
+    f, mm = build(sex="female").segments, build(sex="male").segments
+    assert f["thigh_r"] > mm["thigh_r"]  # de Leva: 14.78 % vs 14.16 %
+    assert f["pelvis"] > mm["pelvis"]  # 12.47 % vs 11.17 %
+
+
+def test_joint_ranges_are_human_and_in_radians():
+    m = build().model
+    knee = m.jnt_range[m.joint("knee_angle_r").id]
+    assert np.degrees(knee) == pytest.approx([-135.0, 5.0])
+    assert m.jnt_limited[m.joint("hip_flexion_l").id]
+
+
+def test_left_axes_mirror_right():
+    m = build().model
+    for name in ("hip_adduction", "hip_rotation", "subtalar_angle"):
+        r, left = m.jnt_axis[m.joint(f"{name}_r").id], m.jnt_axis[m.joint(f"{name}_l").id]
+        assert np.allclose(left, [-r[0], r[1], -r[2]])
+    assert np.allclose(m.jnt_axis[m.joint("knee_angle_l").id], [0, -1, 0])
+
+
+@pytest.mark.parametrize(("kwargs", "word"), [
+    ({"height_m": -1.75}, "height"), ({"height_m": 3.0}, "height"),
+    ({"mass_kg": 0.0}, "mass"), ({"sex": "other"}, "sex"), ({"contact": "glue"}, "contact"),
+])
+def test_bad_person_raises_one_line_error(kwargs, word):
+    with pytest.raises(InputError) as e:
+        build(**kwargs)
+    assert word in str(e.value) and "\n" not in str(e.value)
