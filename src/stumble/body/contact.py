@@ -57,7 +57,7 @@ def add_foot(foot, toes, side: str, mode: str, heel_x: float, mtp: np.ndarray,
              foot_len: float, foot_w: float, ankle_h: float) -> list[str]:
     """Add the sole of one foot: two boxes and, in ``points`` mode, 96 sites.
 
-    Returns the names of the 96 sole sites (points mode) or of the boxes (soft mode).
+    Returns the names of the 96 sole sites (penalty points, or markers in soft mode).
     ``toes`` is None for the planar model (toes lumped into the foot).
     """
     from stumble.body.build import FOOT_OBSTACLE, FOOT_RGBA, SEGMENT
@@ -79,9 +79,7 @@ def add_foot(foot, toes, side: str, mode: str, heel_x: float, mtp: np.ndarray,
         g.contype, g.conaffinity, g.density = 0, box_conaff, 0.0
         g.rgba = list(FOOT_RGBA)
         g.friction = [FRICTION, 0.005, 0.0001]
-    if mode != "points":
-        return [p[3] for p in parts]
-    names = []
+    names = []  # the grid exists in both modes (in soft mode only as kinematic markers)
     for k, (x, y) in enumerate(grid(heel_x, foot_len, foot_w)):
         on_toes = toes is not None and x > mtp[0]
         body = toes if on_toes else foot
