@@ -26,6 +26,7 @@ from stumble.gait.reference import ReferenceGait, load_reference
 
 LOAD_HEIGHT_M = 0.01  # a foot this far above the lower one carries no weight
 IK_ITERATIONS = 10
+SMOOTH_CUTOFF_HZ = 6.0  # Winter 2009: gait kinematics low-passed at about 6 Hz
 DECAY_S = 0.08  # leg corrections relax toward the data with this time constant (ours)
 DAMPING = 1e-4  # m²/rad²: a 1 cm foot error outweighs about 1 rad of leg correction
 # Leg joints the foot planting may correct, each with the joint that undoes its effect
@@ -53,6 +54,21 @@ class Playback:
     def swing_fraction(self, side: str, t: float) -> float | None:
         """Fraction of the swing of ``side`` at time t (0 toe-off, 1 heel strike), or None."""
         return self.events.swing_fraction(side, t)
+
+    def crop(self, t0: float, t1: float) -> Playback:
+        """The frames with t0 <= t <= t1, time rebased to start at 0, events kept inside."""
+        sel = (self.time_s >= t0 - 1e-9) & (self.time_s <= t1 + 1e-9)
+        t = self.time_s[sel] - self.time_s[sel][0]
+        shift = self.time_s[sel][0]
+
+        def keep(xs: list[float]) -> list[float]:
+            return [float(x - shift) for x in xs if t0 - 1e-9 <= x <= t1 + 1e-9]
+
+        ev = gait_events.GaitEvents({s: keep(v) for s, v in self.events.heel_strike_s.items()},
+                                    {s: keep(v) for s, v in self.events.toe_off_s.items()})
+        return Playback(self.body, t, self.qpos[sel], self.qvel[sel],
+                        {k: v[sel] for k, v in self.coordinates.items()}, ev,
+                        self.speed_m_per_s, self.stride_s, self.source, dict(self.retarget))
 
     def state_at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """(qpos, qvel) at time t, linearly interpolated between frames."""
@@ -243,6 +259,28 @@ def plant_feet(body: Body, qpos: np.ndarray, events: gait_events.GaitEvents,
     return correction
 
 
+def smooth_positions(body: Body, qpos: np.ndarray, dt: float,
+                     cutoff_hz: float = SMOOTH_CUTOFF_HZ) -> None:
+    """Zero-phase low-pass (4th-order Butterworth) of pelvis position and joint angles.
+
+    The sole is a grid of points, so a rolling foot is a rolling polygon and the planted
+    pelvis path has small kinks at 200 Hz; differentiated, they would make the initial
+    velocities of a physics run jitter. Velocities are therefore differentiated from
+    positions low-passed at about 6 Hz, as gait kinematics customarily are (Winter
+    2009, ch. 2); the positions themselves keep the planted feet exactly. The
+    quaternion (already smooth) is left alone.
+    """
+    from scipy.signal import butter, filtfilt
+
+    if len(qpos) < 16 or cutoff_hz >= 0.5 / dt:
+        return
+    b, a = butter(2, cutoff_hz * 2.0 * dt)  # filtfilt doubles the order: 4th, zero phase
+    cols = list(range(2 if body.planar else 3)) + [
+        int(body.model.jnt_qposadr[body.model.joint(n).id]) for n in body.joints]
+    qpos[:, cols] = filtfilt(b, a, qpos[:, cols], axis=0, padtype="odd",
+                             padlen=min(len(qpos) - 1, 3 * max(len(a), len(b)) * 10))
+
+
 def qvel_from_qpos(body: Body, qpos: np.ndarray, dt: float) -> np.ndarray:
     """Central-difference velocities (T, nv) of a qpos trajectory (free joints handled)."""
     m = body.model
@@ -273,13 +311,19 @@ def build_qpos(body: Body, coords: dict[str, np.ndarray], n: int) -> np.ndarray:
 
 def play(body: Body, time_s: np.ndarray, coords: dict[str, np.ndarray], source: str,
          speed_m_per_s: float | None = None, stride_s: float | None = None) -> Playback:
-    """Play joint-angle series on ``body``: place the pelvis, differentiate, find events."""
+    """Play joint-angle series on ``body``: place the pelvis, plant the feet, find events.
+
+    Velocities are central differences of the positions low-passed at
+    ``SMOOTH_CUTOFF_HZ`` (``smooth_positions``).
+    """
     dt = float(np.mean(np.diff(time_s)))
     qpos = build_qpos(body, coords, len(time_s))
     anchor_root(body, qpos, dt)
     ev = gait_events.detect(body, qpos, time_s)
     lift = plant_feet(body, qpos, ev, time_s)
-    qvel = qvel_from_qpos(body, qpos, dt)
+    smooth = qpos.copy()
+    smooth_positions(body, smooth, dt)
+    qvel = qvel_from_qpos(body, smooth, dt)
     if speed_m_per_s is None:
         dur = time_s[-1] - time_s[0]
         speed_m_per_s = float((qpos[-1, 0] - qpos[0, 0]) / dur)
@@ -325,9 +369,16 @@ def walk(body: Body, speed_m_per_s: float | None = None, duration_s: float = 4.0
         if not 0.3 < s1 < 2.5:
             raise InputError(f"cannot reach a stride of {target:.2f} m on this body")
         e1 = err(s1)
-    time_s = np.arange(0.0, duration_s + 1e-9, 1.0 / SAMPLE_HZ)
+    # one extra stride either side (the gait is periodic): no edge effects in the foot
+    # planting, the event detection or the velocity filter; then crop to [0, duration]
+    n0 = int(np.ceil(stride_s * SAMPLE_HZ))
+    time_s = np.arange(-n0, round(duration_s * SAMPLE_HZ) + n0 + 1) / SAMPLE_HZ
     pb = play(body, time_s, gait.angles(time_s / stride_s, hip_scale=s1),
               "reference: " + gait.source, speed_m_per_s=speed, stride_s=stride_s)
+    pb = pb.crop(0.0, duration_s)
+    pb.qpos[:, 0] -= pb.qpos[0, 0]  # start at x = 0
+    if not body.planar:
+        pb.qpos[:, 1] -= pb.qpos[0, 1]
     pb.retarget["hip_flexion_scale"] = round(s1, 5)
     pb.retarget["stride_length_m"] = round(target, 5)
     return pb
