@@ -1,0 +1,284 @@
+"""OpenSim Storage (.mot/.sto) reading, writing and mapping onto the model coordinates."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from stumble.body.joints import PELVIS_ROTATIONS, hinge_names
+from stumble.errors import InputError
+from stumble.gait.readers import (
+    Motion,
+    is_angle_column,
+    map_coordinates,
+    read_mot,
+    write_mot,
+)
+
+WALKING = Path(__file__).resolve().parents[1].parent / "shared" / "reference" / "walking"
+MODEL_3D = [*(h.name for h in PELVIS_ROTATIONS), "pelvis_tx", "pelvis_ty", "pelvis_tz",
+            *hinge_names()]
+MODEL_PLANAR = ["pelvis_tx", "pelvis_ty", "pelvis_tilt", *hinge_names(planar=True)]
+
+
+def _reference(name: str) -> Path:
+    path = WALKING / name
+    if not path.exists():
+        pytest.skip(f"reference data {path} is not present")
+    return path
+
+
+def _write(tmp_path, text: str, name: str = "gait.mot") -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def _mot_text(names, rows, header=None) -> str:
+    if header is None:
+        header = ["Coordinates", "version=1", f"nRows={len(rows)}",
+                  f"nColumns={len(names)}", "inDegrees=yes"]
+    lines = [*header, "endheader", "\t".join(names)]
+    lines += ["\t".join(str(v) for v in row) for row in rows]
+    return "\n".join(lines) + "\n"
+
+
+# ------------------------------------------------------------------ reference data
+
+
+def test_subject01_3d_ik_reads_73_rows_by_23_coordinates():
+    m = read_mot(_reference("subject01_walk1_ik.mot"))
+    assert isinstance(m, Motion)
+    assert m.source == "subject01_walk1_ik.mot" and m.in_degrees_source
+    assert m.time_s.shape == (73,) and m.n_frames == 73
+    assert len(m.columns) == 23 and "time" not in m.columns
+    assert m.time_s[0] == pytest.approx(0.4) and m.time_s[-1] == pytest.approx(1.6)
+    assert np.all(np.diff(m.time_s) > 0)
+    for side in "rl":
+        knee = np.degrees(m.columns[f"knee_angle_{side}"])  # radians in the Motion
+        assert -75.0 < knee.min() < -60.0 and -5.0 < knee.max() < 5.0
+        hip = np.degrees(m.columns[f"hip_flexion_{side}"])
+        assert -30.0 < hip.min() < -10.0 and 15.0 < hip.max() < 30.0
+    assert np.abs(m.columns["knee_angle_r"]).max() < 1.4  # really radians
+    # translations are not converted
+    assert m.columns["pelvis_ty"].mean() == pytest.approx(1.04, abs=0.05)
+    assert m.columns["pelvis_tx"][0] == pytest.approx(0.60162386)
+    assert m.columns["pelvis_tilt"][0] == pytest.approx(np.radians(5.18629404))
+
+
+def test_subject01_ik_maps_onto_the_3d_model():
+    m = read_mot(_reference("subject01_walk1_ik.mot"))
+    coords = map_coordinates(m, MODEL_3D)
+    assert len(coords) == 23
+    assert set(coords) <= set(MODEL_3D)
+    np.testing.assert_array_equal(coords["hip_flexion_r"], m.columns["hip_flexion_r"])
+
+
+def test_subject01_planar_ik_and_the_planar_model():
+    m = read_mot(_reference("subject01_walk_planar_ik.mot"))
+    assert m.n_frames == 151 and len(m.columns) == 10
+    assert set(map_coordinates(m, MODEL_PLANAR)) == set(m.columns)
+    # the 3D file on the planar model: 3D-only DOF are dropped, not unknown
+    ik3d = read_mot(_reference("subject01_walk1_ik.mot"))
+    assert set(map_coordinates(ik3d, MODEL_PLANAR)) == set(MODEL_PLANAR)
+
+
+def test_grf_columns_are_not_angles():
+    m = read_mot(_reference("subject01_walk1_grf.mot"))
+    assert m.n_frames == 1501 and len(m.columns) == 18
+    assert 700.0 < m.columns["ground_force_vy"].max() < 900.0  # N, unconverted
+    assert m.columns["ground_torque_y"][0] == pytest.approx(13.53783445)  # N·m, unconverted
+    assert not any(is_angle_column(n) for n in m.columns)
+
+
+# ------------------------------------------------------------------ format details
+
+
+@pytest.mark.parametrize(("name", "angle"), [
+    ("hip_flexion_r", True), ("pelvis_tilt", True), ("pelvis_tx", False),
+    ("pelvis_ty", False), ("knee_angle_l", True), ("ground_force_vx", False),
+    ("1_ground_force_px", False), ("ground_torque_z", False), ("time", False),
+    ("/jointset/hip_r/hip_flexion_r/value", True), ("/jointset/ground_pelvis/pelvis_tz/value",
+                                                    False),
+])
+def test_angle_column_rule(name, angle):
+    assert is_angle_column(name) is angle
+
+
+def test_sto_in_radians_is_not_converted(tmp_path):
+    text = _mot_text(["time", "knee_angle_r", "pelvis_ty"], [[0, -0.5, 1.0], [0.01, -0.6, 1.01]],
+                     header=["version=1", "OpenSimVersion=4.1", "DataType=double",
+                             "inDegrees=no"])
+    m = read_mot(_write(tmp_path, text, "states.sto"))
+    assert not m.in_degrees_source
+    np.testing.assert_allclose(m.columns["knee_angle_r"], [-0.5, -0.6])
+    np.testing.assert_allclose(m.columns["pelvis_ty"], [1.0, 1.01])
+
+
+def test_space_separated_simm_style_file_without_indegrees(tmp_path):
+    text = "walk\ndatacolumns 3\ndatarows 2\nendheader\ntime hip_flexion_r pelvis_tx\n" \
+           "  0.0   10.0  0.5\n  0.1   20.0  0.6\n\n"
+    m = read_mot(_write(tmp_path, text))
+    assert m.in_degrees_source  # degrees assumed when inDegrees is absent
+    np.testing.assert_allclose(np.degrees(m.columns["hip_flexion_r"]), [10.0, 20.0])
+    np.testing.assert_allclose(m.columns["pelvis_tx"], [0.5, 0.6])
+
+
+def test_opensim4_path_names_map_and_speeds_are_skipped(tmp_path):
+    names = ["time", "/jointset/hip_r/hip_flexion_r/value", "/jointset/hip_r/hip_flexion_r/speed",
+             "/jointset/ground_pelvis/pelvis_ty/value"]
+    text = _mot_text(names, [[0, 0.1, 1.0, 0.9], [0.1, 0.2, 1.0, 0.91]],
+                     header=["version=1", "inDegrees=no"])
+    coords = map_coordinates(read_mot(_write(tmp_path, text, "s.sto")), MODEL_3D)
+    assert set(coords) == {"hip_flexion_r", "pelvis_ty"}
+    np.testing.assert_allclose(coords["hip_flexion_r"], [0.1, 0.2])
+
+
+# ------------------------------------------------------------------------- errors
+
+GOOD_NAMES = ["time", "hip_flexion_r", "pelvis_tx"]
+GOOD_ROWS = [[0.0, 1.0, 0.5], [0.1, 2.0, 0.6], [0.2, 3.0, 0.7]]
+
+
+@pytest.mark.parametrize(("text", "fragment"), [
+    ("", "empty"),
+    ("   \n\n", "empty"),
+    ("version=1\ntime\thip_flexion_r\n0\t1\n", "endheader"),
+    ("version=1\nendheader\n", "no column-name line"),
+    (_mot_text(["t", "hip_flexion_r"], [[0, 1], [1, 2]]), "no 'time' column"),
+    (_mot_text(GOOD_NAMES, [[0.0, 1.0, 0.5], [0.1, "abc", 0.6]]),
+     "line 9, column 'hip_flexion_r': 'abc' is not a number"),
+    (_mot_text(GOOD_NAMES, [[0.0, 1.0, 0.5], [0.1, 2.0]], header=["inDegrees=yes"]),
+     "line 5 has 2 values, expected 3"),
+    (_mot_text(GOOD_NAMES, [[0.0, 1.0, 0.5], [0.0, 2.0, 0.6]]), "not after the previous time"),
+    (_mot_text(GOOD_NAMES, [[0.1, 1.0, 0.5], [0.0, 2.0, 0.6]]), "not after the previous time"),
+    (_mot_text(GOOD_NAMES, [[0.0, 1.0, 0.5]]), "at least 2"),
+    (_mot_text(GOOD_NAMES, [[0.0, 1.0, 0.5], [0.1, "nan", 0.6]]), "not finite"),
+    (_mot_text(GOOD_NAMES, GOOD_ROWS).replace("nRows=3", "nRows=4"),
+     "nRows=4 but the file has 3 data rows"),
+    (_mot_text(GOOD_NAMES, GOOD_ROWS).replace("nColumns=3", "nColumns=24"),
+     "nColumns=24 but line 7 names 3 columns"),
+    (_mot_text(GOOD_NAMES, GOOD_ROWS).replace("nRows=3", "nRows=three"), "not an integer"),
+    (_mot_text(GOOD_NAMES, GOOD_ROWS).replace("inDegrees=yes", "inDegrees=maybe"),
+     "neither yes nor no"),
+    (_mot_text(["time", "a", "a"], GOOD_ROWS), "appears twice"),
+])
+def test_malformed_file_raises_one_line_error_naming_the_file(tmp_path, text, fragment):
+    with pytest.raises(InputError) as info:
+        read_mot(_write(tmp_path, text))
+    msg = str(info.value)
+    assert msg.startswith("gait.mot: ") and "\n" not in msg
+    assert fragment in msg
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(InputError, match=r"^gone\.mot: file not found") as info:
+        read_mot(tmp_path / "gone.mot")
+    assert "\n" not in str(info.value)
+
+
+def test_binary_file(tmp_path):
+    path = tmp_path / "gait.mot"
+    path.write_bytes(b"\xff\xfe\x00\x81garbage")
+    with pytest.raises(InputError, match=r"^gait\.mot: not a text file"):
+        read_mot(path)
+
+
+# --------------------------------------------------------------------- round trip
+
+
+def test_write_read_round_trip(tmp_path):
+    t = np.linspace(0.0, 1.0, 61)
+    cols = {"hip_flexion_r": 0.4 * np.sin(2 * np.pi * t), "knee_angle_r": -0.6 * t ** 2,
+            "pelvis_tx": 1.2 * t + 0.1, "pelvis_ty": 0.95 + 0.01 * np.cos(t)}
+    path = tmp_path / "out.mot"
+    write_mot(path, t, cols)
+    text = path.read_text().splitlines()
+    assert text[:6] == ["out", "version=1", "nRows=61", "nColumns=5", "inDegrees=yes",
+                        "endheader"]
+    m = read_mot(path)
+    np.testing.assert_allclose(m.time_s, t, atol=1e-12)
+    assert list(m.columns) == list(cols)
+    for k, v in cols.items():
+        np.testing.assert_allclose(m.columns[k], v, atol=1e-10, err_msg=k)
+    # degrees in the file for angles, metres for translations
+    row = text[7].split("\t")
+    assert float(row[1]) == pytest.approx(np.degrees(cols["hip_flexion_r"][0]), abs=1e-9)
+    assert float(row[3]) == pytest.approx(0.1)
+
+
+def test_write_with_explicit_angle_names(tmp_path):
+    t = np.array([0.0, 0.5])
+    path = tmp_path / "x.mot"
+    write_mot(path, t, {"custom": np.array([np.pi, 0.0]), "hip_flexion_r": np.array([1.0, 2.0])},
+              angle_names={"custom"})
+    row = path.read_text().splitlines()[7].split("\t")
+    assert float(row[1]) == pytest.approx(180.0) and float(row[2]) == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize(("time", "cols"), [
+    ([0.0, 0.0], {"a": [1.0, 2.0]}),
+    ([0.0], {"a": [1.0]}),
+    ([0.0, 1.0], {"a": [1.0]}),
+    ([0.0, 1.0], {"a b": [1.0, 2.0]}),
+    ([0.0, 1.0], {"a": [np.nan, 2.0]}),
+    ([0.0, 1.0], {}),
+])
+def test_write_rejects_bad_input(tmp_path, time, cols):
+    with pytest.raises(InputError, match=r"^w\.mot: "):
+        write_mot(tmp_path / "w.mot", np.array(time), {k: np.array(v) for k, v in cols.items()})
+
+
+# ------------------------------------------------------------------------ mapping
+
+
+def _motion(names, source="gait.mot"):
+    t = np.array([0.0, 0.1])
+    return Motion(time_s=t, columns={n: np.array([0.1, 0.2]) for n in names},
+                  in_degrees_source=True, source=source)
+
+
+def test_unknown_names_are_listed_up_to_five():
+    m = _motion(["hip_flexion_r", "foo", "bar"])
+    with pytest.raises(InputError) as info:
+        map_coordinates(m, MODEL_3D)
+    assert str(info.value) == ("gait.mot: unknown coordinate names: foo, bar (the model's are "
+                               "listed by `stumble model --json`)")
+    m = _motion(["hip_flexion_r"] + [f"x{i}" for i in range(8)])
+    with pytest.raises(InputError, match=r"x0, x1, x2, x3, x4 and 3 more \(the model"):
+        map_coordinates(m, MODEL_3D)
+
+
+def test_extra_model_coordinates_need_not_be_in_the_file():
+    coords = map_coordinates(_motion(["knee_angle_r"]), MODEL_3D)
+    assert list(coords) == ["knee_angle_r"]
+    assert "knee_rotation_r" in MODEL_3D and "shoulder_flexion_r" in MODEL_3D
+
+
+def test_rajagopal_arm_coordinates_are_renamed_or_ignored():
+    m = _motion(["hip_flexion_r", "arm_flex_r", "arm_add_l", "arm_rot_r", "elbow_flex_l",
+                 "pro_sup_r", "wrist_flex_r", "wrist_dev_l", "knee_angle_r_beta"])
+    coords = map_coordinates(m, MODEL_3D)
+    assert set(coords) == {"hip_flexion_r", "shoulder_flexion_r", "shoulder_adduction_l",
+                           "shoulder_rotation_r", "elbow_flexion_l"}
+    np.testing.assert_array_equal(coords["shoulder_flexion_r"], m.columns["arm_flex_r"])
+    # without Rajagopal names, pro_sup_* is our own coordinate (e.g. a file we wrote)
+    assert set(map_coordinates(_motion(["pro_sup_r", "elbow_flexion_r"]), MODEL_3D)) == \
+        {"pro_sup_r", "elbow_flexion_r"}
+
+
+def test_a_file_must_drive_some_joint():
+    with pytest.raises(InputError, match=r"^gait\.mot: no column matches a joint coordinate"):
+        map_coordinates(_motion(["pelvis_tx", "pelvis_tilt"]), MODEL_3D)
+    with pytest.raises(InputError, match=r"^gait\.mot: no column matches"):
+        map_coordinates(_motion(["pro_sup_r", "arm_flex_r"]), ["pelvis_tx", "hip_flexion_r"])
+
+
+def test_written_file_maps_back(tmp_path):
+    t = np.array([0.0, 0.1, 0.2])
+    cols = {n: np.full(3, 0.1) for n in MODEL_3D}
+    path = tmp_path / "all.mot"
+    write_mot(path, t, cols)
+    coords = map_coordinates(read_mot(path), MODEL_3D)
+    assert set(coords) == set(MODEL_3D)
+    np.testing.assert_allclose(coords["pro_sup_l"], 0.1)
