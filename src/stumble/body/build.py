@@ -40,6 +40,7 @@ TORQUE_LIMIT_NM = {
 LIMIT_SOLREF = (0.02, 1.0)
 
 SEGMENT_RGBA = (0.55, 0.65, 0.80, 1.0)
+LEFT_RGBA = (0.42, 0.50, 0.66, 1.0)  # left limbs a shade darker, so the legs read apart
 FOOT_RGBA = (0.25, 0.25, 0.30, 1.0)
 
 
@@ -181,7 +182,9 @@ def _add_body(parent, name: str, pos, s: anth.Segment):
     return b
 
 
-def _capsule(body, name: str, a, b, radius: float, rgba=SEGMENT_RGBA):
+def _capsule(body, name: str, a, b, radius: float, rgba=None):
+    if rgba is None:
+        rgba = LEFT_RGBA if "_l_" in name else SEGMENT_RGBA
     g = body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_CAPSULE,
                       fromto=[*map(float, a), *map(float, b)], size=[radius, 0.0, 0.0])
     g.contype, g.conaffinity, g.density, g.rgba = 0, SEGMENT, 0.0, list(rgba)
@@ -308,6 +311,9 @@ def _Layout_spec(planar: bool, timestep_s: float) -> mujoco.MjSpec:
     tex = s.add_texture(name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D,
                         builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
                         rgb1=[0.82, 0.82, 0.80], rgb2=[0.68, 0.68, 0.66], width=256, height=256)
+    s.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+                  builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, rgb1=[0.55, 0.7, 0.9],
+                  rgb2=[0.95, 0.95, 0.97], width=256, height=256)
     mat = s.add_material(name="floor", texrepeat=[1, 1], reflectance=0.0)
     mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = tex.name
     s.visual.headlight.ambient = [0.45, 0.45, 0.45]

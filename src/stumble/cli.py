@@ -1,0 +1,266 @@
+"""The ``stumble`` command line."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import itertools
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from stumble import __version__
+from stumble.errors import InputError, StumbleError
+
+VIDEO_FPS = 25.0  # 200 Hz playback, every 8th frame
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors: ``stumble: <problem> (stumble <cmd> --help)``."""
+
+    def error(self, message: str):
+        self.exit(2, f"stumble: {message} (see `{self.prog} --help`)\n")
+
+
+def _positive(kind: str):
+    def parse(text: str) -> float:
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{kind} {text!r} is not a number") from None
+        if not np.isfinite(v) or v <= 0:
+            raise argparse.ArgumentTypeError(f"{kind} must be positive, got {text}")
+        return v
+    return parse
+
+
+def _person_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--planar", action="store_true", help="the planar (sagittal) model")
+    p.add_argument("--height", type=_positive("height"), default=1.75, metavar="M",
+                   help="body height in m (default 1.75)")
+    p.add_argument("--mass", type=_positive("mass"), default=70.0, metavar="KG",
+                   help="body mass in kg (default 70)")
+    p.add_argument("--sex", choices=("male", "female"), default="male",
+                   help="de Leva 1996 parameter set (default male)")
+    p.add_argument("--contact", choices=("points", "soft"), default="points",
+                   help="foot contact: 96 penalty points per foot (SCA 2009) or soft boxes")
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = _Parser(
+        prog="stumble",
+        description="Simulate tripping while walking and the balance-recovery response.")
+    p.add_argument("--version", action="version", version=f"stumble {__version__}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+
+    m = sub.add_parser("model", help="build a human model and describe it",
+                       description="Build a human model and describe it.")
+    m.add_argument("--json", action="store_true", help="print one JSON object")
+    _person_args(m)
+
+    w = sub.add_parser("walk", help="play walking back on a model and write its files",
+                       description="Play walking back kinematically on a model: writes "
+                       "motion.csv, events.json, joint_angles.png and walk.mp4 to DIR.")
+    w.add_argument("--out", required=True, type=Path, metavar="DIR", help="output directory")
+    w.add_argument("--gait", type=Path, metavar="FILE",
+                   help="an OpenSim .mot/.sto or a .bvh motion (default: the embedded "
+                   "subject01 reference gait)")
+    w.add_argument("--speed", type=float, metavar="V",
+                   help="walking speed in m/s, 0.7-1.6 (reference gait only; default: the "
+                   "subject's 1.10 m/s)")
+    w.add_argument("--duration", type=_positive("duration"), metavar="S",
+                   help="seconds to play (default 4 for the reference, the whole file otherwise)")
+    w.add_argument("--no-video", action="store_true", help="skip walk.mp4")
+    _person_args(w)
+    return p
+
+
+def _build(args):
+    from stumble.body import build
+
+    return build(planar=args.planar, height_m=args.height, mass_kg=args.mass, sex=args.sex,
+                 contact=args.contact)
+
+
+def cmd_model(args) -> int:
+    """``stumble model``: describe the model."""
+    d = _build(args).describe()
+    if args.json:
+        print(json.dumps(d))
+    else:
+        print(f"{d['model']} human: {d['dof']} DOF ({d['internal_dof']} internal), "
+              f"nq {d['nq']}, nu {d['nu']}, {d['mass_kg']:.1f} kg, {d['height_m']} m")
+        for name, mass in d["segments"].items():
+            print(f"  {name:14s} {mass:7.3f} kg")
+    return 0
+
+
+def _load_gait_file(path: Path, body, duration: float | None):
+    from stumble.body.joints import PELVIS_ROTATIONS, hinge_names
+    from stumble.gait.playback import SAMPLE_HZ, play
+    from stumble.gait.readers import map_coordinates, read_mot
+
+    suffix = path.suffix.lower()
+    if suffix in (".mot", ".sto"):
+        motion = read_mot(path)
+        known = hinge_names() + [h.name for h in PELVIS_ROTATIONS] + [
+            "pelvis_tx", "pelvis_ty", "pelvis_tz"]
+        coords = map_coordinates(motion, known)
+    elif suffix == ".bvh":
+        from stumble.gait.bvh import bvh_to_coordinates, read_bvh
+
+        motion = bvh_to_coordinates(read_bvh(path))
+        coords = dict(motion.columns)
+    else:
+        raise InputError(f"{path.name}: unknown motion format {suffix!r} (use .mot, .sto or .bvh)")
+    t = motion.time_s - motion.time_s[0]
+    if duration is not None:
+        if duration > t[-1] + 1e-9:
+            raise InputError(f"--duration {duration} s is longer than {path.name} "
+                             f"({t[-1]:.3f} s)")
+    else:
+        duration = float(t[-1])
+    time_s = np.arange(0.0, duration + 1e-9, 1.0 / SAMPLE_HZ)
+    wanted = set(body.joints) | {h.name for h in PELVIS_ROTATIONS}
+    resampled = {k: np.interp(time_s, t, v) for k, v in coords.items() if k in wanted}
+    return play(body, time_s, resampled, f"file: {path.name}")
+
+
+def _cycle_curves(pb, names):
+    """Mean and SD per coordinate over each side's complete strides, 0-100 % (101 points)."""
+    pct = np.linspace(0.0, 100.0, 101)
+    mean, sd, toe_off = {}, {}, {}
+    for side in ("r", "l"):
+        hs = pb.events.heel_strike_s[side]
+        strides = list(itertools.pairwise(hs))
+        for name in names:
+            key = f"{name}_{side}"
+            if key not in pb.coordinates:
+                continue
+            series = pb.coordinates[key]
+            if strides:
+                rows = [np.interp(a + pct / 100.0 * (b - a), pb.time_s, series)
+                        for a, b in strides]
+            else:  # shorter than a stride: fold the time axis on the stride period
+                ph = (pb.time_s / pb.stride_s % 1.0) * 100.0
+                order = np.argsort(ph)
+                rows = [np.interp(pct, ph[order], series[order])]
+            mean[key] = np.degrees(np.mean(rows, axis=0))
+            sd[key] = np.degrees(np.std(rows, axis=0))
+        offs = [np.mean([(x - a) / (b - a) for x in pb.events.toe_off_s[side] if a < x < b])
+                for a, b in strides if any(a < x < b for x in pb.events.toe_off_s[side])]
+        if offs:
+            toe_off[side] = 100.0 * float(np.mean(offs))
+    return pct, mean, sd, toe_off
+
+
+def _pelvis_angles(pb) -> dict[str, np.ndarray]:
+    """Pelvis tilt, list and rotation (rad) from the playback's root orientation."""
+    if pb.body.planar:
+        return {"pelvis_tilt": pb.qpos[:, 2]}
+    from scipy.spatial.transform import Rotation
+
+    quat = pb.qpos[:, [4, 5, 6, 3]]  # scipy wants (x, y, z, w)
+    ay, ax, az = Rotation.from_quat(quat).as_euler("YXZ").T  # R = Ry Rx Rz (intrinsic)
+    return {"pelvis_tilt": -ay, "pelvis_list": ax, "pelvis_rotation": az}  # tilt is about -y
+
+
+def write_motion_csv(path: Path, pb) -> None:
+    """time_s, pelvis position (m), pelvis and joint angles (deg) per frame."""
+    root = ["pelvis_tx", "pelvis_ty"] if pb.body.planar else ["pelvis_x", "pelvis_y", "pelvis_z"]
+    pos_cols = ["pelvis_x_m", "pelvis_z_m"] if pb.body.planar else [
+        "pelvis_x_m", "pelvis_y_m", "pelvis_z_m"]
+    pelvis = _pelvis_angles(pb)
+    header = ["time_s", *pos_cols, *[f"{k}_deg" for k in pelvis],
+              *[f"{j}_deg" for j in pb.body.joints]]
+    cols = [pb.time_s, *[pb.qpos[:, i] for i in range(len(root))],
+            *[np.degrees(v) for v in pelvis.values()],
+            *[np.degrees(pb.coordinates[j]) for j in pb.body.joints]]
+    data = np.column_stack(cols)
+    with path.open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(header)
+        w.writerows(np.round(data, 6).tolist())
+
+
+def _title(pb, model: str) -> str:
+    src = "reference gait (OpenSim subject01)" if pb.source.startswith("reference") else (
+        pb.source.removeprefix("file: "))
+    return f"{model.upper()} model, {src}, {pb.speed_m_per_s:.2f} m/s"
+
+
+def cmd_walk(args) -> int:
+    """``stumble walk``: play a gait back and write motion, events, plot and video."""
+    from stumble.gait.playback import walk
+    from stumble.gait.reference import check_speed
+    from stumble.viz.plots import plot_joint_angles
+
+    if args.gait is not None and args.speed is not None:
+        raise InputError("--speed applies to the embedded reference gait; a --gait file plays "
+                         "at its own speed")
+    if args.speed is not None:
+        check_speed(args.speed)
+    body = _build(args)
+    if args.gait is not None:
+        pb = _load_gait_file(args.gait, body, args.duration)
+    else:
+        pb = walk(body, args.speed, duration_s=args.duration or 4.0)
+    out = args.out
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise InputError(f"cannot create output directory {out}: {e.strerror}") from None
+    write_motion_csv(out / "motion.csv", pb)
+    events = {**pb.events.to_json(),
+              "speed_m_per_s": round(pb.speed_m_per_s, 4),
+              "stride_s": round(pb.stride_s, 4),
+              "stance_fraction": round(pb.events.stance_fraction(), 4),
+              "source": pb.source,
+              "model": "planar" if body.planar else "3d",
+              "retarget": pb.retarget}
+    (out / "events.json").write_text(json.dumps(events, indent=1) + "\n")
+    pct, mean, sd, toe_off = _cycle_curves(pb, ["hip_flexion", "knee_angle", "ankle_angle"])
+    plot_joint_angles(out / "joint_angles.png", pct, mean, events={"toe_off_percent": toe_off},
+                      title=_title(pb, events["model"]), spread_deg=sd)
+    written = ["motion.csv", "events.json", "joint_angles.png"]
+    if not args.no_video:
+        from stumble.viz.render import render_video, video_available
+
+        ok, why = video_available()
+        if ok:
+            step = max(1, round(1.0 / (VIDEO_FPS * float(np.mean(np.diff(pb.time_s))))))
+            frames = pb.qpos[::step]
+            fps = 1.0 / (step * float(np.mean(np.diff(pb.time_s))))
+            render_video(out / "walk.mp4", body.model, frames, fps,
+                         progress=sys.stderr.isatty())
+            written.append("walk.mp4")
+        else:
+            print(f"stumble: {why}", file=sys.stderr)
+    print(f"walked {pb.time_s[-1]:.2f} s at {pb.speed_m_per_s:.2f} m/s (stride "
+          f"{pb.stride_s:.3f} s, stance {events['stance_fraction']:.3f}); wrote "
+          f"{', '.join(written)} to {out}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point: run a subcommand; user errors become one line on stderr, exit 2."""
+    parser = _parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 0
+    handlers = {"model": cmd_model, "walk": cmd_walk}
+    try:
+        return handlers[args.command](args)
+    except StumbleError as e:
+        print(f"stumble: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("stumble: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

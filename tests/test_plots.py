@@ -1,0 +1,79 @@
+"""Joint-angle plots: PNG size, missing keys, bands, events, bad input."""
+
+import matplotlib.image as mpimg
+import numpy as np
+import pytest
+
+from stumble.errors import InputError
+from stumble.viz.plots import plot_joint_angles
+
+EXPECTED_PX = (1200, 900)  # 8 in x 6 in at 150 dpi (rows, columns)
+
+
+def _curves(n=101):
+    pct = np.linspace(0.0, 100.0, n)
+    ph = 2 * np.pi * pct / 100.0
+    angles = {
+        "hip_flexion_r": 10 + 20 * np.cos(ph),
+        "hip_flexion_l": 10 + 20 * np.cos(ph + np.pi),
+        "knee_angle_r": -30 + 30 * np.cos(2 * ph),
+        "knee_angle_l": -30 + 30 * np.cos(2 * ph + np.pi),
+        "ankle_angle_r": 8 * np.sin(ph),
+        "ankle_angle_l": 8 * np.sin(ph + np.pi),
+    }
+    return pct, angles
+
+
+def _read_png(path):
+    assert path.exists()
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    img = mpimg.imread(path)
+    return img
+
+
+def test_full_plot_is_a_png_of_expected_size(tmp_path):
+    pct, angles = _curves()
+    spread = {k: np.full_like(v, 3.0) for k, v in angles.items()}
+    out = plot_joint_angles(tmp_path / "sub" / "angles.png", pct, angles,
+                            events={"toe_off_percent": {"r": 62.0, "l": 12.0}},
+                            title="test gait", spread_deg=spread)
+    assert out == tmp_path / "sub" / "angles.png"
+    img = _read_png(out)
+    assert img.shape[:2] == EXPECTED_PX
+    assert img[..., :3].std() > 0.01  # something was drawn
+
+
+def test_missing_keys_are_skipped(tmp_path):
+    pct, angles = _curves(51)
+    only = {"hip_flexion_r": angles["hip_flexion_r"], "knee_angle_l": angles["knee_angle_l"]}
+    out = plot_joint_angles(tmp_path / "partial.png", pct, only,
+                            events={"toe_off_percent": {"r": None, "l": float("nan")}})
+    assert _read_png(out).shape[:2] == EXPECTED_PX
+    empty = plot_joint_angles(tmp_path / "empty.png", pct, {})
+    assert _read_png(empty).shape[:2] == EXPECTED_PX
+
+
+def test_plots_with_and_without_curves_differ(tmp_path):
+    pct, angles = _curves()
+    a = _read_png(plot_joint_angles(tmp_path / "a.png", pct, angles))
+    b = _read_png(plot_joint_angles(tmp_path / "b.png", pct, {}))
+    assert np.abs(a - b).sum() > 100.0
+
+
+def test_length_mismatch_raises_one_line_error(tmp_path):
+    pct, angles = _curves()
+    angles["knee_angle_r"] = angles["knee_angle_r"][:-5]
+    with pytest.raises(InputError) as err:
+        plot_joint_angles(tmp_path / "bad.png", pct, angles)
+    assert "\n" not in str(err.value)
+    assert "knee_angle_r" in str(err.value)
+
+
+def test_no_pyplot_figures_leak(tmp_path):
+    import matplotlib.pyplot as plt
+
+    before = plt.get_fignums()
+    pct, angles = _curves()
+    for i in range(3):
+        plot_joint_angles(tmp_path / f"p{i}.png", pct, angles)
+    assert plt.get_fignums() == before
