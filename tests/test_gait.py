@@ -150,3 +150,26 @@ def test_velocities_are_smoothed_derivatives_of_positions(playback3d, body3d):
     k = len(pb.time_s) // 2
     q, v = pb.state_at(pb.time_s[k])
     assert np.allclose(q, pb.qpos[k]) and np.allclose(v, pb.qvel[k])
+
+
+@pytest.mark.skipif(not REFERENCE.is_dir(), reason="shared/reference is not present")
+@pytest.mark.parametrize("planar", [False, True])
+def test_kinematic_events_match_the_force_plates(planar):
+    """Events from the recorded planar trial played on our models vs its force plates."""
+    from stumble.gait.playback import SAMPLE_HZ, play
+    from stumble.gait.readers import read_mot
+
+    body = build(planar=planar)
+    ik = read_mot(REFERENCE / "walking" / "subject01_walk_planar_ik.mot")
+    t = np.arange(ik.time_s[0], ik.time_s[-1], 1.0 / SAMPLE_HZ)
+    coords = {k: np.interp(t, ik.time_s, v) for k, v in ik.columns.items()
+              if k in body.joints or k == "pelvis_tilt"}
+    pb = play(body, t, coords, "subject01 planar")
+    plates = load_reference().metadata["force_plate_events_s"]
+    for side in ("r", "l"):
+        for kind, ours in (("heel_strike", pb.events.heel_strike_s[side]),
+                           ("toe_off", pb.events.toe_off_s[side])):
+            measured = [x for x in plates[side][kind] if t[0] + 0.1 < x < t[-1] - 0.1]
+            assert measured
+            for x in measured:  # every force-plate event has a kinematic one within 40 ms
+                assert min(abs(np.array(ours) - x)) < 0.04, (side, kind, x, ours)
