@@ -68,7 +68,7 @@ from stumble.body.joints import (
     rotation_matrix,
 )
 from stumble.errors import InputError
-from stumble.gait.readers import Motion
+from stumble.gait.readers import Motion, _clip, numeric_table
 
 _CHANNEL_NAMES = {c.lower(): c for c in ("Xposition", "Yposition", "Zposition",
                                          "Xrotation", "Yrotation", "Zrotation")}
@@ -152,10 +152,6 @@ class Bvh:
 
 
 # --------------------------------------------------------------------------- reading
-
-
-def _clip(text: str, n: int = 40) -> str:
-    return text if len(text) <= n else text[: n - 3] + "..."
 
 
 class _Tokens:
@@ -377,22 +373,8 @@ def read_bvh(path: str | Path) -> Bvh:
     if len(rows) != n_frames:
         raise InputError(f"{source}: 'Frames: {n_frames}' but the file has {len(rows)} "
                          "rows of motion")
-    try:
-        data = np.array(rows, dtype=float).reshape(n_frames, n_channels)
-    except ValueError:
-        for parts, lineno in zip(rows, row_lines, strict=True):
-            for k, cell in enumerate(parts):
-                try:
-                    float(cell)
-                except ValueError:
-                    raise InputError(f"{source}: line {lineno}, value {k + 1}: "
-                                     f"{_clip(cell)!r} is not a number") from None
-        raise  # pragma: no cover
-    bad = ~np.isfinite(data)
-    if bad.any():
-        r, k = np.argwhere(bad)[0]
-        raise InputError(f"{source}: line {row_lines[r]}, value {k + 1}: {rows[r][k]!r} is "
-                         "not finite (NaN/Inf)")
+    data = numeric_table(source, rows, row_lines, lambda k: f"value {k + 1}").reshape(
+        n_frames, n_channels)
     frozen = tuple(
         BvhJoint(name=j["name"], parent=j["parent"], offset=j["offset"],
                  channels=j["channels"], channel_start=j["start"], end_sites=tuple(j["ends"]))

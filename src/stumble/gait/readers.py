@@ -25,7 +25,7 @@ message that starts with the file name.
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -187,6 +187,31 @@ def _split_names(line: str) -> list[str]:
     return s.split()
 
 
+def numeric_table(source: str, rows: list[list[str]], row_lines: list[int],
+                  where: Callable[[int], str]) -> np.ndarray:
+    """Rows of text cells as a float array; a bad cell is a one-line error naming its place.
+
+    ``where(k)`` names the k-th cell of a row (e.g. "column 'knee_angle_r'").
+    """
+    try:
+        data = np.array(rows, dtype=float)
+    except ValueError:
+        for parts, lineno in zip(rows, row_lines, strict=True):
+            for k, cell in enumerate(parts):
+                try:
+                    float(cell)
+                except ValueError:
+                    raise InputError(f"{source}: line {lineno}, {where(k)}: "
+                                     f"{_clip(cell)!r} is not a number") from None
+        raise InputError(f"{source}: the data rows are not all numbers") from None
+    bad = ~np.isfinite(data)
+    if bad.any():
+        r, k = np.argwhere(bad)[0]
+        raise InputError(f"{source}: line {row_lines[r]}, {where(k)}: "
+                         f"value {rows[r][k]!r} is not finite (NaN/Inf)")
+    return data
+
+
 def read_mot(path: str | Path) -> Motion:
     """Read an OpenSim Storage file (``.mot`` or ``.sto``).
 
@@ -250,24 +275,7 @@ def read_mot(path: str | Path) -> Motion:
     if len(rows) < 2:
         raise InputError(f"{name}: {len(rows)} data row(s); at least 2 are needed")
 
-    try:
-        data = np.array(rows, dtype=float)
-    except ValueError:
-        data = None
-    if data is None:
-        for parts, lineno in zip(rows, row_lines, strict=True):
-            for k, cell in enumerate(parts):
-                try:
-                    float(cell)
-                except ValueError:
-                    raise InputError(f"{name}: line {lineno}, column {names[k]!r}: "
-                                     f"{_clip(cell)!r} is not a number") from None
-        raise InputError(f"{name}: the data rows are not all numbers")  # pragma: no cover
-    bad = ~np.isfinite(data)
-    if bad.any():
-        r, k = np.argwhere(bad)[0]
-        raise InputError(f"{name}: line {row_lines[r]}, column {names[k]!r}: "
-                         f"value {rows[r][k]!r} is not finite (NaN/Inf)")
+    data = numeric_table(name, rows, row_lines, lambda k: f"column {names[k]!r}")
 
     time_s = data[:, time_col].copy()
     steps = np.diff(time_s)
