@@ -8,9 +8,9 @@ from stumble.body import build
 from stumble.body.contact import STIFFNESS_N_PER_M, PenaltyContact
 
 
-def _statue(planar: bool, mass_kg: float):
+def _statue(planar: bool, mass_kg: float, contact: str):
     """A rigid standing body (stiff joint springs, no actuation), CoM over the sole centroid."""
-    body = build(planar=planar, mass_kg=mass_kg)
+    body = build(planar=planar, mass_kg=mass_kg, contact=contact)
     m, d = body.model, mujoco.MjData(body.model)
     m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_ACTUATION)
     lean = np.radians(4.5)  # lean forward at the ankles: CoM above the middle of the sole
@@ -24,10 +24,32 @@ def _statue(planar: bool, mass_kg: float):
         d.qpos[2] = -lean
     else:
         d.qpos[3:7] = [np.cos(lean / 2), 0.0, np.sin(lean / 2), 0.0]  # pitch forward (about +y)
-    contact = PenaltyContact.for_body(body)
+    sites = np.array([m.site(n).id for v in body.foot_points.values() for n in v])
     mujoco.mj_forward(m, d)
-    d.qpos[1 if planar else 2] -= d.site_xpos[contact.site_ids][:, 2].min() - 0.0005
-    return body, m, d, contact
+    d.qpos[1 if planar else 2] -= d.site_xpos[sites][:, 2].min() - 0.0005
+    return body, m, d, sites
+
+
+def _run(body, m, d, steps: int, record=None):
+    """Step physics; the penalty mode applies its forces between mj_step1 and mj_step2."""
+    penalty = PenaltyContact.for_body(body) if body.contact == "penalty" else None
+    for k in range(steps):
+        if penalty:
+            mujoco.mj_step1(m, d)
+            f = penalty.apply(d)
+            mujoco.mj_step2(m, d)
+            fz = f[:, 2].sum()
+        else:
+            mujoco.mj_step(m, d)
+            fz = sum(_normal_force(m, d, i) for i in range(d.ncon))
+        if record is not None:
+            record(k, fz)
+
+
+def _normal_force(m, d, i):
+    f = np.zeros(6)
+    mujoco.mj_contactForce(m, d, i, f)
+    return f[0]
 
 
 def test_each_foot_has_96_points_on_foot_and_toes():
@@ -36,30 +58,52 @@ def test_each_foot_has_96_points_on_foot_and_toes():
     m = body.model
     on_toes = sum(m.site_bodyid[m.site(n).id] == m.body("toes_r").id for n in body.foot_points["r"])
     assert 0 < on_toes < 96
+    assert m.npair == 192  # one floor pair per point sphere
 
 
+@pytest.mark.parametrize("contact", ["points", "penalty"])
 @pytest.mark.parametrize(("planar", "mass"), [(False, 70.0), (True, 70.0), (False, 100.0)])
-def test_standing_body_settles_at_the_papers_static_penetration(planar, mass):
-    _, m, d, contact = _statue(planar, mass)
+def test_standing_body_settles_at_the_papers_static_penetration(contact, planar, mass):
+    body, m, d, sites = _statue(planar, mass, contact)
     fz, depth = [], []
-    for k in range(1500):
-        mujoco.mj_step1(m, d)
-        f = contact.apply(d)
-        mujoco.mj_step2(m, d)
+
+    def record(k, f):
         if k >= 1000:
-            z = d.site_xpos[contact.site_ids][:, 2]
-            fz.append(f[:, 2].sum())
+            z = d.site_xpos[sites][:, 2]
+            fz.append(f)
             depth.append(-z[z < 0].mean())
+
+    _run(body, m, d, 1500, record)
     weight = m.body_mass.sum() * 9.81
     assert np.mean(fz) == pytest.approx(weight, rel=0.02)
     expected = weight / (192 * STIFFNESS_N_PER_M)  # 1.19 mm for 70 kg (SCA 2009 §4.2 law)
-    assert np.mean(depth) == pytest.approx(expected, rel=0.15)
+    assert np.mean(depth) == pytest.approx(expected, rel=0.05)
     assert np.all(np.isfinite(d.qpos))
 
 
-def test_contact_never_pulls_and_friction_is_bounded():
-    _, m, d, contact = _statue(False, 70.0)
+def _bounce(contact: str):
+    """Pelvis height over 0.6 s after a 0.5 mm drop, and the dominant frequency."""
+    body, m, d, _ = _statue(False, 70.0, contact)
+    z = []
+    _run(body, m, d, 600, lambda k, f: z.append(d.qpos[2]))
+    z = np.array(z) - np.mean(z)
+    spectrum = np.abs(np.fft.rfft(z))
+    return z, np.fft.rfftfreq(len(z), m.opt.timestep)[1 + np.argmax(spectrum[1:])]
+
+
+def test_mujoco_points_behave_like_the_explicit_penalty_law():
+    z_pts, f_pts = _bounce("points")
+    z_pen, f_pen = _bounce("penalty")
+    # k = 3000 N/m on 192 points under 70 kg: sqrt(576000/70)/2π = 14.4 Hz (joints add some give)
+    assert f_pts == pytest.approx(f_pen, rel=0.1)
+    assert 10.0 < f_pen < 16.0
+    assert np.ptp(z_pts) == pytest.approx(np.ptp(z_pen), rel=0.15)
+
+
+def test_penalty_contact_never_pulls_and_friction_is_bounded():
+    body, m, d, _ = _statue(False, 70.0, "penalty")
     d.qvel[0] = 0.5  # push the body forward: the feet must not slide faster than mu allows
+    contact = PenaltyContact.for_body(body)
     for _ in range(300):
         mujoco.mj_step1(m, d)
         f = contact.apply(d)
@@ -68,11 +112,21 @@ def test_contact_never_pulls_and_friction_is_bounded():
         assert np.all(np.linalg.norm(f[:, :2], axis=1) <= contact.mu * f[:, 2] + 1e-9)
 
 
+def test_points_hold_the_feet_under_a_push():
+    body, m, d, sites = _statue(False, 70.0, "points")
+    _run(body, m, d, 200)
+    heel = d.site_xpos[sites[0], :2].copy()
+    d.qvel[0] = 0.3  # the body rocks forward; stuck feet do not slide
+    _run(body, m, d, 300)
+    assert np.linalg.norm(d.site_xpos[sites[0], :2] - heel) < 0.003
+
+
 def test_soft_mode_has_boxes_that_touch_the_floor():
     body = build(contact="soft")
     m = body.model
     g = m.geom("foot_r_geom").id
     assert m.geom_conaffinity[g] & m.geom_contype[m.geom("floor").id]
+    assert m.npair == 0
     d = mujoco.MjData(m)
     mujoco.mj_forward(m, d)
     d.qpos[2] -= 0.01

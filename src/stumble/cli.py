@@ -44,8 +44,9 @@ def _person_args(p: argparse.ArgumentParser) -> None:
                    help="body mass in kg (default 70)")
     p.add_argument("--sex", choices=("male", "female"), default="male",
                    help="de Leva 1996 parameter set (default male)")
-    p.add_argument("--contact", choices=("points", "soft"), default="points",
-                   help="foot contact: 96 penalty points per foot (SCA 2009) or soft boxes")
+    p.add_argument("--contact", choices=("points", "penalty", "soft"), default="points",
+                   help="foot contact: 96 penalty points per foot resolved by MuJoCo (default), "
+                   "the same law in Python, or MuJoCo soft boxes")
 
 
 def _parser() -> argparse.ArgumentParser:

@@ -207,8 +207,9 @@ def build(planar: bool = False, height_m: float = 1.75, mass_kg: float = 70.0,
     """Compile the 3D (42 DOF) or planar human for a person of the given size.
 
     Height in m, mass in kg. ``contact``: ``"points"`` (96 sole points per foot with
-    the SCA 2009 §4.2 penalty law, see ``stumble.body.contact.PenaltyContact``) or
-    ``"soft"`` (MuJoCo's soft contact on foot boxes).
+    the SCA 2009 §4.2 penalty law, resolved by MuJoCo), ``"penalty"`` (the same law in
+    Python, ``stumble.body.contact.PenaltyContact``) or ``"soft"`` (MuJoCo's soft
+    contact on foot boxes); see ``stumble.body.contact``.
     """
     anth.check_person(height_m, mass_kg, sex)
     foot_contact.check_mode(contact)
@@ -290,11 +291,12 @@ def build(planar: bool = False, height_m: float = 1.75, mass_kg: float = 70.0,
             toes = _add_body(ft, f"toes_{side}", lay.mtp, segs["toes"])
             _hinges(toes, side, by_child[f"toes_{side}"], axes, ranges)
         foot_points[side] = foot_contact.add_foot(
-            ft, toes, side, contact, lay.heel_x, lay.mtp, lay.foot_len, lay.foot_w,
+            s, ft, toes, side, contact, lay.heel_x, lay.mtp, lay.foot_len, lay.foot_w,
             lay.ankle_h)
 
     _actuators(s, [h[0] for h in flat], mass_kg)
     model = s.compile()
+    foot_contact.configure(model)
     names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(model.njnt)]
     internal = [n for n in names if n in axes]
     masses = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b): float(model.body_mass[b])
@@ -307,6 +309,8 @@ def _Layout_spec(planar: bool, timestep_s: float) -> mujoco.MjSpec:
     s.modelname = "stumble_planar" if planar else "stumble_3d"
     s.option.timestep = timestep_s
     s.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    s.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC  # friction cones of the point contacts
+    s.option.impratio = foot_contact.IMPRATIO
     s.compiler.degree = False
     tex = s.add_texture(name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D,
                         builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,

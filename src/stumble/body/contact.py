@@ -3,23 +3,33 @@
 SCA 2009 §4.2 computes ground reaction forces with a penalty law at each of 96 points
 under each sole: f_n = k·depth + c·depth_rate, k = 3000 N/m, c = 10 N·s/m.
 
-``points`` (default) applies exactly that law. The points are MuJoCo sites; each step
-``PenaltyContact.apply`` reads their positions and velocities, computes the normal
-force (never pulling: f_n >= 0) and a friction force, and writes the sum per foot
-segment into ``data.xfrc_applied``. Friction is a stick-slip spring: a point that
-touches down is anchored; the tangential force -k_t·(slip) - c_t·(slip rate) holds it
-until it would exceed μ·f_n, and then the anchor slides with it (Coulomb). k_t and c_t
-equal the normal k and c (our choice; SCA 2009 does not give a friction law).
+Three modes:
 
-Why not MuJoCo's negative ``solref`` = (-3000, -10) on spheres: that form sets a
-reference *acceleration*, scaled by the contact's impedance and inverse inertia, so it
-is not 3000 N/m per point; measured on a standing 70 kg body it gave a 4 Hz bounce and
-about 6 mm of penetration where the paper's law gives 1.2 mm (m·g/(192·3000 N/m)).
+``points`` (default): a small sphere at each point, resolved by MuJoCo in C through
+one contact pair per sphere and floor, with *calibrated* direct ``solref``. MuJoCo's
+soft contact drives the contact acceleration toward aref = -B·v - K·d·pos with
+regularisation R = (1-d)/d·A (A the contact's diagonal inverse mass, d the impedance,
+K = -solref[0]/d², B = -solref[1]/d; engine_core_constraint.c). At rest R·f = aref
+exactly, so solref = (-k(1-d)A, -c(1-d)A) gives f = k·depth - c·(normal velocity),
+the paper's law; with a small impedance d (``IMPEDANCE``) R ≫ A and the same holds
+in motion to within about d/(1-d). Friction: an elliptic Coulomb cone (μ =
+``FRICTION``) whose tangential rows are made nearly hard (``IMPRATIO``: their R is the
+normal's / 1000), so a point sticks inside the cone and slides on its edge, solved
+implicitly by MuJoCo (a stiff explicit friction on 96 points per foot is unstable at
+1 ms). Checked against ``penalty`` by
+the static penetration and the bounce of a standing body (tests/test_contact.py).
+Plain (-3000, -10) would *not* be the law: it sets an acceleration, and on a standing
+body it gave about 6 mm of penetration and a 4 Hz bounce instead of 1.2 mm.
 
-``soft`` uses one box under the hind foot and one under the toes with MuJoCo's own
-soft contact: robust and entirely in C, but not the paper's law.
+``penalty``: the same law computed explicitly in Python each step
+(``PenaltyContact.apply`` between ``mj_step1`` and ``mj_step2``), with a stick-slip
+spring friction. Exact by construction; the reference for ``points``, about 5× slower.
 
-The foot boxes also exist in ``points`` mode; there they collide only with obstacles.
+``soft``: one box under the hind foot and one under the toes with MuJoCo's default
+soft contact. Robust and fast, not the paper's law.
+
+In every mode the 96 points also exist as sites (kinematic markers for playback and
+gait events), and the foot boxes collide with obstacles.
 """
 
 from __future__ import annotations
@@ -31,11 +41,15 @@ import numpy as np
 
 from stumble.errors import InputError
 
-MODES = ("points", "soft")
+MODES = ("points", "penalty", "soft")
 STIFFNESS_N_PER_M = 3000.0  # SCA 2009 §4.2, per contact point
 DAMPING_NS_PER_M = 10.0  # SCA 2009 §4.2, per contact point
 POINTS_ALONG, POINTS_ACROSS = 16, 6  # 96 points per foot, SCA 2009 §4.1
 FRICTION = 0.8  # shoe sole on a dry floor; our choice (reported 0.6-1.0)
+IMPEDANCE = 0.02  # solimp d of the point contacts: small, so MuJoCo acts as a penalty law
+IMPRATIO = 1000.0  # friction rows 1000x less compliant than the normal: near-hard stick
+STICK_RATE_PER_S = 500.0  # friction reference a_t = -B·v_t: sliding stops in ~2 ms
+SPHERE_RADIUS_M = 0.004
 GRID_MARGIN_M = 0.005  # inset of the outer points from the sole's edge
 
 
@@ -53,12 +67,13 @@ def grid(heel_x: float, foot_len: float, foot_w: float) -> np.ndarray:
     return np.array([(x, y) for x in xs for y in ys])
 
 
-def add_foot(foot, toes, side: str, mode: str, heel_x: float, mtp: np.ndarray,
-             foot_len: float, foot_w: float, ankle_h: float) -> list[str]:
-    """Add the sole of one foot: two boxes and, in ``points`` mode, 96 sites.
+def add_foot(spec: mujoco.MjSpec, foot, toes, side: str, mode: str, heel_x: float,
+             mtp: np.ndarray, foot_len: float, foot_w: float, ankle_h: float) -> list[str]:
+    """Add the sole of one foot: two boxes, 96 sites and, in ``points`` mode, 96 spheres.
 
-    Returns the names of the 96 sole sites (penalty points, or markers in soft mode).
-    ``toes`` is None for the planar model (toes lumped into the foot).
+    Returns the names of the 96 sole sites; sphere ``sole_r_07`` has geom name
+    ``sole_r_07_geom`` and a contact pair with the floor. ``toes`` is None for the
+    planar model (toes lumped into the foot).
     """
     from stumble.body.build import FOOT_OBSTACLE, FOOT_RGBA, SEGMENT
 
@@ -89,7 +104,27 @@ def add_foot(foot, toes, side: str, mode: str, heel_x: float, mtp: np.ndarray,
         site.rgba = [0.9, 0.3, 0.2, 1.0]
         site.group = 3  # hidden in renders by default
         names.append(name)
+        if mode == "points":
+            g = body.add_geom(name=f"{name}_geom", type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                              pos=[float(pos[0]), float(pos[1]), float(pos[2] + SPHERE_RADIUS_M)],
+                              size=[SPHERE_RADIUS_M, 0, 0])
+            g.contype, g.conaffinity, g.density, g.group = 0, 0, 0.0, 3
+            spec.add_pair(name=f"{name}_floor", geomname1="floor", geomname2=f"{name}_geom",
+                          condim=3)
     return names
+
+
+def configure(model: mujoco.MjModel) -> None:
+    """Calibrate every floor-sphere pair of a compiled model to the SCA 2009 §4.2 law."""
+    d = IMPEDANCE
+    for i in range(model.npair):
+        a = float(model.body_invweight0[model.geom_bodyid[model.pair_geom2[i]], 0])
+        model.pair_solimp[i] = (d, d, 0.001, 0.5, 2.0)
+        model.pair_solref[i] = (-STIFFNESS_N_PER_M * (1 - d) * a, -DAMPING_NS_PER_M * (1 - d) * a)
+        model.pair_solreffriction[i] = (0.0, -STICK_RATE_PER_S * d)  # direct: B = -s1/d
+        model.pair_friction[i] = (FRICTION, FRICTION, 0.005, 1e-4, 1e-4)
+        model.pair_margin[i] = 0.0
+        model.pair_gap[i] = 0.0
 
 
 @dataclass
