@@ -75,6 +75,32 @@ def _parser() -> argparse.ArgumentParser:
                    help="seconds to play (default 4 for the reference, the whole file otherwise)")
     w.add_argument("--no-video", action="store_true", help="skip walk.mp4")
     _person_args(w)
+
+    t = sub.add_parser("trip", help="walk, trip and recover (or fall); write its files",
+                       description="Simulate one trip: writes summary.json, timeseries.csv, "
+                       "trajectories.png, filmstrip.png and trip.mp4 to DIR.")
+    t.add_argument("--out", required=True, type=Path, metavar="DIR", help="output directory")
+    t.add_argument("--controller", choices=("fsm",), default="fsm",
+                   help="fsm: the state-machine controllers of SCA 2009")
+    t.add_argument("--strategy", choices=("auto", "elevating", "lowering"), default="auto",
+                   help="auto: elevating below 0.3 of swing, lowering above 0.5, midpoint rule "
+                   "between (default auto)")
+    t.add_argument("--swing", type=float, default=0.2, metavar="F",
+                   help="trip instant as a fraction of the tripped leg's swing, 0.05-0.9")
+    t.add_argument("--speed", type=float, default=1.2, metavar="V",
+                   help="walking speed in m/s, 0.7-1.6 (default 1.2)")
+    t.add_argument("--mechanism", choices=("force", "obstacle"), default="force",
+                   help="force: SCA 2009 eq. 2-3 on the swing toe; obstacle: a rigid box")
+    t.add_argument("--obstacle-height", type=float, default=0.10, metavar="M",
+                   help="obstacle height in m (default 0.10)")
+    t.add_argument("--leg", choices=("left", "right"), default="left", help="tripped leg")
+    t.add_argument("--reference", type=Path, metavar="FILE",
+                   help="a recorded trip (.mot, time 0 at the trip) for the joint-pitch RMSE")
+    t.add_argument("--seed", type=int, default=0, help="seed (the run is deterministic)")
+    t.add_argument("--duration", type=float, default=3.0, metavar="S",
+                   help="seconds of physics after the trip at most (default 3)")
+    t.add_argument("--no-video", action="store_true", help="skip filmstrip.png and trip.mp4")
+    _person_args(t)
     return p
 
 
@@ -245,6 +271,48 @@ def cmd_walk(args) -> int:
     return 0
 
 
+def cmd_trip(args) -> int:
+    """``stumble trip``: one trip, its summary, time series, plots and video."""
+    from stumble.outputs import prepare_dir, write_media, write_summary, write_timeseries
+    from stumble.pipeline import simulate_trip
+    from stumble.trip import Scenario
+
+    if args.planar:
+        raise InputError("the fsm controller drives the 3D model; --planar is for the "
+                         "reflex controller")
+    scenario = Scenario(swing_fraction=args.swing, speed_m_per_s=args.speed,
+                        leg=args.leg, mechanism=args.mechanism,
+                        obstacle_height_m=args.obstacle_height, controller=args.controller,
+                        strategy=args.strategy, seed=args.seed, height_m=args.height,
+                        mass_kg=args.mass, sex=args.sex, contact=args.contact,
+                        duration_after_trip_s=args.duration).validated()
+    reference = _load_reference_trip(args.reference) if args.reference else None
+    out = prepare_dir(args.out)
+    result = simulate_trip(scenario, reference=reference)
+    write_summary(out, result)
+    write_timeseries(out, result)
+    written = ["summary.json", "timeseries.csv",
+               *write_media(out, result, not args.no_video, sys.stderr.isatty())]
+    s = result.summary
+    outcome = ("diverged" if s["diverged"] else "recovered" if s["recovered"]
+               else "fell" if s["fell"] else "did not recover within the time")
+    print(f"{s['strategy']} strategy ({s['variant']}): {outcome}; simulated "
+          f"{s['sim_time_s']:.2f} s in {s['wall_time_s']:.2f} s; wrote {', '.join(written)} "
+          f"to {out}")
+    return 0
+
+
+def _load_reference_trip(path: Path) -> dict:
+    """Pitch angles (deg) of a recorded trip from a .mot: pelvis_tilt, hips, knees, ankles.
+
+    Columns named as our model (``hip_flexion_l`` …); time 0 must be the trip.
+    """
+    from stumble.gait.readers import read_mot
+
+    mot = read_mot(path)
+    return {"time_s": mot.time_s, **{k: np.degrees(v) for k, v in mot.columns.items()}}
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point: run a subcommand; user errors become one line on stderr, exit 2."""
     parser = _parser()
@@ -252,7 +320,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 0
-    handlers = {"model": cmd_model, "walk": cmd_walk}
+    handlers = {"model": cmd_model, "walk": cmd_walk, "trip": cmd_trip}
     try:
         return handlers[args.command](args)
     except StumbleError as e:

@@ -1,0 +1,146 @@
+"""Outcome and metrics of a trip, from the recording (any controller).
+
+- ``fell``: a body other than the feet touches the floor, or the pelvis drops below
+  ``FALL_PELVIS_FRACTION`` of its standing height.
+- ``recovered``: the recovery step has landed, and for ``RECOVERED_AFTER_S`` after it
+  the person has not fallen, the trunk is within ``UPRIGHT_DEG`` of vertical and the
+  COM's ground projection is over the base of support (the feet on the floor, grown by
+  ``BOS_MARGIN_M``).
+- ``diverged``: the physics blew up (NaN, or MuJoCo's bad-acceleration warning).
+
+The recovery step is the tripped leg's landing (elevating) or the other leg's landing
+after it has left the floor (lowering). Metrics follow SCA 2009 §5: the duration of the
+recovery step (toe-off to heel contact, elevating) or from the trip to the recovery
+leg's contact (lowering), the step length, the trunk tilt at recovery-foot contact,
+and the joint-pitch RMSE against a reference motion (Table 2's joints).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from stumble.sim import Context, Recording
+
+FALL_PELVIS_FRACTION = 0.55  # pelvis below 55 % of standing hip height: sitting, kneeling
+RECOVERED_AFTER_S = 1.0  # the issue: no fall for 1 s after the recovery step lands
+UPRIGHT_DEG = 35.0  # trunk tilt from vertical still called upright (ours)
+BOS_MARGIN_M = 0.05  # base of support grown by this (ours)
+SIDES = ("r", "l")
+
+
+def trunk_tilt_deg(model: mujoco.MjModel, xmat: np.ndarray) -> float:
+    """Angle (deg) between the torso's long axis and the vertical."""
+    z = xmat[model.body("torso").id].reshape(3, 3)[:, 2]
+    return float(np.degrees(np.arccos(np.clip(z[2], -1.0, 1.0))))
+
+
+def com_over_base(ctx: Context) -> bool:
+    """COM ground projection inside the feet-on-floor footprint, grown by a margin."""
+    m, d, s = ctx.model, ctx.data, ctx.sensors
+    pts = []
+    for side in SIDES:
+        if s.foot_on_floor[side]:
+            pts.append(d.site_xpos[[m.site(n).id for n in ctx.body.foot_points[side]], :2])
+    if not pts:
+        return False
+    p = np.vstack(pts)
+    lo, hi = p.min(axis=0) - BOS_MARGIN_M, p.max(axis=0) + BOS_MARGIN_M
+    return bool(np.all(s.com[:2] >= lo) and np.all(s.com[:2] <= hi))
+
+
+@dataclass
+class StopRule:
+    """Stops a run at a fall, or once the person has recovered (see module docstring)."""
+
+    strategy: str
+    tripped: str
+    fall_height_m: float
+    landing_s: float | None = None
+    fell_s: float | None = None
+    recovered_s: float | None = None
+    _other_left: bool = False
+
+    def __call__(self, ctx: Context, rec: Recording, k: int) -> str:
+        s = ctx.sensors
+        if s.segment_on_floor or s.pelvis_height < self.fall_height_m:
+            self.fell_s = s.t
+            return "fell"
+        if self.landing_s is None:
+            self.landing_s = self._landing(s)
+        elif s.t - self.landing_s >= RECOVERED_AFTER_S:
+            upright = trunk_tilt_deg(ctx.model, ctx.data.xmat) < UPRIGHT_DEG
+            if upright and com_over_base(ctx):
+                self.recovered_s = s.t
+                return "recovered"
+        return ""
+
+    def _landing(self, s) -> float | None:
+        rec = self.tripped if self.strategy == "elevating" else OTHER[self.tripped]
+        if self.strategy == "lowering" and not s.foot_on_floor[rec]:
+            self._other_left = True
+        if self.strategy == "elevating" and s.t > 0.02 and s.foot_on_floor[rec]:
+            return s.t
+        if self.strategy == "lowering" and self._other_left and s.foot_on_floor[rec]:
+            return s.t
+        return None
+
+
+OTHER = {"r": "l", "l": "r"}
+
+
+def variant(rec: Recording, landing_s: float | None) -> str | None:
+    """``flight`` if both feet left the floor before the recovery landing, else
+    ``double_support``; None without a landing."""
+    if landing_s is None:
+        return None
+    before = rec.time_s < landing_s
+    airborne = ~rec.foot_on_floor[:, 0] & ~rec.foot_on_floor[:, 1]
+    return "flight" if bool(np.any(airborne & before & (rec.time_s > 0.02))) else "double_support"
+
+
+def foot_x(model: mujoco.MjModel, data_like_qpos: np.ndarray, body: str) -> float:
+    """World x of a body for one qpos (kinematics only)."""
+    d = mujoco.MjData(model)
+    d.qpos[:] = data_like_qpos
+    mujoco.mj_kinematics(model, d)
+    return float(d.xpos[model.body(body).id, 0])
+
+
+def pitch_angles_deg(model: mujoco.MjModel, qpos: np.ndarray, tripped: str,
+                     strategy: str) -> dict[str, np.ndarray]:
+    """SCA 2009 Table 2's joint pitches (deg): pelvis, leading/trailing hip, knee, ankle.
+
+    The leading leg is the recovery leg (elevating: the tripped leg; lowering: the other).
+    """
+    lead = tripped if strategy == "elevating" else OTHER[tripped]
+    trail = OTHER[lead]
+    out = {}
+    if qpos.shape[1] == model.nq and model.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE:
+        w, x, y, z = qpos[:, 3], qpos[:, 4], qpos[:, 5], qpos[:, 6]
+        # pitch about -y (OpenSim tilt): the z axis' lean in the x-z plane
+        zx = 2 * (x * z + w * y)
+        zz = 1 - 2 * (x * x + y * y)
+        out["pelvis"] = np.degrees(np.arctan2(-zx, zz))
+    else:
+        out["pelvis"] = np.degrees(qpos[:, 2])
+    for label, side in (("lead", lead), ("trail", trail)):
+        for joint in ("hip_flexion", "knee_angle", "ankle_angle"):
+            adr = model.jnt_qposadr[model.joint(f"{joint}_{side}").id]
+            out[f"{label}_{joint.split('_')[0]}"] = np.degrees(qpos[:, adr])
+    return out
+
+
+def rmse_deg(sim: dict[str, np.ndarray], sim_t: np.ndarray, ref: dict[str, np.ndarray],
+             ref_t: np.ndarray) -> dict[str, float]:
+    """RMSE (deg) per Table 2 joint over the overlap of two time series (t = 0 the trip)."""
+    t_end = min(sim_t[-1], ref_t[-1])
+    sel = sim_t <= t_end
+    out = {}
+    for k, v in sim.items():
+        if k in ref:
+            r = np.interp(sim_t[sel], ref_t, ref[k])
+            out[k] = float(np.sqrt(np.mean((v[sel] - r) ** 2)))
+    return out

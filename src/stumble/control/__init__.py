@@ -1,0 +1,1 @@
+"""Controllers: PD servo banks and the trip controllers built on them."""

@@ -1,0 +1,305 @@
+"""The finite-state-machine trip controllers of SCA 2009 §4.3-4.6 (elevating, lowering).
+
+Elevating: Passive Reaction → Clearance → Flight → Single Support After Trip, or
+Clearance → Fall → Double Support → Single Support After Trip when the stance foot
+stays down and the COM starts to fall. Lowering: Passive Reaction → Leg Swap →
+Clearance (legs swap roles) → the same ending. After Single Support After Trip the
+swing leg reaches forward for the next step and the person stands (``stand``, ours:
+SCA 2009 ends at the recovery step).
+
+Every state sets, per joint, a PD target and gain (``stumble.control.pd``). The change
+from Passive Reaction into the reaction states reaches each joint after that joint's
+muscle-response latency plus 50 ms (SCA 2009 §4.3); later transitions act at once,
+on contact and COM events. The stance hip holds the pelvis attitude in the world; the
+support ankle adds the compensation torque of SCA 2009 eq. 4 during Clearance.
+"""
+
+from __future__ import annotations
+
+import heapq
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from stumble.control.fsm_params import FSMParams
+from stumble.control.pd import ServoBank
+from stumble.sim import Context
+
+FIXED, HOLD, ATT_PITCH, ATT_ROLL = 0, 1, 2, 3
+OTHER = {"r": "l", "l": "r"}
+
+
+@dataclass(order=True)
+class _Pending:
+    time_s: float
+    seq: int
+    state: str = field(compare=False)
+    key: str = field(compare=False)
+
+
+def pelvis_attitude(data) -> tuple[float, float]:
+    """Pelvis tilt (about −y, + posterior) and list (about +x) in the world, rad."""
+    z = data.xmat[1].reshape(3, 3)[:, 2]
+    return float(np.arctan2(-z[0], z[2])), float(np.arctan2(-z[1], z[2]))
+
+
+class TripFSM:
+    """SCA 2009 trip controller for one scenario; ``strategy`` elevating or lowering."""
+
+    name = "fsm"
+
+    def __init__(self, strategy: str, tripped_side: str, speed_m_per_s: float,
+                 params: FSMParams | None = None):
+        self.p = params or FSMParams()
+        self.strategy = strategy
+        self.tripped = tripped_side
+        self.kc = self.p.kc(speed_m_per_s)
+        self.log: list[tuple[str, float]] = []
+        self._state = "walking"
+
+    # ------------------------------------------------------------------ set-up
+    def start(self, ctx: Context) -> None:
+        """Take over at the trip: hold the current pose, schedule the reactions."""
+        self.bank = ServoBank(ctx.body)
+        nu = len(self.bank.names)
+        self.mode = np.full(nu, HOLD)
+        self.target = self.bank.angles(ctx.data).copy()
+        self.kp = self.bank.kp.copy()
+        self.att_ref = (pelvis_attitude(ctx.data)[0], 0.0)  # keep the tilt, level the list
+        self.pending: list[_Pending] = []
+        self._seq = 0
+        if self.strategy == "elevating":
+            self.roles = {"rec": self.tripped, "sup": OTHER[self.tripped]}
+        else:
+            self.roles = {"trip": self.tripped, "sup": OTHER[self.tripped],
+                          "rec": OTHER[self.tripped]}
+        self.roles.update({"arm_c": OTHER[self.tripped], "arm_i": self.tripped})
+        self._set_base_gains(recovery=False)
+        self._enter("passive_reaction", 0.0)
+        self._apply_state_targets("passive_reaction", immediate=False, data=ctx.data)
+        # the swing knee carries no torque in Passive Reaction (SCA 2009 §4.3, Perry 1992)
+        self._set_kp(f"knee_angle_{self.tripped}", 0.0)
+        if self.strategy == "elevating":
+            self._schedule_reactions("clearance_elevating", "elev.")
+            self._schedule("clearance_extend", "rec.knee_angle",
+                           self.p.delay("elev.rec.knee_extend"))
+            self._schedule("clearance_extend", "rec.hip_flexion",
+                           self.p.delay("elev.rec.knee_extend"))
+            self.t_react = min(self.p.delay(k) for k in self.p.latency_s
+                               if k.startswith(("elev.", "sup.")))
+        else:
+            self._schedule_reactions("leg_swap", "low.")
+            self.t_react = min(self.p.delay(k) for k in self.p.latency_s
+                               if k.startswith("low."))
+        for key in self.p.arms_deg["response"]:
+            self._schedule("arms.response", key, self.p.delay("arms"))
+        self.t_state = 0.0
+        self.left_floor = {"r": False, "l": False}
+        self._arms_walking = False
+        self._write(ctx)
+
+    def _role_joint(self, key: str) -> str:
+        role, joint = key.split(".", 1)
+        return f"{joint}_{self.roles[role]}"
+
+    def _set_kp(self, joint: str, kp: float) -> None:
+        i = self.bank.index[joint]
+        self.kp[i] = kp
+
+    def _set_base_gains(self, recovery: bool) -> None:
+        """SCA 2009 §4.5 gains; ×1.5 once recovery starts; upper body high gains."""
+        p, f = self.p, (self.p.recovery_gain_factor if recovery else 1.0)
+        sup = self.roles["sup"]
+        for name, i in self.bank.index.items():
+            side = name[-1] if name[-2] == "_" else ""
+            if name.startswith("hip_flexion"):
+                kp = p.kp_passive["support_hip" if side == sup else "swing_hip"] * f
+            elif name.startswith(("hip_adduction", "hip_rotation")):
+                kp = p.kp_hip_out_of_plane
+            elif name.startswith("knee_angle"):
+                kp = p.kp_passive["knee"] * f
+            elif name.startswith("knee_rotation"):
+                kp = p.kp_knee_rotation
+            elif name.startswith("ankle_angle"):
+                kp = p.kp_passive["ankle"] * f
+            elif name.startswith("subtalar"):
+                kp = p.kp_subtalar
+            elif name.startswith("mtp"):
+                kp = p.kp_passive["mtp"] * f
+            else:
+                key = name.split("_")[0]
+                key = "pro_sup" if name.startswith("pro_sup") else key
+                kp = p.kp_upper[key]
+            self.kp[i] = kp
+
+    # ------------------------------------------------------------------ commands
+    def _command(self, state: str, key: str, data) -> None:
+        """Apply one role-keyed target of a state to its joint now."""
+        table = (self.p.arms_deg[state.split(".")[1]] if state.startswith("arms.")
+                 else self.p.targets_deg[state])
+        value = table[key]
+        joint = self._role_joint(key)
+        i = self.bank.index[joint]
+        if value == "hold":
+            self.mode[i], self.target[i] = HOLD, float(data.qpos[self.bank.qadr[i]])
+        elif value == "attitude":
+            self.mode[i] = ATT_PITCH if "flexion" in joint else ATT_ROLL
+        else:
+            self.mode[i], self.target[i] = FIXED, np.radians(float(value))
+
+    def _schedule(self, state: str, key: str, at_s: float) -> None:
+        self._seq += 1
+        heapq.heappush(self.pending, _Pending(at_s, self._seq, state, key))
+
+    def _schedule_reactions(self, state: str, prefix: str) -> None:
+        """Each joint of ``state`` switches after its latency (+50 ms, SCA 2009 §4.3)."""
+        for key in self.p.targets_deg[state]:
+            lat = prefix + key
+            if lat in self.p.latency_s:
+                at = self.p.delay(lat)
+            elif key in self.p.latency_s:
+                at = self.p.delay(key)
+            else:
+                at = min(self.p.delay(k) for k in self.p.latency_s if k.startswith(prefix))
+            self._schedule(state, key, at)
+
+    def _apply_state_targets(self, state: str, immediate: bool, data=None) -> None:
+        for key in self.p.targets_deg[state]:
+            if immediate and data is None:
+                self._schedule(state, key, 0.0)
+            else:
+                self._command(state, key, data)
+
+    def _enter(self, state: str, t: float) -> None:
+        self._state = state
+        self.t_state = t
+        self.log.append((state, round(t, 4)))
+
+    def _switch(self, state: str, t: float, data, recovery_gains: bool = True,
+                cancel: bool = True, targets: str | None = None) -> None:
+        """An event-driven transition: cancel pending reactions, apply the targets now."""
+        if cancel:
+            self.pending = [p for p in self.pending if p.state.startswith("arms.")]
+            heapq.heapify(self.pending)
+        self._enter(state, t)
+        self._set_base_gains(recovery=recovery_gains)
+        self._apply_state_targets(targets or state, immediate=False, data=data)
+
+    # ------------------------------------------------------------------ update
+    def update(self, ctx: Context) -> None:
+        """Run due reactions, take event transitions, refresh attitude and compensation."""
+        s, d, t = ctx.sensors, ctx.data, ctx.sensors.t
+        while self.pending and self.pending[0].time_s <= t:
+            item = heapq.heappop(self.pending)
+            self._command(item.state, item.key, d)
+        for side in ("r", "l"):
+            if not s.foot_on_floor[side]:
+                self.left_floor[side] = True
+        self._transitions(ctx, t)
+        self._write(ctx)
+
+    def _transitions(self, ctx: Context, t: float) -> None:
+        s, d, st = ctx.sensors, ctx.data, self._state
+        rec, sup = self.roles["rec"], self.roles["sup"]
+        if st == "passive_reaction" and t >= self.t_react:
+            self._enter("clearance" if self.strategy == "elevating" else "leg_swap", t)
+            self._set_base_gains(recovery=True)
+        elif st == "leg_swap" and s.foot_on_floor[self.tripped] and t > self.t_react + 0.02:
+            self.roles = {**self.roles, "rec": OTHER[self.tripped], "sup": self.tripped}
+            self.left_floor = {"r": False, "l": False}
+            self._switch("clearance", t, d, targets="clearance_lowering")
+        elif st == "clearance":
+            if not s.foot_on_floor[sup] and not s.foot_on_floor[rec]:
+                self._switch("flight", t, d)
+            elif (s.com_vel[2] < self.p.fall_vz_m_per_s and t - self.t_state > 0.05
+                  and self._rec_cleared(ctx)):
+                self._switch("fall", t, d)
+            elif s.foot_on_floor[rec] and t - self.t_state > 0.1:
+                self._switch("double_support", t, d)
+        elif st == "flight" and s.foot_on_floor[rec]:
+            self._switch("single_support_after_trip", t, d)
+            self.left_floor[sup] = True
+            self._set_kp(f"hip_flexion_{rec}", self.p.kp_ssat_support_hip)
+        elif st == "fall" and s.foot_on_floor[rec]:
+            self._switch("double_support", t, d)
+        elif st == "double_support" and not s.foot_on_floor[sup]:
+            self._switch("single_support_after_trip", t, d)
+            self._set_kp(f"hip_flexion_{rec}", self.p.kp_ssat_support_hip)
+            self.left_floor[sup] = True
+        elif st in ("single_support_after_trip", "step_swing") and (
+                self._ahead(ctx, sup, rec, -0.05) or t - self.t_state > self.p.ssat_swing_s):
+            self._switch("step_reach", t, d, cancel=False)
+            self._set_kp(f"hip_flexion_{rec}", self.p.kp_ssat_support_hip)
+        elif (st == "step_reach" and s.foot_on_floor[sup] and self.left_floor[sup]
+              and self._ahead(ctx, sup, rec, 0.0)):
+            # the swing foot has landed in front: it becomes the stance leg (ours: the
+            # walk goes on after the recovery, SIMBICON-style, Yin et al. 2007)
+            self.roles = {**self.roles, "rec": sup, "sup": rec}
+            self.left_floor = {"r": False, "l": False}
+            self._switch("step_swing", t, d, targets="single_support_after_trip")
+            self._set_kp(f"hip_flexion_{sup}", self.p.kp_ssat_support_hip)
+            if not self._arms_walking:
+                for name in self.p.arms_deg["walking"]:
+                    self._command("arms.walking", name, d)
+                self._arms_walking = True
+
+    def _ahead(self, ctx: Context, a: str, b: str, margin: float) -> bool:
+        """Foot ``a`` is more than ``margin`` m ahead of foot ``b``."""
+        m, d = ctx.model, ctx.data
+        return bool(d.xpos[m.body(f"foot_{a}").id, 0]
+                    > d.xpos[m.body(f"foot_{b}").id, 0] + margin)
+
+    def _rec_cleared(self, ctx: Context) -> bool:
+        """The recovery foot is in front of the stance foot (past the obstacle line)."""
+        m, d = ctx.model, ctx.data
+        rec, sup = self.roles["rec"], self.roles["sup"]
+        return bool(d.xpos[m.body(f"foot_{rec}").id, 0] > d.xpos[m.body(f"foot_{sup}").id, 0])
+
+    def _write(self, ctx: Context) -> None:
+        """Attitude targets, compensation torque; write ctrl and gains."""
+        d = ctx.data
+        q = d.qpos[self.bank.qadr]
+        target = self.target.copy()
+        tilt, lst = pelvis_attitude(d)
+        att = self.mode >= ATT_PITCH
+        if att.any():
+            for i in np.flatnonzero(att):
+                name = self.bank.names[i]
+                if self.mode[i] == ATT_PITCH:
+                    target[i] = q[i] + (tilt - self.att_ref[0])
+                else:  # roll: right adduction about +x, left about -x
+                    sign = 1.0 if name.endswith("_r") else -1.0
+                    target[i] = q[i] + sign * (lst - self.att_ref[1])
+        if self._state == "step_reach":
+            self._place_foot(ctx, target)
+        if self._state == "clearance":
+            i = self.bank.index[f"ankle_angle_{self.roles['sup']}"]
+            tau_c = self.kc * (self.p.vz_target_m_per_s - ctx.sensors.com_vel[2])  # eq. 4
+            target[i] -= tau_c / max(self.kp[i], 1e-6)  # plantarflexion torque
+        d.ctrl[:] = target
+        self.bank.set_gains(self.kp)
+
+    def _place_foot(self, ctx: Context, target: np.ndarray) -> None:
+        """SIMBICON balance feedback (Yin et al. 2007) on the reaching leg's hip: the swing
+        thigh's world angle θ = θ_0 + c_d·d + c_v·v, d the COM's offset from the stance
+        ankle, v its velocity; sagittal on hip flexion, lateral on hip adduction."""
+        m, d, s = ctx.model, ctx.data, ctx.sensors
+        swing, stance = self.roles["rec"], self.roles["sup"]
+        if self._state == "step_reach":
+            swing, stance = self.roles["sup"], self.roles["rec"]
+        ankle = d.xpos[m.body(f"foot_{stance}").id]
+        dx, dy = s.com[0] - ankle[0], s.com[1] - ankle[1]
+        p = self.p
+        i = self.bank.index[f"hip_flexion_{swing}"]
+        # the swing thigh's angle in the world (SIMBICON): hip = thigh_world - pelvis tilt
+        thigh = (np.radians(p.reach_thigh_deg) + p.balance_cd_rad_per_m * dx
+                 + p.balance_cv_rad_s_per_m * s.com_vel[0])
+        target[i] = thigh - pelvis_attitude(d)[0]
+        j = self.bank.index[f"hip_adduction_{swing}"]
+        sign = 1.0 if swing == "r" else -1.0  # right adduction moves the foot to +y
+        lateral = p.balance_cd_lat_rad_per_m * dy + p.balance_cv_lat_rad_s_per_m * s.com_vel[1]
+        target[j] = self.target[j] + sign * lateral
+
+    def state(self) -> str:
+        """Current state name."""
+        return self._state

@@ -1,0 +1,214 @@
+"""Parameters of the finite-state-machine trip controllers (SCA 2009 §3-5).
+
+Joint targets are in degrees in *our* convention (OpenSim signs: hip flexion +, knee
+flexion −, ankle dorsiflexion +, shoulder flexion +, shoulder adduction + (so
+abduction −), elbow flexion +), keyed by role:
+
+- ``rec.*``: the recovery leg (elevating: the tripped leg; lowering, after Leg Swap:
+  the other leg), ``sup.*``: the support leg, ``trip.*``: the tripped leg (Leg Swap);
+- ``arm_c.*`` / ``arm_i.*``: the arm contralateral / ipsilateral to the tripped leg;
+- ``"hold"`` instead of a number keeps the angle the joint had when it entered the
+  state; ``"attitude"`` makes the hip hold the pelvis attitude in the world (the stance
+  hip "maintains the torso attitude", SCA 2009 §4.3, as in SIMBICON).
+
+Where SCA 2009 took a target from its own trip motion capture (which we do not have),
+the value below is grounded in the literature or in the paper's figures; the reason
+is beside it. Everything here can be overridden (``FSMParams(**changes)``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+ACTIVATION_TO_TORQUE_S = 0.050  # SCA 2009 §4.3: 50 ms from muscle activation to torque
+
+# Muscle-response latencies after the trip (s), before the 50 ms offset is added.
+LATENCY_S = {
+    # push-off reaction of the support leg, SCA 2009 §3.1 (Pijnappels et al. 2005)
+    "sup.hip_flexion": 0.050,  # hamstrings burst ~50 ms (hip extension)
+    "sup.hip_adduction": 0.080,  # gluteal burst ~80 ms
+    "sup.knee_angle": 0.120,  # quadriceps ~120 ms (knee extension)
+    "sup.ankle_angle": 0.075,  # triceps surae ~75 ms (plantarflexion)
+    # elevating strategy, recovery (tripped) leg, SCA 2009 §3.2 (Schillings et al. 2000)
+    "elev.rec.knee_angle": 0.064,  # biceps femoris ~64 ms flexes the knee
+    "elev.rec.knee_extend": 0.154,  # rectus femoris ~154 ms extends it for touch-down
+    "elev.rec.hip_flexion": 0.064,  # taken with the BF burst (the paper gives no hip timing)
+    "elev.rec.ankle_angle": 0.075,  # tibialis anterior ~75 ms after the push-off reaction
+    # lowering strategy, tripped leg, SCA 2009 §3.3 (Schillings et al. 2000)
+    "low.trip.knee_angle": 0.062,  # rectus femoris ~62 ms
+    "low.trip.hip_flexion": 0.087,  # biceps femoris ~87 ms
+    "low.trip.ankle_angle": 0.040,  # tibialis anterior and soleus ~40 ms
+    # arms, SCA 2009 §3.4 (Pijnappels et al. 2008: within 100 ms)
+    "arms": 0.100,
+}
+
+# SCA 2009 §4.5 gains (N·m/rad) in Passive Reaction; ×1.5 once recovery starts;
+# support hip 1500 in Single Support After Trip. k_d = 0.1 k_p (SCA 2009 §4.5).
+KP_PASSIVE = {"swing_hip": 500.0, "support_hip": 1000.0, "knee": 300.0, "ankle": 300.0,
+              "mtp": 100.0}
+RECOVERY_GAIN_FACTOR = 1.5  # SCA 2009 §4.5: "increased by a factor of approximately 1.5"
+KP_SSAT_SUPPORT_HIP = 1500.0  # SCA 2009 §4.5
+# High gains that hold chest, neck and wrists at their trip-instant angles (SCA 2009
+# §4.6 gives no number; ours) and the arm servos (ours).
+KP_UPPER = {"lumbar": 1500.0, "neck": 300.0, "wrist": 100.0, "pro_sup": 50.0,
+            "shoulder": 150.0, "elbow": 80.0}
+KP_HIP_OUT_OF_PLANE = 600.0  # hip adduction/rotation of the swing leg (ours)
+KP_KNEE_ROTATION = 200.0  # the knee's axial DOF (ours)
+KP_SUBTALAR = 300.0  # (ours)
+
+# Compensation torque on the support ankle (SCA 2009 eq. 4, §5): τ_c = k_c (v_z^d − v_z)
+KC_SLOW = 50.0  # N·m·s/m, slow walking (0.75-1.0 m/s), SCA 2009 §5
+KC_FAST = 300.0  # N·m·s/m, fast walking (about 1.4 m/s), SCA 2009 §5
+VZ_TARGET_M_PER_S = 1.2  # SCA 2009 §5
+KC_SPEEDS = (1.0, 1.4)  # k_c ramps linearly between these speeds (our reading of §5)
+
+
+def _targets() -> dict[str, dict[str, float | str]]:
+    """Target angles per state (degrees, our convention), see the module docstring."""
+    return {
+        "passive_reaction": {
+            # SCA 2009 §4.3: try to maintain walking; swing knee free (no torque, Perry
+            # 1992), swing hip carries on forward, support leg keeps its stance posture
+            "rec.hip_flexion": 25.0,  # the hip flexion of terminal swing in our reference
+            "sup.hip_flexion": "attitude", "sup.hip_adduction": "attitude",
+            "sup.knee_angle": "hold", "sup.ankle_angle": "hold",
+        },
+        "clearance_elevating": {
+            # Push-off targets of the support leg, SCA 2009 §4.5: hip 0, knee 5, ankle 60
+            # (their convention: angles of flexion; we map knee 5° flexion -> -5 and ankle
+            # 60° -> 60° of plantarflexion = -60, past the -50° limit on purpose: the
+            # target acts as a strong plantarflexion bias, as §4.5 explains for targets
+            # beyond the angles reached).
+            # The support hip keeps the pelvis attitude (SCA 2009 §4.3: "maintains the
+            # torso attitude"); its 0° push-off target of §4.5, in our joint convention,
+            # would pull the trunk forward whenever the stance thigh is behind the body.
+            # Set "sup.hip_flexion": 0.0 to use it literally.
+            "sup.hip_flexion": "attitude", "sup.knee_angle": -5.0, "sup.ankle_angle": -60.0,
+            "sup.hip_adduction": "attitude",
+            # Recovery leg lifted over the obstacle. SCA 2009 §4.5: a knee that reaches
+            # 120° in mocap gets a 135° target; elevating recoveries reach 90-110° of
+            # knee flexion and 60-80° of hip flexion (Eng et al. 1994; Schillings 2000).
+            "rec.hip_flexion": 80.0, "rec.knee_angle": -125.0, "rec.ankle_angle": 15.0,
+        },
+        "clearance_extend": {
+            # after the rectus femoris burst the recovery knee extends for touch-down
+            "rec.knee_angle": -20.0, "rec.hip_flexion": 55.0,
+        },
+        "leg_swap": {
+            # SCA 2009 §4.4: extension torques put the tripped leg on the ground at once,
+            # ankle dorsiflexed (TA with SOL at 40 ms, TA again at 60 ms)
+            "trip.hip_flexion": 5.0, "trip.knee_angle": -5.0, "trip.ankle_angle": 10.0,
+            "sup.hip_flexion": "attitude", "sup.hip_adduction": "attitude",
+            "sup.knee_angle": "hold", "sup.ankle_angle": "hold",
+        },
+        "clearance_lowering": {
+            # roles swapped: the tripped leg supports and pushes off, the other clears
+            "sup.hip_flexion": "attitude", "sup.knee_angle": -5.0, "sup.ankle_angle": -60.0,
+            "sup.hip_adduction": "attitude",
+            "rec.hip_flexion": 75.0, "rec.knee_angle": -120.0, "rec.ankle_angle": 15.0,
+        },
+        "flight": {
+            # SCA 2009 §4.3: front leg extended for the landing, rear leg flexed
+            "rec.hip_flexion": 40.0, "rec.knee_angle": -10.0, "rec.ankle_angle": 5.0,
+            "sup.hip_flexion": -10.0, "sup.knee_angle": -60.0, "sup.ankle_angle": -10.0,
+        },
+        "fall": {
+            # SCA 2009 §4.3: the front swing leg extended for landing
+            "rec.hip_flexion": 40.0, "rec.knee_angle": -8.0, "rec.ankle_angle": 5.0,
+            "sup.hip_adduction": "attitude",
+        },
+        "double_support": {
+            # SCA 2009 §4.3: front leg keeps the torso attitude and its length; the rear
+            # leg flexes and moves forward
+            "rec.hip_flexion": "attitude", "rec.hip_adduction": "attitude",
+            "rec.knee_angle": -8.0, "rec.ankle_angle": "hold",
+            "sup.hip_flexion": 35.0, "sup.knee_angle": -70.0, "sup.ankle_angle": 5.0,
+        },
+        "single_support_after_trip": {
+            # SCA 2009 §4.3: stance hip keeps the torso attitude, stance knee extended,
+            # the swing leg moves forward flexed
+            "rec.hip_flexion": "attitude", "rec.hip_adduction": "attitude",
+            "rec.knee_angle": -5.0, "rec.ankle_angle": "hold",
+            "sup.hip_flexion": 50.0, "sup.knee_angle": -75.0, "sup.ankle_angle": 10.0,
+        },
+        "step_reach": {
+            # ours: the swing leg reaches forward for the next step (SCA 2009 stops at
+            # Single Support After Trip, "empirically set so that balance is recovered");
+            # its hip target gets the balance feedback below
+            "sup.hip_flexion": 20.0, "sup.knee_angle": -8.0, "sup.ankle_angle": 0.0,
+            "rec.hip_flexion": "attitude", "rec.hip_adduction": "attitude",
+            "rec.knee_angle": -5.0,
+        },
+    }
+
+
+def _arms() -> dict[str, dict[str, float | str]]:
+    """Arm responses (SCA 2009 §3.4, §4.6; Roos et al. 2008): contralateral forward,
+    ipsilateral sideways, then walking swing after the landing. Magnitudes ours, from
+    the ranges Roos et al. report (contralateral shoulder flexion 40-60°,
+    ipsilateral abduction 30-50°)."""
+    return {
+        "response": {"arm_c.shoulder_flexion": 55.0, "arm_c.elbow_flexion": 40.0,
+                     "arm_i.shoulder_adduction": -45.0, "arm_i.shoulder_flexion": 10.0,
+                     "arm_i.elbow_flexion": 30.0},
+        "walking": {"arm_c.shoulder_flexion": 10.0, "arm_c.elbow_flexion": 25.0,
+                    "arm_i.shoulder_adduction": -8.0, "arm_i.shoulder_flexion": -10.0,
+                    "arm_i.elbow_flexion": 20.0},
+    }
+
+
+@dataclass
+class FSMParams:
+    """Every number of the trip controllers; override any field to experiment."""
+
+    targets_deg: dict = field(default_factory=_targets)
+    arms_deg: dict = field(default_factory=_arms)
+    latency_s: dict = field(default_factory=lambda: dict(LATENCY_S))
+    activation_to_torque_s: float = ACTIVATION_TO_TORQUE_S
+    delay_scale: float = 1.0
+    kp_passive: dict = field(default_factory=lambda: dict(KP_PASSIVE))
+    recovery_gain_factor: float = RECOVERY_GAIN_FACTOR
+    kp_ssat_support_hip: float = KP_SSAT_SUPPORT_HIP
+    kp_upper: dict = field(default_factory=lambda: dict(KP_UPPER))
+    kp_hip_out_of_plane: float = KP_HIP_OUT_OF_PLANE
+    kp_knee_rotation: float = KP_KNEE_ROTATION
+    kp_subtalar: float = KP_SUBTALAR
+    kc_slow: float = KC_SLOW
+    kc_fast: float = KC_FAST
+    kc_speeds: tuple[float, float] = KC_SPEEDS
+    vz_target_m_per_s: float = VZ_TARGET_M_PER_S
+    # Strategy rule (issue: elevating below 0.3, lowering above 0.5): in between, the
+    # strategy whose range is nearer, i.e. a threshold at the midpoint 0.4 (ours).
+    elevating_below: float = 0.3
+    lowering_above: float = 0.5
+    strategy_threshold: float = 0.4
+    # The swing leg reaches for the next step once its foot passes the stance foot, or
+    # after this long in Single Support After Trip (ours).
+    ssat_swing_s: float = 0.35
+    # SIMBICON balance feedback on the landing leg (Yin et al. 2007: c_d 0-0.5 rad/m,
+    # c_v 0.2-0.5 rad·s/m in their gaits); ours within those ranges.
+    reach_thigh_deg: float = 0.0  # θ_0: swing thigh angle from vertical before feedback
+    balance_cd_rad_per_m: float = 0.5
+    balance_cv_rad_s_per_m: float = 0.3
+    balance_cd_lat_rad_per_m: float = 0.5
+    balance_cv_lat_rad_s_per_m: float = 0.3
+    # COM vertical velocity below which the COM "starts to fall" (SCA 2009 §4.3)
+    fall_vz_m_per_s: float = 0.0
+
+    def delay(self, key: str) -> float:
+        """Latency + activation-to-torque offset, times the delay scale (s)."""
+        return (self.latency_s[key] + self.activation_to_torque_s) * self.delay_scale
+
+    def kc(self, speed_m_per_s: float) -> float:
+        """Compensation coefficient at a walking speed (SCA 2009 §5, interpolated)."""
+        lo, hi = self.kc_speeds
+        w = min(max((speed_m_per_s - lo) / (hi - lo), 0.0), 1.0)
+        return (1 - w) * self.kc_slow + w * self.kc_fast
+
+    def strategy_for(self, swing_fraction: float) -> str:
+        """``auto``: elevating below 0.3 of swing, lowering above 0.5, midpoint rule between."""
+        if swing_fraction < self.elevating_below:
+            return "elevating"
+        if swing_fraction > self.lowering_above:
+            return "lowering"
+        return "elevating" if swing_fraction < self.strategy_threshold else "lowering"

@@ -1,0 +1,188 @@
+"""One trip from scenario to result: build, walk, trip, simulate, analyse.
+
+``simulate_trip(scenario)`` composes the stages of DESIGN.md: the body
+(``stumble.body``), the walk played back until the trip (``stumble.gait``), the trip
+(``stumble.trip``), physics under a controller (``stumble.sim``) and the outcome
+(``stumble.analysis``). Nothing here steps physics itself.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from stumble.analysis import (
+    FALL_PELVIS_FRACTION,
+    StopRule,
+    pitch_angles_deg,
+    rmse_deg,
+    trunk_tilt_deg,
+    variant,
+)
+from stumble.body import Body, build
+from stumble.body.contact import STIFFNESS_N_PER_M, PenaltyContact
+from stumble.control.fsm import TripFSM
+from stumble.control.fsm_params import FSMParams
+from stumble.errors import InputError
+from stumble.gait.playback import Playback, walk
+from stumble.sim import Context, Recording, Sensors, run
+from stumble.trip import OBSTACLE_DEPTH_M, OBSTACLE_WIDTH_M, Scenario, trip_time
+
+WALK_BEFORE_TRIP_S = 0.4  # the trip comes in the first swing of that leg after this time
+OBSTACLE_GAP_M = 0.002  # the obstacle's near face this far ahead of the toe at the trip
+
+
+@dataclass
+class TripResult:
+    """Everything a trip produced: the summary (JSON-ready), the recording, the model."""
+
+    summary: dict
+    recording: Recording
+    body: Body
+    playback: Playback
+    scenario: Scenario
+    states: list[tuple[str, float]] = field(default_factory=list)
+
+
+def _toe_front(body: Body, qpos: np.ndarray, side: str) -> tuple[float, float]:
+    """Forward-most x and the height of the lowest sole point of a foot, for one pose."""
+    m = body.model
+    d = mujoco.MjData(m)
+    d.qpos[:] = qpos
+    mujoco.mj_kinematics(m, d)
+    xs, zs = [], []
+    for name in (f"foot_{side}_geom", f"toes_{side}_geom"):
+        gid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, name)
+        if gid < 0:
+            continue
+        half = m.geom_size[gid]
+        corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1)
+                            for sz in (-1, 1)]) * half
+        world = d.geom_xpos[gid] + corners @ d.geom_xmat[gid].reshape(3, 3).T
+        xs.append(world[:, 0].max())
+        zs.append(world[:, 2].min())
+    return float(max(xs)), float(min(zs))
+
+
+def _controller(scenario: Scenario, strategy: str, params: FSMParams | None):
+    if scenario.controller != "fsm":
+        raise InputError(f"controller {scenario.controller!r} is not available (fsm)")
+    p = params or FSMParams()
+    p.delay_scale = scenario.delay_scale
+    return TripFSM(strategy, scenario.side, scenario.speed_m_per_s, p)
+
+
+def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
+                  reference: dict | None = None) -> TripResult:
+    """Walk, trip and recover (or fall): the whole pipeline for one scenario.
+
+    ``reference``: optional {"time_s": (T,), "<joint>": (T,) deg} pitch angles of a
+    recorded trip (t = 0 the trip) for the RMSE of SCA 2009 Table 2.
+    """
+    sc = scenario.validated()
+    p = params or FSMParams()
+    strategy = p.strategy_for(sc.swing_fraction) if sc.strategy == "auto" else sc.strategy
+    base = build(height_m=sc.height_m, mass_kg=sc.mass_kg, sex=sc.sex, contact=sc.contact)
+    pb = walk(base, sc.speed_m_per_s, duration_s=WALK_BEFORE_TRIP_S + 2.5 * 1.6)
+    t_trip = trip_time(pb.events, sc.side, sc.swing_fraction, after_s=WALK_BEFORE_TRIP_S)
+    qpos, qvel = pb.state_at(t_trip)
+    obstacle = None
+    if sc.mechanism == "obstacle":
+        front, low = _toe_front(base, qpos, sc.side)
+        if low > sc.obstacle_height_m - 0.01:
+            raise InputError(f"at {sc.swing_fraction} of swing the toe is {low:.3f} m up, "
+                             f"over a {sc.obstacle_height_m} m obstacle")
+        obstacle = (front + OBSTACLE_GAP_M, sc.obstacle_height_m, OBSTACLE_DEPTH_M,
+                    OBSTACLE_WIDTH_M)
+    body = build(height_m=sc.height_m, mass_kg=sc.mass_kg, sex=sc.sex, contact=sc.contact,
+                 obstacle=obstacle)
+    m = body.model
+    d = mujoco.MjData(m)
+    d.qpos[:], d.qvel[:] = qpos, qvel
+    if sc.contact in ("points", "penalty"):  # SCA 2009 §4.2: support foot on the ground,
+        # at the penalty law's static depth under the body's weight on one foot
+        d.qpos[2] -= m.body_mass.sum() * 9.81 / (96 * STIFFNESS_N_PER_M)
+    m.actuator_forcerange[:] *= sc.strength_scale
+    ctx = Context(m, d, body, Sensors(), t0=0.0)
+    controller = _controller(sc, strategy, p)
+    stop = StopRule(strategy, sc.side, FALL_PELVIS_FRACTION * _standing_pelvis(body))
+    force_kwargs = {}
+    if sc.mechanism == "force":
+        toe_body = m.body(f"toes_{sc.side}").id
+        tip_sites = np.array([m.site(n).id for n in body.foot_points[sc.side][-6:]])
+        force_kwargs = {"trip_force": sc.force, "force_body": toe_body,
+                        "force_point": lambda dd: dd.site_xpos[tip_sites].mean(axis=0)}
+    penalty = PenaltyContact.for_body(body) if sc.contact == "penalty" else None
+    rec = run(ctx, controller, sc.duration_after_trip_s, stop=stop, penalty=penalty,
+              **force_kwargs)
+    summary = _summary(sc, strategy, controller, rec, stop, body, pb, t_trip, reference)
+    return TripResult(summary, rec, body, pb, sc, list(controller.log))
+
+
+def _standing_pelvis(body: Body) -> float:
+    """Pelvis height (m) of the model standing at its zero pose."""
+    return float(body.model.body("pelvis").pos[2])
+
+
+def _summary(sc: Scenario, strategy: str, controller, rec: Recording, stop: StopRule,
+             body: Body, pb: Playback, t_trip: float, reference: dict | None) -> dict:
+    m = body.model
+    landing = stop.landing_s
+    rec_side = sc.side if strategy == "elevating" else {"r": "l", "l": "r"}[sc.side]
+    durations = {"recovery_step": None, "trip_to_recovery_contact": None}
+    step_length = None
+    tilt = None
+    if landing is not None:
+        k = int(np.searchsorted(rec.time_s, landing))
+        k = min(k, len(rec.time_s) - 1)
+        d = mujoco.MjData(m)
+        d.qpos[:] = rec.qpos[k]
+        mujoco.mj_kinematics(m, d)
+        tilt = round(trunk_tilt_deg(m, d.xmat), 2)
+        other = {"r": "l", "l": "r"}[rec_side]
+        step_length = round(float(d.xpos[m.body(f"foot_{rec_side}").id, 0]
+                                  - d.xpos[m.body(f"foot_{other}").id, 0]), 4)
+        if strategy == "elevating":
+            offs = [t for t in pb.events.toe_off_s[sc.side] if t <= t_trip]
+            if offs:
+                durations["recovery_step"] = round(t_trip - offs[-1] + landing, 4)
+        durations["trip_to_recovery_contact"] = round(landing, 4)
+    rmse = None
+    if reference is not None:
+        sim = pitch_angles_deg(m, rec.qpos, sc.side, strategy)
+        rmse = {k: round(v, 3) for k, v in rmse_deg(
+            sim, rec.time_s, reference, np.asarray(reference["time_s"])).items()}
+    diverged = rec.diverged
+    fell = stop.fell_s is not None and not diverged
+    return {
+        "controller": sc.controller,
+        "strategy": strategy,
+        "variant": variant(rec, landing),
+        "recovered": stop.recovered_s is not None and not diverged,
+        "fell": fell,
+        "diverged": diverged,
+        "swing_fraction": sc.swing_fraction,
+        "speed_m_per_s": sc.speed_m_per_s,
+        "mechanism": sc.mechanism,
+        "leg": sc.leg,
+        "obstacle_height_m": sc.obstacle_height_m if sc.mechanism == "obstacle" else None,
+        "trip_time_s": round(t_trip, 4),
+        "states": [{"name": n, "start_s": t} for n, t in controller.log],
+        "durations_s": durations,
+        "recovery_step_length_m": step_length,
+        "trunk_tilt_at_recovery_contact_deg": tilt,
+        "recovery_contact_s": None if landing is None else round(landing, 4),
+        "fall_time_s": None if stop.fell_s is None else round(stop.fell_s, 4),
+        "rmse_deg": rmse,
+        "sim_time_s": round(float(rec.time_s[-1]) if len(rec.time_s) else 0.0, 4),
+        "wall_time_s": round(rec.wall_time_s, 4),
+        "steps": rec.steps,
+        "stop_reason": rec.stop_reason,
+        "seed": sc.seed,
+        "contact": sc.contact,
+        "delay_scale": sc.delay_scale,
+        "strength_scale": sc.strength_scale,
+        "walking_stride_s": round(pb.stride_s, 4),
+    }

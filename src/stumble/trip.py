@@ -1,0 +1,130 @@
+"""The trip: when and how the swing foot is stopped (SCA 2009 §4.2-4.3).
+
+A ``Scenario`` names the tripped leg, the instant as a fraction of that leg's swing,
+the walking speed and the mechanism:
+
+- ``force``: the tripping forces of SCA 2009 eq. 2-3 on the swing toe;
+- ``obstacle``: a rigid box on the path, placed so the swing toe strikes it at the
+  requested swing fraction; foot and box collide physically and the box stays.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from stumble.errors import InputError
+from stumble.gait.reference import check_speed
+
+# SCA 2009 §4.3, after Pijnappels et al. 2004 (inverse dynamics and force plates).
+FX_MAX_N = 170.0  # SCA 2009 eq. 2: peak horizontal (backward) tripping force
+FZ_MAX_N = 70.0  # SCA 2009 eq. 3: peak vertical tripping force
+T_TRIP_S = 0.114  # SCA 2009 §4.3: collision duration
+# Eq. 2 as printed, exp(-(t - T_c)^2 / (T_trip/6)), divides a squared time by a time
+# and is not dimensionless; its Figure 5 shows a bell that rises and falls within
+# T_trip. We read it as a Gaussian of standard deviation T_trip/6 (±3σ spans the
+# collision), the natural reading; ``sigma_s`` is a parameter.
+SIGMA_OVER_T_TRIP = 1.0 / 6.0
+
+SWING_RANGE = (0.05, 0.9)  # the issue's range of trip instants (fraction of swing)
+OBSTACLE_HEIGHT_M = 0.10  # default; trip experiments used 8 and 14 cm (reference README)
+OBSTACLE_DEPTH_M = 0.10  # along the walking direction (our choice)
+OBSTACLE_WIDTH_M = 0.60  # across, wide enough for either foot (our choice)
+MECHANISMS = ("force", "obstacle")
+LEGS = ("left", "right")
+
+
+@dataclass(frozen=True)
+class TripForce:
+    """SCA 2009 eq. 2-3: backward Gaussian and vertical sine on the swing toe, in N.
+
+    F_x(t) = -F_x^max exp(-(t - T_c)² / (2σ²)),  F_z(t) = F_z^max sin(2π t / T_trip),
+    for 0 <= t <= T_trip after the collision, zero otherwise; T_c = T_trip / 2.
+    """
+
+    fx_max_n: float = FX_MAX_N
+    fz_max_n: float = FZ_MAX_N
+    t_trip_s: float = T_TRIP_S
+    sigma_s: float = T_TRIP_S * SIGMA_OVER_T_TRIP
+
+    def __call__(self, t_s: np.ndarray | float) -> np.ndarray:
+        """(…, 3) force in world axes at ``t_s`` seconds after the collision."""
+        t = np.asarray(t_s, dtype=float)
+        inside = (t >= 0.0) & (t <= self.t_trip_s)
+        tc = 0.5 * self.t_trip_s  # SCA 2009 §4.3: T_c = 0.5 T_trip
+        fx = -self.fx_max_n * np.exp(-((t - tc) ** 2) / (2.0 * self.sigma_s**2))
+        fz = self.fz_max_n * np.sin(2.0 * np.pi * t / self.t_trip_s)
+        out = np.zeros((*t.shape, 3))
+        out[..., 0] = np.where(inside, fx, 0.0)
+        out[..., 2] = np.where(inside, fz, 0.0)
+        return out
+
+    def impulse_ns(self) -> np.ndarray:
+        """Impulse (N·s) of the whole collision, x and z."""
+        t = np.linspace(0.0, self.t_trip_s, 2001)
+        return np.trapezoid(self(t), t, axis=0)
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One trip: who, when, how fast, by what. SI units; degrees only at the edges."""
+
+    swing_fraction: float = 0.2
+    speed_m_per_s: float = 1.2
+    leg: str = "left"
+    mechanism: str = "force"
+    obstacle_height_m: float = OBSTACLE_HEIGHT_M
+    controller: str = "fsm"
+    strategy: str = "auto"
+    seed: int = 0
+    height_m: float = 1.75
+    mass_kg: float = 70.0
+    sex: str = "male"
+    contact: str = "points"
+    duration_after_trip_s: float = 3.0
+    delay_scale: float = 1.0  # multiplies every response latency
+    strength_scale: float = 1.0  # multiplies every torque limit
+    force: TripForce = field(default_factory=TripForce)
+
+    def validated(self) -> Scenario:
+        """The scenario itself, or InputError naming the first bad field."""
+        lo, hi = SWING_RANGE
+        if not np.isfinite(self.swing_fraction) or not lo <= self.swing_fraction <= hi:
+            raise InputError(f"swing fraction {self.swing_fraction} is outside {lo}-{hi}")
+        check_speed(self.speed_m_per_s)
+        if self.leg not in LEGS:
+            raise InputError(f"leg {self.leg!r} is not 'left' or 'right'")
+        if self.mechanism not in MECHANISMS:
+            raise InputError(f"mechanism {self.mechanism!r} is not 'force' or 'obstacle'")
+        if not np.isfinite(self.obstacle_height_m) or not 0.02 <= self.obstacle_height_m <= 0.3:
+            raise InputError(f"obstacle height {self.obstacle_height_m} m is outside 0.02-0.3 m")
+        if self.strategy not in ("auto", "elevating", "lowering"):
+            raise InputError(f"strategy {self.strategy!r} is not auto, elevating or lowering")
+        if not 0.2 <= self.delay_scale <= 5.0:
+            raise InputError(f"delay scale {self.delay_scale} is outside 0.2-5")
+        if not 0.1 <= self.strength_scale <= 5.0:
+            raise InputError(f"strength scale {self.strength_scale} is outside 0.1-5")
+        if not 0.5 <= self.duration_after_trip_s <= 20.0:
+            raise InputError(f"duration {self.duration_after_trip_s} s is outside 0.5-20 s")
+        return self
+
+    @property
+    def side(self) -> str:
+        """Model side suffix of the tripped leg: 'l' or 'r'."""
+        return self.leg[0]
+
+    def with_(self, **changes) -> Scenario:
+        """A copy with some fields changed."""
+        return replace(self, **changes)
+
+
+def trip_time(events, side: str, swing_fraction: float, after_s: float = 0.0) -> float:
+    """The first instant after ``after_s`` at which ``side`` is at ``swing_fraction`` of swing."""
+    for to in events.toe_off_s[side]:
+        if to < after_s:
+            continue
+        hs = [t for t in events.heel_strike_s[side] if t > to]
+        if hs:
+            return float(to + swing_fraction * (hs[0] - to))
+    raise InputError(f"the walk has no complete swing of the {side} leg after {after_s} s")

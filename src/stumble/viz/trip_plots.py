@@ -1,0 +1,68 @@
+"""Plots of one trip: SCA 2009 Figure 10 (foot path, pelvis, hip and knee pitch)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from stumble.analysis import pitch_angles_deg
+
+
+def foot_com_path(model: mujoco.MjModel, qpos: np.ndarray, side: str) -> np.ndarray:
+    """(T, 3) world position of a foot's centre of mass (foot and toes together)."""
+    d = mujoco.MjData(model)
+    ids = [model.body(f"foot_{side}").id]
+    toes = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, f"toes_{side}")
+    if toes >= 0:
+        ids.append(toes)
+    mass = model.body_mass[ids]
+    out = np.zeros((len(qpos), 3))
+    for k, q in enumerate(qpos):
+        d.qpos[:] = q
+        mujoco.mj_kinematics(model, d)
+        out[k] = (mass[:, None] * d.xipos[ids]).sum(axis=0) / mass.sum()
+    return out
+
+
+def plot_trajectories(path, model: mujoco.MjModel, time_s: np.ndarray, qpos: np.ndarray,
+                      tripped: str, strategy: str, states: list[tuple[str, float]],
+                      title: str = "") -> Path:
+    """Leading foot COM path (x-z), pelvis, leading hip and knee pitch over time.
+
+    The leading leg is the recovery leg. Time 0 and the dashed line mark the trip;
+    dotted lines mark the controller's state changes.
+    """
+    lead = tripped if strategy == "elevating" else {"r": "l", "l": "r"}[tripped]
+    foot = foot_com_path(model, qpos, lead)
+    ang = pitch_angles_deg(model, qpos, tripped, strategy)
+    fig = Figure(figsize=(13, 3.6))
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(1, 4)
+    ax = axes[0]
+    ax.plot(foot[:, 0] - foot[0, 0], foot[:, 2], color="tab:blue")
+    ax.plot(0.0, foot[0, 2], "o", color="tab:red", label="trip")
+    ax.set_xlabel("forward [m] (from the foot at the trip)")
+    ax.set_ylabel("height [m]")
+    ax.set_title(f"leading ({'left' if lead == 'l' else 'right'}) foot COM")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.legend(loc="best", fontsize=8)
+    for ax, key, label in ((axes[1], "pelvis", "pelvis pitch (+ posterior)"),
+                           (axes[2], "lead_hip", "leading hip flexion"),
+                           (axes[3], "lead_knee", "leading knee (flexion −)")):
+        ax.plot(time_s, ang[key], color="tab:blue")
+        ax.axvline(0.0, color="tab:red", ls="--", lw=1)
+        for name, t in states[1:]:
+            ax.axvline(t, color="0.6", ls=":", lw=0.8)
+        ax.set_xlabel("time since trip [s]")
+        ax.set_title(label + " [deg]")
+        ax.grid(alpha=0.3)
+    axes[0].grid(alpha=0.3)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    return Path(path)
