@@ -126,7 +126,7 @@ def read_sensors(ctx: Context, geo: Geometry) -> None:
                     on_obst[geo.side_of[g]] = True
     penalty = getattr(ctx, "penalty", None)
     if penalty is not None:  # explicit penalty mode: the forces are ours, not MuJoCo's
-        for k, side in enumerate(("r", "l")):
+        for k in range(2):  # 0 right, 1 left
             force[k] = penalty.force[penalty.side_index == k, 2].sum()
     s.foot_on_floor = {"r": bool(force[0] > CONTACT_FORCE_MIN_N),
                        "l": bool(force[1] > CONTACT_FORCE_MIN_N)}
@@ -146,9 +146,9 @@ def run(ctx: Context, controller: Controller, duration_s: float,
     """Step physics from the trip for up to ``duration_s``; returns the recording."""
     m, d = ctx.model, ctx.data
     dt = m.opt.timestep
-    n_steps = int(round(duration_s / dt))
-    rec_every = max(1, int(round(1.0 / (RECORD_HZ * dt))))
-    control_every = control_every or max(1, int(round(1.0 / (CONTROL_HZ * dt))))
+    n_steps = round(duration_s / dt)
+    rec_every = max(1, round(1.0 / (RECORD_HZ * dt)))
+    control_every = control_every or max(1, round(1.0 / (CONTROL_HZ * dt)))
     n_rec = n_steps // rec_every + 1
     rec = Recording(np.zeros(n_rec), np.zeros((n_rec, m.nq)), np.zeros((n_rec, m.nv)),
                     np.zeros((n_rec, 3)), np.zeros((n_rec, 3)), np.zeros((n_rec, 2), bool),

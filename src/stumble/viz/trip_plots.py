@@ -55,7 +55,7 @@ def plot_trajectories(path, model: mujoco.MjModel, time_s: np.ndarray, qpos: np.
                            (axes[3], "lead_knee", "leading knee (flexion −)")):
         ax.plot(time_s, ang[key], color="tab:blue")
         ax.axvline(0.0, color="tab:red", ls="--", lw=1)
-        for name, t in states[1:]:
+        for _name, t in states[1:]:
             ax.axvline(t, color="0.6", ls=":", lw=0.8)
         ax.set_xlabel("time since trip [s]")
         ax.set_title(label + " [deg]")
