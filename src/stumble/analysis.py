@@ -69,7 +69,7 @@ class StopRule:
             self.fell_s = s.t
             return "fell"
         if self.landing_s is None:
-            self.landing_s = self._landing(s)
+            self.landing_s = self._landing(ctx)
         elif s.t - self.landing_s >= RECOVERED_AFTER_S:
             upright = trunk_tilt_deg(ctx.model, ctx.data.xmat) < UPRIGHT_DEG
             if upright and com_over_base(ctx):
@@ -77,13 +77,16 @@ class StopRule:
                 return "recovered"
         return ""
 
-    def _landing(self, s) -> float | None:
+    def _landing(self, ctx: Context) -> float | None:
+        """The recovery foot touches the floor in front of the other foot."""
+        s, m, d = ctx.sensors, ctx.model, ctx.data
         rec = self.tripped if self.strategy == "elevating" else OTHER[self.tripped]
-        if self.strategy == "lowering" and not s.foot_on_floor[rec]:
+        if not s.foot_on_floor[rec]:
             self._other_left = True
-        if self.strategy == "elevating" and s.t > 0.02 and s.foot_on_floor[rec]:
-            return s.t
-        if self.strategy == "lowering" and self._other_left and s.foot_on_floor[rec]:
+        ahead = (d.xpos[m.body(f"foot_{rec}").id, 0]
+                 > d.xpos[m.body(f"foot_{OTHER[rec]}").id, 0])
+        if s.foot_on_floor[rec] and ahead and s.t > 0.02 and (
+                self.strategy == "elevating" or self._other_left):
             return s.t
         return None
 

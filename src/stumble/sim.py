@@ -74,6 +74,7 @@ class Recording:
     com: np.ndarray
     com_vel: np.ndarray
     foot_on_floor: np.ndarray  # (T, 2): r, l
+    foot_on_obstacle: np.ndarray  # (T, 2): r, l
     trip_force: np.ndarray  # (T, 3) N
     state: list[str]
     segment_on_floor: np.ndarray  # (T,)
@@ -152,7 +153,8 @@ def run(ctx: Context, controller: Controller, duration_s: float,
     n_rec = n_steps // rec_every + 1
     rec = Recording(np.zeros(n_rec), np.zeros((n_rec, m.nq)), np.zeros((n_rec, m.nv)),
                     np.zeros((n_rec, 3)), np.zeros((n_rec, 3)), np.zeros((n_rec, 2), bool),
-                    np.zeros((n_rec, 3)), [""] * n_rec, np.zeros(n_rec, bool))
+                    np.zeros((n_rec, 2), bool), np.zeros((n_rec, 3)), [""] * n_rec,
+                    np.zeros(n_rec, bool))
     geo = Geometry(ctx.body)
     ctx.penalty = penalty
     if penalty is not None:
@@ -192,6 +194,8 @@ def run(ctx: Context, controller: Controller, duration_s: float,
             rec.com_vel[k_rec] = ctx.sensors.com_vel
             rec.foot_on_floor[k_rec] = (ctx.sensors.foot_on_floor["r"],
                                         ctx.sensors.foot_on_floor["l"])
+            rec.foot_on_obstacle[k_rec] = (ctx.sensors.foot_on_obstacle["r"],
+                                           ctx.sensors.foot_on_obstacle["l"])
             rec.trip_force[k_rec] = f
             rec.state[k_rec] = controller.state()
             rec.segment_on_floor[k_rec] = ctx.sensors.segment_on_floor
@@ -215,8 +219,8 @@ def run(ctx: Context, controller: Controller, duration_s: float,
     rec.wall_time_s = time.perf_counter() - wall0
     rec.steps = step
     rec.stop_reason = reason
-    for name in ("time_s", "qpos", "qvel", "com", "com_vel", "foot_on_floor", "trip_force",
-                 "segment_on_floor"):
+    for name in ("time_s", "qpos", "qvel", "com", "com_vel", "foot_on_floor",
+                 "foot_on_obstacle", "trip_force", "segment_on_floor"):
         setattr(rec, name, getattr(rec, name)[:k_rec])
     rec.state = rec.state[:k_rec]
     return rec

@@ -74,9 +74,9 @@ class TripFSM:
             self.roles = {"trip": self.tripped, "sup": OTHER[self.tripped],
                           "rec": OTHER[self.tripped]}
         self.roles.update({"arm_c": OTHER[self.tripped], "arm_i": self.tripped})
-        self._set_base_gains(recovery=False)
         self._enter("passive_reaction", 0.0)
         self._apply_state_targets("passive_reaction", immediate=False, data=ctx.data)
+        self._set_base_gains(recovery=False)
         # the swing knee carries no torque in Passive Reaction (SCA 2009 §4.3, Perry 1992)
         self._set_kp(f"knee_angle_{self.tripped}", 0.0)
         if self.strategy == "elevating":
@@ -109,11 +109,10 @@ class TripFSM:
     def _set_base_gains(self, recovery: bool) -> None:
         """SCA 2009 §4.5 gains; ×1.5 once recovery starts; upper body high gains."""
         p, f = self.p, (self.p.recovery_gain_factor if recovery else 1.0)
-        sup = self.roles["sup"]
         for name, i in self.bank.index.items():
-            side = name[-1] if name[-2] == "_" else ""
-            if name.startswith("hip_flexion"):
-                kp = p.kp_passive["support_hip" if side == sup else "swing_hip"] * f
+            if name.startswith("hip_flexion"):  # the hip that holds the attitude supports
+                support = self.mode[i] == ATT_PITCH
+                kp = p.kp_passive["support_hip" if support else "swing_hip"] * f
             elif name.startswith(("hip_adduction", "hip_rotation")):
                 kp = p.kp_hip_out_of_plane
             elif name.startswith("knee_angle"):
@@ -182,8 +181,8 @@ class TripFSM:
             self.pending = [p for p in self.pending if p.state.startswith("arms.")]
             heapq.heapify(self.pending)
         self._enter(state, t)
-        self._set_base_gains(recovery=recovery_gains)
         self._apply_state_targets(targets or state, immediate=False, data=data)
+        self._set_base_gains(recovery=recovery_gains)
 
     # ------------------------------------------------------------------ update
     def update(self, ctx: Context) -> None:
@@ -208,19 +207,26 @@ class TripFSM:
             self.roles = {**self.roles, "rec": OTHER[self.tripped], "sup": self.tripped}
             self.left_floor = {"r": False, "l": False}
             self._switch("clearance", t, d, targets="clearance_lowering")
+            # the recovery knee extends after the flexion as in the elevating strategy
+            # (rectus femoris 90 ms after biceps femoris, SCA 2009 §3.2)
+            gap = (self.p.latency_s["elev.rec.knee_extend"]
+                   - self.p.latency_s["elev.rec.knee_angle"]) * self.p.delay_scale
+            for key in ("rec.knee_angle", "rec.hip_flexion"):
+                self._schedule("clearance_extend", key, t + gap)
         elif st == "clearance":
             if not s.foot_on_floor[sup] and not s.foot_on_floor[rec]:
                 self._switch("flight", t, d)
             elif (s.com_vel[2] < self.p.fall_vz_m_per_s and t - self.t_state > 0.05
                   and self._rec_cleared(ctx)):
                 self._switch("fall", t, d)
-            elif s.foot_on_floor[rec] and t - self.t_state > 0.1:
+            elif (s.foot_on_floor[rec] and self.left_floor[rec] and t - self.t_state > 0.1
+                  and self._ahead(ctx, rec, sup, 0.0)):
                 self._switch("double_support", t, d)
-        elif st == "flight" and s.foot_on_floor[rec]:
+        elif st == "flight" and s.foot_on_floor[rec] and self._ahead(ctx, rec, sup, 0.0):
             self._switch("single_support_after_trip", t, d)
             self.left_floor[sup] = True
             self._set_kp(f"hip_flexion_{rec}", self.p.kp_ssat_support_hip)
-        elif st == "fall" and s.foot_on_floor[rec]:
+        elif st == "fall" and s.foot_on_floor[rec] and self._ahead(ctx, rec, sup, 0.0):
             self._switch("double_support", t, d)
         elif st == "double_support" and not s.foot_on_floor[sup]:
             self._switch("single_support_after_trip", t, d)
@@ -270,8 +276,11 @@ class TripFSM:
                 else:  # roll: right adduction about +x, left about -x
                     sign = 1.0 if name.endswith("_r") else -1.0
                     target[i] = q[i] + sign * (lst - self.att_ref[1])
-        if self._state == "step_reach":
+        if self._state in ("step_reach", "fall", "flight"):
             self._place_foot(ctx, target)
+        if self._state in ("single_support_after_trip", "step_swing", "step_reach", "fall",
+                           "flight"):
+            self._place_foot_laterally(ctx, target)
         if self._state == "clearance":
             i = self.bank.index[f"ankle_angle_{self.roles['sup']}"]
             tau_c = self.kc * (self.p.vz_target_m_per_s - ctx.sensors.com_vel[2])  # eq. 4
@@ -288,17 +297,29 @@ class TripFSM:
         if self._state == "step_reach":
             swing, stance = self.roles["sup"], self.roles["rec"]
         ankle = d.xpos[m.body(f"foot_{stance}").id]
-        dx, dy = s.com[0] - ankle[0], s.com[1] - ankle[1]
+        dx = s.com[0] - ankle[0]
         p = self.p
         i = self.bank.index[f"hip_flexion_{swing}"]
         # the swing thigh's angle in the world (SIMBICON): hip = thigh_world - pelvis tilt
-        thigh = (np.radians(p.reach_thigh_deg) + p.balance_cd_rad_per_m * dx
+        base = p.reach_thigh_deg if self._state == "step_reach" else p.land_thigh_deg
+        thigh = (np.radians(base) + p.balance_cd_rad_per_m * dx
                  + p.balance_cv_rad_s_per_m * s.com_vel[0])
         target[i] = thigh - pelvis_attitude(d)[0]
+
+    def _place_foot_laterally(self, ctx: Context, target: np.ndarray) -> None:
+        """SIMBICON coronal feedback: the swing thigh's world roll φ = c_d·dy + c_v·v_y
+        (dy the COM's lateral offset from the stance ankle), so the foot lands under a
+        COM that drifts sideways. Thigh roll = pelvis list + right adduction
+        (− left adduction)."""
+        m, d, s, p = ctx.model, ctx.data, ctx.sensors, self.p
+        swing, stance = self.roles["rec"], self.roles["sup"]
+        if self._state in ("single_support_after_trip", "step_swing", "step_reach"):
+            swing, stance = self.roles["sup"], self.roles["rec"]
+        dy = s.com[1] - d.xpos[m.body(f"foot_{stance}").id, 1]
+        phi = p.balance_cd_lat_rad_per_m * dy + p.balance_cv_lat_rad_s_per_m * s.com_vel[1]
+        lst = pelvis_attitude(d)[1]
         j = self.bank.index[f"hip_adduction_{swing}"]
-        sign = 1.0 if swing == "r" else -1.0  # right adduction moves the foot to +y
-        lateral = p.balance_cd_lat_rad_per_m * dy + p.balance_cv_lat_rad_s_per_m * s.com_vel[1]
-        target[j] = self.target[j] + sign * lateral
+        target[j] = (phi - lst) if swing == "r" else (lst - phi)
 
     def state(self) -> str:
         """Current state name."""

@@ -116,6 +116,7 @@ def _targets() -> dict[str, dict[str, float | str]]:
             # SCA 2009 §4.3: the front swing leg extended for landing
             "rec.hip_flexion": 40.0, "rec.knee_angle": -8.0, "rec.ankle_angle": 5.0,
             "sup.hip_adduction": "attitude",
+            "sup.ankle_angle": 0.0,  # the push-off ends: the body rolls over the foot (ours)
         },
         "double_support": {
             # SCA 2009 §4.3: front leg keeps the torso attitude and its length; the rear
@@ -188,6 +189,7 @@ class FSMParams:
     # SIMBICON balance feedback on the landing leg (Yin et al. 2007: c_d 0-0.5 rad/m,
     # c_v 0.2-0.5 rad·s/m in their gaits); ours within those ranges.
     reach_thigh_deg: float = 0.0  # θ_0: swing thigh angle from vertical before feedback
+    land_thigh_deg: float = 10.0  # θ_0 of the recovery leg in Fall and Flight (ours)
     balance_cd_rad_per_m: float = 0.5
     balance_cv_rad_s_per_m: float = 0.3
     balance_cd_lat_rad_per_m: float = 0.5

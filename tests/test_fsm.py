@@ -1,0 +1,75 @@
+"""The SCA 2009 state-machine controllers: strategy rule, latencies, transitions, falls."""
+
+import pytest
+
+from stumble.control.fsm_params import FSMParams
+from stumble.pipeline import simulate_trip
+from stumble.trip import Scenario
+
+
+@pytest.mark.parametrize(("f", "strategy"), [
+    (0.05, "elevating"), (0.25, "elevating"), (0.35, "elevating"), (0.45, "lowering"),
+    (0.55, "lowering"), (0.9, "lowering"),
+])
+def test_auto_strategy_by_swing_fraction(f, strategy):
+    assert FSMParams().strategy_for(f) == strategy
+
+
+def test_latencies_add_the_activation_offset_and_scale():
+    p = FSMParams()
+    assert p.delay("elev.rec.knee_angle") == pytest.approx(0.064 + 0.050)  # SCA 2009 §3.2
+    p.delay_scale = 2.0
+    assert p.delay("sup.ankle_angle") == pytest.approx(2 * (0.075 + 0.050))
+
+
+def test_compensation_coefficient_follows_speed():
+    p = FSMParams()
+    assert p.kc(0.8) == pytest.approx(50.0)  # SCA 2009 §5, slow
+    assert p.kc(1.5) == pytest.approx(300.0)  # fast
+    assert 50.0 < p.kc(1.2) < 300.0
+
+
+@pytest.fixture(scope="module")
+def elevating():
+    return simulate_trip(Scenario(swing_fraction=0.2, speed_m_per_s=1.0))
+
+
+@pytest.fixture(scope="module")
+def lowering():
+    return simulate_trip(Scenario(swing_fraction=0.65, speed_m_per_s=1.0))
+
+
+def test_elevating_sequence_follows_sca_2009(elevating):
+    names = [s["name"] for s in elevating.summary["states"]]
+    assert names[:2] == ["passive_reaction", "clearance"]
+    assert names[2] in ("flight", "fall")
+    nxt = {"flight": "single_support_after_trip", "fall": "double_support"}[names[2]]
+    assert names[3] == nxt
+    # Clearance starts with the earliest response: hamstrings 50 ms + 50 ms (SCA 2009)
+    assert elevating.summary["states"][1]["start_s"] == pytest.approx(0.100, abs=0.003)
+    assert elevating.summary["strategy"] == "elevating"
+
+
+def test_lowering_sequence_follows_sca_2009(lowering):
+    names = [s["name"] for s in lowering.summary["states"]]
+    assert names[:3] == ["passive_reaction", "leg_swap", "clearance"]
+    assert lowering.summary["strategy"] == "lowering"
+    assert lowering.summary["variant"] in ("double_support", "flight")
+
+
+def test_variant_matches_the_states(elevating):
+    names = [s["name"] for s in elevating.summary["states"]]
+    v = elevating.summary["variant"]
+    assert (v == "flight") == ("flight" in names) or v == "double_support"
+
+
+def test_a_weak_body_falls():
+    weak = simulate_trip(Scenario(swing_fraction=0.2, speed_m_per_s=1.2, strength_scale=0.1))
+    assert weak.summary["fell"] and not weak.summary["recovered"]
+    assert weak.summary["fall_time_s"] < 2.0
+
+
+def test_same_inputs_give_the_same_numbers():
+    a = simulate_trip(Scenario(swing_fraction=0.3, speed_m_per_s=1.2, duration_after_trip_s=0.6))
+    b = simulate_trip(Scenario(swing_fraction=0.3, speed_m_per_s=1.2, duration_after_trip_s=0.6))
+    assert (a.recording.qpos == b.recording.qpos).all()

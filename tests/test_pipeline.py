@@ -1,0 +1,76 @@
+"""One trip end to end: both mechanisms, the summary contract, the CLI files."""
+
+import json
+
+import mujoco
+import numpy as np
+import pytest
+
+from stumble.cli import main
+from stumble.errors import InputError
+from stumble.pipeline import simulate_trip
+from stumble.trip import FX_MAX_N, T_TRIP_S, Scenario
+
+SUMMARY_KEYS = ("controller", "strategy", "variant", "recovered", "fell", "diverged",
+                "swing_fraction", "speed_m_per_s", "mechanism", "trip_time_s", "states",
+                "durations_s", "trunk_tilt_at_recovery_contact_deg", "rmse_deg", "sim_time_s",
+                "wall_time_s", "steps")
+
+
+def test_force_mechanism_applies_eq_2_3_to_the_swing_toe():
+    r = simulate_trip(Scenario(swing_fraction=0.3, mechanism="force", duration_after_trip_s=0.6))
+    rec = r.recording
+    f = rec.trip_force
+    assert f[:, 0].min() == pytest.approx(-FX_MAX_N, rel=0.02)
+    assert np.all(f[rec.time_s > T_TRIP_S + 0.006] == 0.0)
+    for key in SUMMARY_KEYS:
+        assert key in r.summary
+
+
+def test_obstacle_is_struck_by_the_swing_foot_and_stays():
+    r = simulate_trip(Scenario(swing_fraction=0.3, mechanism="obstacle",
+                               duration_after_trip_s=0.6))
+    m = r.body.model
+    box = m.geom("obstacle").id
+    assert m.geom_size[box][2] * 2 == pytest.approx(0.10)  # default 10 cm high
+    rec = r.recording
+    side = 1  # left leg tripped by default
+    hit = np.flatnonzero(rec.foot_on_obstacle[:, side])
+    assert hit.size and rec.time_s[hit[0]] < 0.05  # the toe strikes it at once
+    assert np.all(rec.trip_force == 0.0)  # no force model: the collision is physical
+    # the foot does not pass through the box: while lower than its top it stays behind
+    d = mujoco.MjData(m)
+    face = m.geom_pos[box][0] - m.geom_size[box][0]
+    for q in rec.qpos:
+        d.qpos[:] = q
+        mujoco.mj_kinematics(m, d)
+        toe = d.geom_xpos[m.geom("toes_l_geom").id]
+        if toe[2] < 2 * m.geom_size[box][2] - 0.02:
+            assert not (face + 0.03 < toe[0] < face + 2 * m.geom_size[box][0] - 0.03)
+
+
+def test_a_toe_above_the_obstacle_is_an_error():
+    with pytest.raises(InputError, match="over a"):
+        simulate_trip(Scenario(swing_fraction=0.5, mechanism="obstacle", obstacle_height_m=0.02))
+
+
+def test_cli_trip_writes_the_named_files(tmp_path, capsys):
+    out = tmp_path / "t"
+    assert main(["trip", "--swing", "0.2", "--out", str(out), "--no-video", "--duration",
+                 "0.8"]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    for key in SUMMARY_KEYS:
+        assert key in s
+    assert s["strategy"] == "elevating" and s["controller"] == "fsm"
+    assert s["states"][0] == {"name": "passive_reaction", "start_s": 0.0}
+    header = (out / "timeseries.csv").read_text().splitlines()[0].split(",")
+    for col in ("time_s", "state", "knee_angle_l_deg", "com_x_m", "com_vz_m_per_s",
+                "foot_l_on_floor", "trip_force_x_n"):
+        assert col in header
+    assert (out / "trajectories.png").stat().st_size > 10_000
+
+
+def test_cli_trip_bad_input_is_one_line(tmp_path, capsys):
+    assert main(["trip", "--swing", "0.99", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "swing fraction" in err and len(err.splitlines()) == 1

@@ -1,0 +1,59 @@
+"""The trip: force model (SCA 2009 eq. 2-3), scenario checks, trip instant, obstacle."""
+
+import numpy as np
+import pytest
+
+from stumble.errors import InputError
+from stumble.trip import FX_MAX_N, FZ_MAX_N, T_TRIP_S, Scenario, TripForce, trip_time
+
+
+def test_force_model_peaks_and_shape():
+    f = TripForce()
+    t = np.linspace(0.0, T_TRIP_S, 1141)
+    F = f(t)
+    assert F[:, 0].min() == pytest.approx(-FX_MAX_N, rel=1e-4)  # 170 N backward
+    assert t[np.argmin(F[:, 0])] == pytest.approx(T_TRIP_S / 2, abs=1e-4)  # at T_c
+    assert F[:, 2].max() == pytest.approx(FZ_MAX_N, rel=1e-4)  # 70 N up
+    assert t[np.argmax(F[:, 2])] == pytest.approx(T_TRIP_S / 4, abs=1e-4)  # sine peak
+    assert np.all(F[:, 1] == 0.0)
+    # sigma = T_trip/6: the Gaussian is down to exp(-4.5) = 1.1 % of its peak at the ends
+    assert F[0, 0] == pytest.approx(-FX_MAX_N * np.exp(-4.5), rel=1e-6)
+
+
+def test_force_is_zero_outside_the_collision():
+    f = TripForce()
+    assert np.all(f(np.array([-0.01, T_TRIP_S + 0.001, 1.0])) == 0.0)
+
+
+def test_force_impulse_matches_the_closed_form():
+    f = TripForce()
+    sigma = f.sigma_s
+    expected_x = -FX_MAX_N * sigma * np.sqrt(2 * np.pi) * 0.9973  # ±3σ of a Gaussian
+    assert f.impulse_ns()[0] == pytest.approx(expected_x, rel=1e-3)
+    assert f.impulse_ns()[2] == pytest.approx(0.0, abs=1e-6)  # a full sine period
+
+
+def test_force_width_is_a_parameter():
+    wide = TripForce(sigma_s=T_TRIP_S / 3)
+    assert abs(wide.impulse_ns()[0]) > abs(TripForce().impulse_ns()[0])
+
+
+@pytest.mark.parametrize(("change", "word"), [
+    ({"swing_fraction": 0.95}, "swing fraction"), ({"swing_fraction": 0.01}, "swing fraction"),
+    ({"speed_m_per_s": 2.0}, "speed"), ({"leg": "middle"}, "leg"),
+    ({"mechanism": "banana"}, "mechanism"), ({"obstacle_height_m": 0.5}, "obstacle height"),
+    ({"strategy": "jump"}, "strategy"), ({"delay_scale": 0.0}, "delay scale"),
+])
+def test_bad_scenarios_are_named(change, word):
+    with pytest.raises(InputError, match=word):
+        Scenario(**change).validated()
+
+
+def test_trip_time_is_the_requested_fraction_of_swing():
+    from stumble.gait.events import GaitEvents
+
+    ev = GaitEvents({"l": [0.5, 1.7], "r": [1.1]}, {"l": [0.2, 1.3], "r": [0.7]})
+    assert trip_time(ev, "l", 0.25) == pytest.approx(0.2 + 0.25 * 0.3)
+    assert trip_time(ev, "l", 0.5, after_s=1.0) == pytest.approx(1.3 + 0.5 * 0.4)
+    with pytest.raises(InputError):
+        trip_time(ev, "l", 0.5, after_s=1.5)
