@@ -278,8 +278,8 @@ class TripFSM:
                     target[i] = q[i] + sign * (lst - self.att_ref[1])
         if self._state in ("step_reach", "fall", "flight"):
             self._place_foot(ctx, target)
-        if self._state in ("single_support_after_trip", "step_swing", "step_reach", "fall",
-                           "flight"):
+        if self._state in ("clearance", "single_support_after_trip", "step_swing",
+                           "step_reach", "fall", "flight"):
             self._place_foot_laterally(ctx, target)
         if self._state == "clearance":
             i = self.bank.index[f"ankle_angle_{self.roles['sup']}"]
