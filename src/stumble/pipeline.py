@@ -46,13 +46,13 @@ class TripResult:
     states: list[tuple[str, float]] = field(default_factory=list)
 
 
-def _toe_front(body: Body, qpos: np.ndarray, side: str) -> tuple[float, float]:
-    """Forward-most x and the height of the lowest sole point of a foot, for one pose."""
+def _toe_front(body: Body, qpos: np.ndarray, side: str) -> tuple[float, float, float]:
+    """Forward-most x, lowest z and mean y of a foot's boxes, for one pose."""
     m = body.model
     d = mujoco.MjData(m)
     d.qpos[:] = qpos
     mujoco.mj_kinematics(m, d)
-    xs, zs = [], []
+    xs, zs, ys = [], [], []
     for name in (f"foot_{side}_geom", f"toes_{side}_geom"):
         gid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, name)
         if gid < 0:
@@ -63,7 +63,22 @@ def _toe_front(body: Body, qpos: np.ndarray, side: str) -> tuple[float, float]:
         world = d.geom_xpos[gid] + corners @ d.geom_xmat[gid].reshape(3, 3).T
         xs.append(world[:, 0].max())
         zs.append(world[:, 2].min())
-    return float(max(xs)), float(min(zs))
+        ys.append(world[:, 1].mean())
+    return float(max(xs)), float(min(zs)), float(np.mean(ys))
+
+
+def _check_clear_of_stance(body: Body, qpos: np.ndarray, side: str, box) -> None:
+    """InputError if the obstacle's footprint would overlap the stance foot."""
+    m = body.model
+    d = mujoco.MjData(m)
+    d.qpos[:] = qpos
+    mujoco.mj_kinematics(m, d)
+    pts = d.site_xpos[[m.site(n).id for n in body.foot_points[side]], :2]
+    x0, _h, depth, width, y0 = box
+    inside = ((pts[:, 0] > x0) & (pts[:, 0] < x0 + depth)
+              & (np.abs(pts[:, 1] - y0) < 0.5 * width))
+    if inside.any():
+        raise InputError("the obstacle would stand under the stance foot at this instant")
 
 
 def _controller(scenario: Scenario, strategy: str, params: FSMParams | None):
@@ -90,12 +105,13 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     qpos, qvel = pb.state_at(t_trip)
     obstacle = None
     if sc.mechanism == "obstacle":
-        front, low = _toe_front(base, qpos, sc.side)
+        front, low, lane = _toe_front(base, qpos, sc.side)
         if low > sc.obstacle_height_m - 0.01:
             raise InputError(f"at {sc.swing_fraction} of swing the toe is {low:.3f} m up, "
                              f"over a {sc.obstacle_height_m} m obstacle")
         obstacle = (front + OBSTACLE_GAP_M, sc.obstacle_height_m, OBSTACLE_DEPTH_M,
-                    OBSTACLE_WIDTH_M)
+                    OBSTACLE_WIDTH_M, lane)
+        _check_clear_of_stance(base, qpos, {"l": "r", "r": "l"}[sc.side], obstacle)
     body = build(height_m=sc.height_m, mass_kg=sc.mass_kg, sex=sc.sex, contact=sc.contact,
                  obstacle=obstacle)
     m = body.model

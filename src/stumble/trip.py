@@ -30,7 +30,9 @@ SIGMA_OVER_T_TRIP = 1.0 / 6.0
 SWING_RANGE = (0.05, 0.9)  # the range of trip instants (fraction of swing)
 OBSTACLE_HEIGHT_M = 0.10  # default; trip experiments used 8 and 14 cm (reference README)
 OBSTACLE_DEPTH_M = 0.10  # along the walking direction (our choice)
-OBSTACLE_WIDTH_M = 0.60  # across, wide enough for either foot (our choice)
+OBSTACLE_WIDTH_M = 0.14  # across: the tripped foot's lane only, as the pop-up obstacles
+# of trip experiments (Schillings et al. 2000; Pijnappels et al. 2004); a wide board would
+# lie under the stance foot for trips before mid swing (our choice)
 MECHANISMS = ("force", "obstacle")
 LEGS = ("left", "right")
 

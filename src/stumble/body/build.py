@@ -204,11 +204,11 @@ def _hinges(body, side: str, joint_names: list[str], axes: dict, ranges: dict):
 
 def build(planar: bool = False, height_m: float = 1.75, mass_kg: float = 70.0,
           sex: str = "male", contact: str = "points", timestep_s: float = 0.001,
-          obstacle: tuple[float, float, float, float] | None = None) -> Body:
+          obstacle: tuple[float, float, float, float, float] | None = None) -> Body:
     """Compile the 3D (42 DOF) or planar human for a person of the given size.
 
-    ``obstacle``: (near face x, height, depth, width) in m of a rigid box on the floor,
-    centred on the walking line; feet and segments collide with it. Height in m, mass
+    ``obstacle``: (near face x, height, depth, width, centre y) in m of a rigid box on
+    the floor; feet and segments collide with it. Height in m, mass
     in kg. ``contact``: ``"points"`` (96 sole points per foot with
     the SCA 2009 §4.2 penalty law, resolved by MuJoCo), ``"penalty"`` (the same law in
     Python, ``stumble.body.contact.PenaltyContact``) or ``"soft"`` (MuJoCo's soft
@@ -224,9 +224,9 @@ def build(planar: bool = False, height_m: float = 1.75, mass_kg: float = 70.0,
     floor.material = "floor"
     floor.friction = [foot_contact.FRICTION, 0.005, 0.0001]
     if obstacle is not None:
-        x0, h, depth, width = map(float, obstacle)
+        x0, h, depth, width, y0 = map(float, obstacle)
         box = world.add_geom(name="obstacle", type=mujoco.mjtGeom.mjGEOM_BOX,
-                             pos=[x0 + 0.5 * depth, 0.0, 0.5 * h],
+                             pos=[x0 + 0.5 * depth, y0, 0.5 * h],
                              size=[0.5 * depth, 0.5 * width, 0.5 * h])
         box.contype, box.conaffinity = GROUND | FOOT_OBSTACLE, 0
         box.rgba = [0.75, 0.45, 0.2, 1.0]

@@ -81,10 +81,7 @@ class TripFSM:
         self._set_kp(f"knee_angle_{self.tripped}", 0.0)
         if self.strategy == "elevating":
             self._schedule_reactions("clearance_elevating", "elev.")
-            self._schedule("clearance_extend", "rec.knee_angle",
-                           self.p.delay("elev.rec.knee_extend"))
-            self._schedule("clearance_extend", "rec.hip_flexion",
-                           self.p.delay("elev.rec.knee_extend"))
+            self.t_extend = self.p.delay("elev.rec.knee_extend")
             self.t_react = min(self.p.delay(k) for k in self.p.latency_s
                                if k.startswith(("elev.", "sup.")))
         else:
@@ -96,6 +93,11 @@ class TripFSM:
         self.t_state = 0.0
         self.left_floor = {"r": False, "l": False}
         self._arms_walking = False
+        self._extended = False
+        if self.strategy == "lowering":
+            self.t_extend = float("inf")
+        # where the trip stopped the swing foot: the recovery foot must pass it (+ margin)
+        self.trip_point_x = self._toe_x(ctx, self.tripped)
         self._write(ctx)
 
     def _role_joint(self, key: str) -> str:
@@ -209,11 +211,15 @@ class TripFSM:
             self._switch("clearance", t, d, targets="clearance_lowering")
             # the recovery knee extends after the flexion as in the elevating strategy
             # (rectus femoris 90 ms after biceps femoris, SCA 2009 §3.2)
-            gap = (self.p.latency_s["elev.rec.knee_extend"]
-                   - self.p.latency_s["elev.rec.knee_angle"]) * self.p.delay_scale
-            for key in ("rec.knee_angle", "rec.hip_flexion"):
-                self._schedule("clearance_extend", key, t + gap)
+            self.t_extend = t + (self.p.latency_s["elev.rec.knee_extend"]
+                                 - self.p.latency_s["elev.rec.knee_angle"]) * self.p.delay_scale
         elif st == "clearance":
+            # the rectus femoris extension (SCA 2009 §3.2), once the recovery foot is
+            # past the stance foot by a margin: it must clear the obstacle first (ours)
+            if not self._extended and t >= self.t_extend and self._rec_cleared(ctx):
+                for key in ("rec.knee_angle", "rec.hip_flexion"):
+                    self._command("clearance_extend", key, d)
+                self._extended = True
             if not s.foot_on_floor[sup] and not s.foot_on_floor[rec]:
                 self._switch("flight", t, d)
             elif (s.com_vel[2] < self.p.fall_vz_m_per_s and t - self.t_state > 0.05
@@ -255,11 +261,19 @@ class TripFSM:
         return bool(d.xpos[m.body(f"foot_{a}").id, 0]
                     > d.xpos[m.body(f"foot_{b}").id, 0] + margin)
 
+    def _toe_x(self, ctx: Context, side: str) -> float:
+        """World x of a foot's toe tip (front row of its sole points)."""
+        m, d = ctx.model, ctx.data
+        ids = [m.site(n).id for n in ctx.body.foot_points[side][-6:]]
+        return float(d.site_xpos[ids, 0].mean())
+
     def _rec_cleared(self, ctx: Context) -> bool:
-        """The recovery foot is in front of the stance foot (past the obstacle line)."""
+        """The recovery foot is ahead of the stance foot and its toe has passed the point
+        where the trip stopped the swing foot by ``clear_margin_m`` (the obstacle)."""
         m, d = ctx.model, ctx.data
         rec, sup = self.roles["rec"], self.roles["sup"]
-        return bool(d.xpos[m.body(f"foot_{rec}").id, 0] > d.xpos[m.body(f"foot_{sup}").id, 0])
+        ahead = d.xpos[m.body(f"foot_{rec}").id, 0] > d.xpos[m.body(f"foot_{sup}").id, 0]
+        return bool(ahead and self._toe_x(ctx, rec) > self.trip_point_x + self.p.clear_margin_m)
 
     def _write(self, ctx: Context) -> None:
         """Attitude targets, compensation torque; write ctrl and gains."""

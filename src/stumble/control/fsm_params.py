@@ -205,6 +205,10 @@ class FSMParams:
     balance_cv_rad_s_per_m: float = 0.18  # tuned
     balance_cd_lat_rad_per_m: float = 0.5
     balance_cv_lat_rad_s_per_m: float = 0.3
+    # The recovery leg extends for touch-down (rectus femoris; Fall) only once its toe is
+    # this far past where the trip stopped the swing foot: the obstacle's 0.10 m depth
+    # and 2 cm to spare (ours; the controller knows where it tripped, not the obstacle).
+    clear_margin_m: float = 0.12
     # COM vertical velocity below which the COM "starts to fall" (SCA 2009 §4.3)
     fall_vz_m_per_s: float = 0.0
 
