@@ -1,4 +1,4 @@
-"""Random search over the free targets of the FSM trip controllers (reproducible).
+"""Random or local search over the free targets of the FSM trip controllers (reproducible).
 
 SCA 2009 §6: "the proportional gains of each joint/state and the trajectories for the
 limbs were tuned manually". We tune the targets that the paper took from its own trip
@@ -39,8 +39,13 @@ SPACE = {
     "balance_cd": (("balance_cd_rad_per_m",), 0.2, 0.8),
     "balance_cv": (("balance_cv_rad_s_per_m",), 0.1, 0.5),
     "ssat_swing_s": (("ssat_swing_s",), 0.2, 0.45),
+    "clear_margin_m": (("clear_margin_m",), 0.06, 0.2),
+    "swap_trip_hip": (("targets_deg", "leg_swap", "trip.hip_flexion"), -10.0, 20.0),
+    "swap_trip_ankle": (("targets_deg", "leg_swap", "trip.ankle_angle"), -10.0, 20.0),
+    "strategy_threshold": (("strategy_threshold",), 0.3, 0.5),
 }
-GRID = [(f, v) for f in (0.1, 0.2, 0.35, 0.5, 0.65, 0.75) for v in (1.0, 1.4)]
+GRID = [(f, v, mech) for mech in ("force", "obstacle") for f in (0.1, 0.3, 0.45, 0.55, 0.65, 0.75)
+        for v in (1.0, 1.4)]
 
 
 def params_from(x: dict):
@@ -63,9 +68,9 @@ def evaluate(x: dict) -> tuple[int, float]:
     from stumble.trip import Scenario
 
     rec, survived = 0, 0.0
-    for f, v in GRID:
-        s = simulate_trip(Scenario(swing_fraction=f, speed_m_per_s=v), params=params_from(x))
-        s = s.summary
+    for f, v, mech in GRID:
+        s = simulate_trip(Scenario(swing_fraction=f, speed_m_per_s=v, mechanism=mech),
+                          params=params_from(x)).summary
         rec += int(s["recovered"])
         survived += s["sim_time_s"] if not s["fell"] else (s["fall_time_s"] or 0.0)
     return rec, survived

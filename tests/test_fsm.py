@@ -23,10 +23,15 @@ def test_latencies_add_the_activation_offset_and_scale():
 
 
 def test_compensation_coefficient_follows_speed():
-    p = FSMParams()
-    assert p.kc(0.8) == pytest.approx(50.0)  # SCA 2009 §5, slow
-    assert p.kc(1.5) == pytest.approx(300.0)  # fast
-    assert 50.0 < p.kc(1.2) < 300.0
+    from stumble.control.fsm_params import KC_FAST, KC_SLOW
+
+    assert (KC_SLOW, KC_FAST) == (50.0, 300.0)  # SCA 2009 §5
+    paper = FSMParams(kc_fast=KC_FAST)
+    assert paper.kc(0.8) == pytest.approx(50.0)  # slow walking
+    assert paper.kc(1.5) == pytest.approx(300.0)  # fast walking
+    assert 50.0 < paper.kc(1.2) < 300.0
+    ours = FSMParams()  # tuned fast value (see fsm_params.py)
+    assert ours.kc(0.8) < ours.kc(1.2) < ours.kc(1.5) == pytest.approx(ours.kc_fast)
 
 
 @pytest.fixture(scope="module")
@@ -73,3 +78,16 @@ def test_same_inputs_give_the_same_numbers():
     a = simulate_trip(Scenario(swing_fraction=0.3, speed_m_per_s=1.2, duration_after_trip_s=0.6))
     b = simulate_trip(Scenario(swing_fraction=0.3, speed_m_per_s=1.2, duration_after_trip_s=0.6))
     assert (a.recording.qpos == b.recording.qpos).all()
+
+
+@pytest.mark.parametrize(("f", "v", "mechanism", "strategy"), [
+    (0.2, 1.2, "force", "elevating"), (0.15, 1.0, "obstacle", "elevating"),
+    (0.75, 1.2, "force", "lowering"),
+])
+def test_trips_that_recover(f, v, mechanism, strategy):
+    r = simulate_trip(Scenario(swing_fraction=f, speed_m_per_s=v, mechanism=mechanism))
+    s = r.summary
+    assert s["strategy"] == strategy
+    assert s["recovered"] and not s["fell"] and not s["diverged"]
+    assert s["recovery_contact_s"] is not None and s["sim_time_s"] >= s["recovery_contact_s"] + 1
+    assert s["trunk_tilt_at_recovery_contact_deg"] < 45.0

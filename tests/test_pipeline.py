@@ -51,7 +51,8 @@ def test_obstacle_is_struck_by_the_swing_foot_and_stays():
 
 def test_a_toe_above_the_obstacle_is_an_error():
     with pytest.raises(InputError, match="over a"):
-        simulate_trip(Scenario(swing_fraction=0.5, mechanism="obstacle", obstacle_height_m=0.02))
+        # at 0.2 of swing the foot's lowest point is ~4 cm up: a 3 cm box cannot catch it
+        simulate_trip(Scenario(swing_fraction=0.2, mechanism="obstacle", obstacle_height_m=0.03))
 
 
 def test_cli_trip_writes_the_named_files(tmp_path, capsys):
@@ -74,3 +75,17 @@ def test_cli_trip_bad_input_is_one_line(tmp_path, capsys):
     assert main(["trip", "--swing", "0.99", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip()
     assert "swing fraction" in err and len(err.splitlines()) == 1
+
+
+def test_rmse_against_a_reference_motion():
+    base = simulate_trip(Scenario(swing_fraction=0.2, duration_after_trip_s=0.5))
+    m, rec = base.body.model, base.recording
+    coords = {n: rec.qpos[:, m.jnt_qposadr[m.joint(n).id]] + np.radians(5.0)
+              for n in ("hip_flexion_l", "knee_angle_l", "hip_flexion_r")}
+    ref = {"time_s": rec.time_s, **{k: np.degrees(v) for k, v in coords.items()}}
+    again = simulate_trip(Scenario(swing_fraction=0.2, duration_after_trip_s=0.5), reference=ref)
+    r = again.summary["rmse_deg"]
+    # the same motion shifted by 5 degrees: 5 degrees of RMSE on every joint given
+    assert r == {"lead_hip": pytest.approx(5.0, abs=1e-3),
+                 "lead_knee": pytest.approx(5.0, abs=1e-3),
+                 "trail_hip": pytest.approx(5.0, abs=1e-3)}

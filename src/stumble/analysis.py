@@ -136,6 +136,17 @@ def pitch_angles_deg(model: mujoco.MjModel, qpos: np.ndarray, tripped: str,
     return out
 
 
+def table2_from_coordinates(coords: dict[str, np.ndarray], tripped: str,
+                            strategy: str) -> dict[str, np.ndarray]:
+    """SCA 2009 Table 2 pitches (deg) from coordinate series named as our model."""
+    lead = tripped if strategy == "elevating" else OTHER[tripped]
+    names = {"pelvis": "pelvis_tilt"}
+    for label, side in (("lead", lead), ("trail", OTHER[lead])):
+        for joint in ("hip_flexion", "knee_angle", "ankle_angle"):
+            names[f"{label}_{joint.split('_')[0]}"] = f"{joint}_{side}"
+    return {k: np.asarray(coords[c]) for k, c in names.items() if c in coords}
+
+
 def rmse_deg(sim: dict[str, np.ndarray], sim_t: np.ndarray, ref: dict[str, np.ndarray],
              ref_t: np.ndarray) -> dict[str, float]:
     """RMSE (deg) per Table 2 joint over the overlap of two time series (t = 0 the trip)."""

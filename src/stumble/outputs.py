@@ -42,11 +42,14 @@ def write_timeseries(out: Path, result: TripResult) -> None:
                         *np.round(rec.trip_force[k], 3)])
 
 
-def frames_at_states(result: TripResult) -> tuple[list[np.ndarray], list[str]]:
-    """qpos at each state change (one per state, as SCA 2009 Figures 7-9)."""
+def frames_at_states(result: TripResult, most: int = 7) -> tuple[list[np.ndarray], list[str]]:
+    """qpos at the first entry of each state (as SCA 2009 Figures 7-9), then the end."""
     rec = result.recording
-    qs, labels = [], []
+    qs, labels, seen = [], [], set()
     for name, t in result.states:
+        if name in seen or len(qs) >= most:
+            continue
+        seen.add(name)
         k = min(int(np.searchsorted(rec.time_s, t + 0.03)), len(rec.time_s) - 1)
         qs.append(rec.qpos[k])
         labels.append(f"{name.replace('_', ' ')} ({t:.2f} s)")

@@ -18,6 +18,7 @@ from stumble.analysis import (
     StopRule,
     pitch_angles_deg,
     rmse_deg,
+    table2_from_coordinates,
     trunk_tilt_deg,
     variant,
 )
@@ -93,8 +94,9 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
                   reference: dict | None = None) -> TripResult:
     """Walk, trip and recover (or fall): the whole pipeline for one scenario.
 
-    ``reference``: optional {"time_s": (T,), "<joint>": (T,) deg} pitch angles of a
-    recorded trip (t = 0 the trip) for the RMSE of SCA 2009 Table 2.
+    ``reference``: optional {"time_s": (T,), "<coordinate>": (T,) deg} of a recorded trip
+    (t = 0 the trip; coordinates named as our model: pelvis_tilt, hip_flexion_l, ...)
+    for the joint-pitch RMSE of SCA 2009 Table 2.
     """
     sc = scenario.validated()
     p = params or FSMParams()
@@ -168,8 +170,9 @@ def _summary(sc: Scenario, strategy: str, controller, rec: Recording, stop: Stop
     rmse = None
     if reference is not None:
         sim = pitch_angles_deg(m, rec.qpos, sc.side, strategy)
+        ref = table2_from_coordinates(reference, sc.side, strategy)
         rmse = {k: round(v, 3) for k, v in rmse_deg(
-            sim, rec.time_s, reference, np.asarray(reference["time_s"])).items()}
+            sim, rec.time_s, ref, np.asarray(reference["time_s"])).items()}
     diverged = rec.diverged
     fell = stop.fell_s is not None and not diverged
     return {
