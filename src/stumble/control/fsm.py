@@ -223,7 +223,7 @@ class TripFSM:
             if not s.foot_on_floor[sup] and not s.foot_on_floor[rec]:
                 self._switch("flight", t, d)
             elif (s.com_vel[2] < self.p.fall_vz_m_per_s and t - self.t_state > 0.05
-                  and self._rec_cleared(ctx)):
+                  and self.left_floor[rec] and self._rec_cleared(ctx)):
                 self._switch("fall", t, d)
             elif (s.foot_on_floor[rec] and self.left_floor[rec] and t - self.t_state > 0.1
                   and self._ahead(ctx, rec, sup, 0.0)):
@@ -232,7 +232,8 @@ class TripFSM:
             self._switch("single_support_after_trip", t, d)
             self.left_floor[sup] = True
             self._set_kp(f"hip_flexion_{rec}", self.p.kp_ssat_support_hip)
-        elif st == "fall" and s.foot_on_floor[rec] and self._ahead(ctx, rec, sup, 0.0):
+        elif (st == "fall" and s.foot_on_floor[rec] and self.left_floor[rec]
+              and self._ahead(ctx, rec, sup, 0.0)):
             self._switch("double_support", t, d)
         elif st == "double_support" and not s.foot_on_floor[sup]:
             self._switch("single_support_after_trip", t, d)
