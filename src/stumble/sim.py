@@ -80,6 +80,7 @@ class Recording:
     segment_on_floor: np.ndarray  # (T,)
     steps: int = 0
     wall_time_s: float = 0.0
+    physics_time_s: float = 0.0  # of which inside MuJoCo's step
     diverged: bool = False
     stop_reason: str = ""
 
@@ -112,19 +113,18 @@ def read_sensors(ctx: Context, geo: Geometry) -> None:
         g1 = d.contact.geom1[:n]
         g2 = d.contact.geom2[:n]
         other = np.where(g1 == geo.floor, g2, np.where(g2 == geo.floor, g1, -1))
-        floor_rows = np.flatnonzero(other >= 0)
-        for i in floor_rows:
-            g = other[i]
+        rows = np.flatnonzero(other >= 0)
+        if rows.size:
+            g = other[rows]
             side = geo.side_of[g]
-            if side >= 0:
-                force[side] += d.efc_force[d.contact.efc_address[i]]
-            elif geo.is_segment[g]:
-                seg_floor = True
+            feet = side >= 0
+            normal = d.efc_force[d.contact.efc_address[rows[feet]]]
+            force = np.bincount(side[feet], weights=normal, minlength=2)[:2]
+            seg_floor = bool(geo.is_segment[g[~feet]].any())
         if geo.obstacle >= 0:
             ob = np.where(g1 == geo.obstacle, g2, np.where(g2 == geo.obstacle, g1, -1))
-            for g in ob[ob >= 0]:
-                if geo.side_of[g] >= 0:
-                    on_obst[geo.side_of[g]] = True
+            sides = geo.side_of[ob[ob >= 0]]
+            on_obst = [bool((sides == 0).any()), bool((sides == 1).any())]
     penalty = getattr(ctx, "penalty", None)
     if penalty is not None:  # explicit penalty mode: the forces are ours, not MuJoCo's
         for k in range(2):  # 0 right, 1 left
@@ -207,12 +207,14 @@ def run(ctx: Context, controller: Controller, duration_s: float,
                     break
         if step == n_steps:
             break
+        tic = time.perf_counter()
         if penalty is not None:
             mujoco.mj_step1(m, d)
             penalty.apply(d)
             mujoco.mj_step2(m, d)
         else:
             mujoco.mj_step(m, d)
+        rec.physics_time_s += time.perf_counter() - tic
         if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0:
             rec.diverged, reason = True, "diverged"
             break
