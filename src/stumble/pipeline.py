@@ -9,6 +9,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import mujoco
 import numpy as np
@@ -101,8 +102,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     sc = scenario.validated()
     p = params or FSMParams()
     strategy = p.strategy_for(sc.swing_fraction) if sc.strategy == "auto" else sc.strategy
-    base = build(height_m=sc.height_m, mass_kg=sc.mass_kg, sex=sc.sex, contact=sc.contact)
-    pb = walk(base, sc.speed_m_per_s, duration_s=WALK_BEFORE_TRIP_S + 2.5 * 1.6)
+    base, pb = _walk(sc.height_m, sc.mass_kg, sc.sex, sc.contact, sc.speed_m_per_s)
     t_trip = trip_time(pb.events, sc.side, sc.swing_fraction, after_s=WALK_BEFORE_TRIP_S)
     qpos, qvel = pb.state_at(t_trip)
     obstacle = None
@@ -137,6 +137,14 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
               **force_kwargs)
     summary = _summary(sc, strategy, controller, rec, stop, body, pb, t_trip, reference)
     return TripResult(summary, rec, body, pb, sc, list(controller.log))
+
+
+@lru_cache(maxsize=16)
+def _walk(height_m: float, mass_kg: float, sex: str, contact: str,
+          speed_m_per_s: float) -> tuple[Body, Playback]:
+    """The body and its walk before the trip; deterministic, so cached per process."""
+    base = build(height_m=height_m, mass_kg=mass_kg, sex=sex, contact=contact)
+    return base, walk(base, speed_m_per_s, duration_s=WALK_BEFORE_TRIP_S + 2.5 * 1.6)
 
 
 def _standing_pelvis(body: Body) -> float:

@@ -240,7 +240,8 @@ def plant_feet(body: Body, qpos: np.ndarray, events: gait_events.GaitEvents,
             jrows, errs = [], []
             for _s, i, goal in targets:
                 mujoco.mj_jac(m, d, jacp, None, d.site_xpos[i], int(m.site_bodyid[i]))
-                jac = jacp[rows][:, va] - np.pad(jacp[rows][:, comp_v], ((0, 0), (nr, 0)))
+                jac = jacp[np.ix_(rows, va)]
+                jac[:, nr:] -= jacp[np.ix_(rows, comp_v)]
                 jrows.append(jac)
                 errs.append((goal - d.site_xpos[i])[rows])
             jac, err = np.vstack(jrows), np.concatenate(errs)
