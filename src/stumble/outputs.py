@@ -13,6 +13,7 @@ from stumble.errors import InputError
 from stumble.pipeline import TripResult
 
 VIDEO_FPS = 25.0
+WALK_SHOWN_S = 1.0  # walking shown in the video before the trip
 
 
 def write_summary(out: Path, result: TripResult) -> None:
@@ -85,9 +86,15 @@ def write_media(out: Path, result: TripResult, video: bool, progress: bool) -> l
     save_filmstrip(out / "filmstrip.png", frames, labels)
     written.append("filmstrip.png")
     step = max(1, round(1.0 / (VIDEO_FPS * float(np.mean(np.diff(rec.time_s))))))
-    render_video(out / "trip.mp4", result.body.model, rec.qpos[::step], VIDEO_FPS,
-                 overlay=[f"t = {t:5.2f} s  {st.replace('_', ' ')}"
-                          for t, st in zip(rec.time_s[::step], rec.state[::step], strict=True)],
+    # one second of the walk before the trip (played back), then the physics
+    t_trip = s["trip_time_s"]
+    before = np.arange(max(0.0, t_trip - WALK_SHOWN_S), t_trip - 1e-9, 1.0 / VIDEO_FPS)
+    walk_q = [result.playback.state_at(t)[0] for t in before]
+    qpos = np.vstack([*walk_q, rec.qpos[::step]]) if walk_q else rec.qpos[::step]
+    overlay = ([f"t = {t - t_trip:5.2f} s  walking" for t in before]
+               + [f"t = {t:5.2f} s  {st.replace('_', ' ')}"
+                  for t, st in zip(rec.time_s[::step], rec.state[::step], strict=True)])
+    render_video(out / "trip.mp4", result.body.model, qpos, VIDEO_FPS, overlay=overlay,
                  progress=progress)
     written.append("trip.mp4")
     return written
