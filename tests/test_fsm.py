@@ -8,8 +8,8 @@ from stumble.trip import Scenario
 
 
 @pytest.mark.parametrize(("f", "strategy"), [
-    (0.05, "elevating"), (0.25, "elevating"), (0.35, "elevating"), (0.45, "lowering"),
-    (0.55, "lowering"), (0.9, "lowering"),
+    (0.05, "elevating"), (0.25, "elevating"), (0.35, "elevating"), (0.45, "elevating"),
+    (0.5, "elevating"), (0.55, "lowering"), (0.9, "lowering"),
 ])
 def test_auto_strategy_by_swing_fraction(f, strategy):
     assert FSMParams().strategy_for(f) == strategy

@@ -83,8 +83,7 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--controller", choices=("fsm",), default="fsm",
                    help="fsm: the state-machine controllers of SCA 2009")
     t.add_argument("--strategy", choices=("auto", "elevating", "lowering"), default="auto",
-                   help="auto: elevating below 0.3 of swing, lowering above 0.5, midpoint rule "
-                   "between (default auto)")
+                   help="auto: elevating up to 0.5 of swing, lowering above (default auto)")
     t.add_argument("--swing", type=float, default=0.2, metavar="F",
                    help="trip instant as a fraction of the tripped leg's swing, 0.05-0.9")
     t.add_argument("--speed", type=float, default=1.2, metavar="V",
