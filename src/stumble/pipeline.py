@@ -102,7 +102,8 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     sc = scenario.validated()
     p = params or FSMParams()
     strategy = p.strategy_for(sc.swing_fraction) if sc.strategy == "auto" else sc.strategy
-    base, pb = _walk(sc.height_m, sc.mass_kg, sc.sex, sc.contact, sc.speed_m_per_s)
+    base, pb = _walk(sc.height_m, sc.mass_kg, sc.sex, sc.contact, sc.speed_m_per_s,
+                     sc.timestep_s)
     t_trip = trip_time(pb.events, sc.side, sc.swing_fraction, after_s=WALK_BEFORE_TRIP_S)
     qpos, qvel = pb.state_at(t_trip)
     obstacle = None
@@ -115,7 +116,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
                     OBSTACLE_WIDTH_M, lane)
         _check_clear_of_stance(base, qpos, {"l": "r", "r": "l"}[sc.side], obstacle)
     body = build(height_m=sc.height_m, mass_kg=sc.mass_kg, sex=sc.sex, contact=sc.contact,
-                 obstacle=obstacle)
+                 obstacle=obstacle, timestep_s=sc.timestep_s)
     m = body.model
     d = mujoco.MjData(m)
     d.qpos[:], d.qvel[:] = qpos, qvel
@@ -140,10 +141,11 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
 
 
 @lru_cache(maxsize=16)
-def _walk(height_m: float, mass_kg: float, sex: str, contact: str,
-          speed_m_per_s: float) -> tuple[Body, Playback]:
+def _walk(height_m: float, mass_kg: float, sex: str, contact: str, speed_m_per_s: float,
+          timestep_s: float) -> tuple[Body, Playback]:
     """The body and its walk before the trip; deterministic, so cached per process."""
-    base = build(height_m=height_m, mass_kg=mass_kg, sex=sex, contact=contact)
+    base = build(height_m=height_m, mass_kg=mass_kg, sex=sex, contact=contact,
+                 timestep_s=timestep_s)
     return base, walk(base, speed_m_per_s, duration_s=WALK_BEFORE_TRIP_S + 2.5 * 1.6)
 
 

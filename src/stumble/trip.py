@@ -87,6 +87,7 @@ class Scenario:
     duration_after_trip_s: float = 3.0
     delay_scale: float = 1.0  # multiplies every response latency
     strength_scale: float = 1.0  # multiplies every torque limit
+    timestep_s: float = 0.001  # physics step
     force: TripForce = field(default_factory=TripForce)
 
     def validated(self) -> Scenario:
@@ -107,6 +108,8 @@ class Scenario:
             raise InputError(f"delay scale {self.delay_scale} is outside 0.2-5")
         if not 0.1 <= self.strength_scale <= 5.0:
             raise InputError(f"strength scale {self.strength_scale} is outside 0.1-5")
+        if not 0.0002 <= self.timestep_s <= 0.005:
+            raise InputError(f"time step {self.timestep_s} s is outside 0.0002-0.005 s")
         if not 0.5 <= self.duration_after_trip_s <= 20.0:
             raise InputError(f"duration {self.duration_after_trip_s} s is outside 0.5-20 s")
         return self
