@@ -42,10 +42,12 @@ SPACE = {
     "clear_margin_m": (("clear_margin_m",), 0.06, 0.2),
     "swap_trip_hip": (("targets_deg", "leg_swap", "trip.hip_flexion"), -10.0, 20.0),
     "swap_trip_ankle": (("targets_deg", "leg_swap", "trip.ankle_angle"), -10.0, 20.0),
-    "strategy_threshold": (("strategy_threshold",), 0.3, 0.5),
 }
 GRID = [(f, v, mech) for mech in ("force", "obstacle") for f in (0.1, 0.3, 0.45, 0.55, 0.65, 0.75)
         for v in (1.0, 1.4)]
+# the grid: swing 0.05-0.75, 1.0-1.4 m/s, both mechanisms (--grid full)
+FULL_GRID = [(f, v, mech) for mech in ("force", "obstacle")
+             for f in (0.05, 0.15, 0.25, 0.35, 0.45, 0.55, 0.65, 0.75) for v in (1.0, 1.2, 1.4)]
 
 
 def params_from(x: dict):
@@ -81,10 +83,14 @@ def main() -> None:
     ap.add_argument("--candidates", type=int, default=48)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--grid", choices=("small", "full"), default="small")
     ap.add_argument("--around", metavar="JSON",
                     help="search locally: Gaussian steps (15 %% of each range) around these "
                     "values, a JSON object of SPACE names (default: uniform over the ranges)")
     args = ap.parse_args()
+    global GRID
+    if args.grid == "full":
+        GRID = FULL_GRID
     rng = np.random.default_rng(args.seed)
     from stumble.control.fsm_params import FSMParams
 

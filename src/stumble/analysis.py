@@ -104,14 +104,6 @@ def variant(rec: Recording, landing_s: float | None) -> str | None:
     return "flight" if bool(np.any(airborne & before & (rec.time_s > 0.02))) else "double_support"
 
 
-def foot_x(model: mujoco.MjModel, data_like_qpos: np.ndarray, body: str) -> float:
-    """World x of a body for one qpos (kinematics only)."""
-    d = mujoco.MjData(model)
-    d.qpos[:] = data_like_qpos
-    mujoco.mj_kinematics(model, d)
-    return float(d.xpos[model.body(body).id, 0])
-
-
 def pitch_angles_deg(model: mujoco.MjModel, qpos: np.ndarray, tripped: str,
                      strategy: str) -> dict[str, np.ndarray]:
     """SCA 2009 Table 2's joint pitches (deg): pelvis, leading/trailing hip, knee, ankle.

@@ -4,8 +4,9 @@ Elevating: Passive Reaction → Clearance → Flight → Single Support After Tr
 Clearance → Fall → Double Support → Single Support After Trip when the stance foot
 stays down and the COM starts to fall. Lowering: Passive Reaction → Leg Swap →
 Clearance (legs swap roles) → the same ending. After Single Support After Trip the
-swing leg reaches forward for the next step and the person stands (``stand``, ours:
-SCA 2009 ends at the recovery step).
+person walks on (ours; SCA 2009 ends at the recovery step): ``step_reach`` places the
+swing foot with SIMBICON's balance feedback (Yin et al. 2007), and at its touch-down the
+legs swap for ``step_swing``, and so on.
 
 Every state sets, per joint, a PD target and gain (``stumble.control.pd``). The change
 from Passive Reaction into the reaction states reaches each joint after that joint's
@@ -75,7 +76,7 @@ class TripFSM:
                           "rec": OTHER[self.tripped]}
         self.roles.update({"arm_c": OTHER[self.tripped], "arm_i": self.tripped})
         self._enter("passive_reaction", 0.0)
-        self._apply_state_targets("passive_reaction", immediate=False, data=ctx.data)
+        self._apply_state_targets("passive_reaction", ctx.data)
         self._set_base_gains(recovery=False)
         # the swing knee carries no torque in Passive Reaction (SCA 2009 §4.3, Perry 1992)
         self._set_kp(f"knee_angle_{self.tripped}", 0.0)
@@ -164,12 +165,10 @@ class TripFSM:
                 at = min(self.p.delay(k) for k in self.p.latency_s if k.startswith(prefix))
             self._schedule(state, key, at)
 
-    def _apply_state_targets(self, state: str, immediate: bool, data=None) -> None:
+    def _apply_state_targets(self, state: str, data) -> None:
+        """Apply every target of a state now."""
         for key in self.p.targets_deg[state]:
-            if immediate and data is None:
-                self._schedule(state, key, 0.0)
-            else:
-                self._command(state, key, data)
+            self._command(state, key, data)
 
     def _enter(self, state: str, t: float) -> None:
         self._state = state
@@ -183,7 +182,7 @@ class TripFSM:
             self.pending = [p for p in self.pending if p.state.startswith("arms.")]
             heapq.heapify(self.pending)
         self._enter(state, t)
-        self._apply_state_targets(targets or state, immediate=False, data=data)
+        self._apply_state_targets(targets or state, data)
         self._set_base_gains(recovery=recovery_gains)
 
     # ------------------------------------------------------------------ update
