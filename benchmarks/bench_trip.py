@@ -1,6 +1,6 @@
 """Speed of one FSM trip against raw MuJoCo stepping of the same model (same process).
 
-Run:  python benchmarks/bench_trip.py [--swing F] [--speed V] [--contact points|soft]
+Run:  python benchmarks/bench_trip.py [--swing F] [--speed V] [--contact points|penalty|soft]
 Prints the trip's physics wall time, the same number of plain ``mj_step`` calls on the
 same model from the same initial state with no controller, their ratio (target ≤ 1.3)
 and the trip's speed-up over real time (target ≥ 20). Without a controller the body
@@ -23,7 +23,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--swing", type=float, default=0.2)
     ap.add_argument("--speed", type=float, default=1.2)
-    ap.add_argument("--contact", default="points", choices=("points", "soft"))
+    ap.add_argument("--contact", default="points", choices=("points", "penalty", "soft"))
     ap.add_argument("--repeats", type=int, default=3)
     args = ap.parse_args()
     sc = Scenario(swing_fraction=args.swing, speed_m_per_s=args.speed, contact=args.contact,
