@@ -91,3 +91,16 @@ def test_trips_that_recover(f, v, mechanism, strategy):
     assert s["recovered"] and not s["fell"] and not s["diverged"]
     assert s["recovery_contact_s"] is not None and s["sim_time_s"] >= s["recovery_contact_s"] + 1
     assert s["trunk_tilt_at_recovery_contact_deg"] < 45.0
+
+
+def test_seed_perturbs_the_start_reproducibly_and_params_are_not_mutated():
+    p = FSMParams()
+    short = {"swing_fraction": 0.3, "duration_after_trip_s": 0.5}
+    a = simulate_trip(Scenario(seed=7, delay_scale=1.5, **short), params=p)
+    b = simulate_trip(Scenario(seed=7, **short))
+    c = simulate_trip(Scenario(seed=0, **short))
+    assert p.delay_scale == 1.0  # the caller's parameters are left alone
+    assert (b.recording.qpos[0] != c.recording.qpos[0]).any()
+    d = simulate_trip(Scenario(seed=7, **short))
+    assert (b.recording.qpos == d.recording.qpos).all()
+    assert a.summary["seed"] == 7

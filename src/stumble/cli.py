@@ -14,8 +14,6 @@ import numpy as np
 from stumble import __version__
 from stumble.errors import InputError, StumbleError
 
-VIDEO_FPS = 25.0  # 200 Hz playback, every 8th frame
-
 
 class _Parser(argparse.ArgumentParser):
     """argparse with one-line errors: ``stumble: <problem> (stumble <cmd> --help)``."""
@@ -95,7 +93,9 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--leg", choices=("left", "right"), default="left", help="tripped leg")
     t.add_argument("--reference", type=Path, metavar="FILE",
                    help="a recorded trip (.mot, time 0 at the trip) for the joint-pitch RMSE")
-    t.add_argument("--seed", type=int, default=0, help="seed (the run is deterministic)")
+    t.add_argument("--seed", type=int, default=0,
+                   help="0 (default): the recorded walk as it is; another seed perturbs the "
+                   "initial joint angles (SD 0.5 deg) and velocities; deterministic")
     t.add_argument("--duration", type=float, default=3.0, metavar="S",
                    help="seconds of physics after the trip at most (default 3)")
     t.add_argument("--no-video", action="store_true", help="skip filmstrip.png and trip.mp4")
@@ -221,6 +221,7 @@ def cmd_walk(args) -> int:
     """``stumble walk``: play a gait back and write motion, events, plot and video."""
     from stumble.gait.playback import walk
     from stumble.gait.reference import check_speed
+    from stumble.outputs import VIDEO_FPS, prepare_dir
     from stumble.viz.plots import plot_joint_angles
 
     if args.gait is not None and args.speed is not None:
@@ -233,11 +234,7 @@ def cmd_walk(args) -> int:
         pb = _load_gait_file(args.gait, body, args.duration)
     else:
         pb = walk(body, args.speed, duration_s=args.duration or 4.0)
-    out = args.out
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise InputError(f"cannot create output directory {out}: {e.strerror}") from None
+    out = prepare_dir(args.out)
     write_motion_csv(out / "motion.csv", pb)
     events = {**pb.events.to_json(),
               "speed_m_per_s": round(pb.speed_m_per_s, 4),

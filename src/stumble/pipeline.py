@@ -8,7 +8,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 
 import mujoco
@@ -83,11 +83,28 @@ def _check_clear_of_stance(body: Body, qpos: np.ndarray, side: str, box) -> None
         raise InputError("the obstacle would stand under the stance foot at this instant")
 
 
+SEED_ANGLE_SD_RAD = np.radians(0.5)  # per joint angle, seed != 0 (our choice)
+SEED_VELOCITY_SD_RAD_S = 0.05  # per joint angular velocity, seed != 0 (our choice)
+
+
+def perturb_initial_state(body: Body, data: mujoco.MjData, seed: int) -> None:
+    """Seed 0: the playback state as it is. Any other seed adds independent Gaussian
+    noise to every joint angle (SD 0.5°) and angular velocity (SD 0.05 rad/s), so repeated
+    trips sample the variability of real steps; the same seed gives the same numbers."""
+    if seed == 0:
+        return
+    m = body.model
+    rng = np.random.default_rng(seed)
+    q = [m.jnt_qposadr[m.joint(n).id] for n in body.joints]
+    v = [m.jnt_dofadr[m.joint(n).id] for n in body.joints]
+    data.qpos[q] += rng.normal(0.0, SEED_ANGLE_SD_RAD, len(q))
+    data.qvel[v] += rng.normal(0.0, SEED_VELOCITY_SD_RAD_S, len(v))
+
+
 def _controller(scenario: Scenario, strategy: str, params: FSMParams | None):
     if scenario.controller != "fsm":
         raise InputError(f"controller {scenario.controller!r} is not available (fsm)")
-    p = params or FSMParams()
-    p.delay_scale = scenario.delay_scale
+    p = replace(params or FSMParams(), delay_scale=scenario.delay_scale)
     return TripFSM(strategy, scenario.side, scenario.speed_m_per_s, p)
 
 
@@ -120,6 +137,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     m = body.model
     d = mujoco.MjData(m)
     d.qpos[:], d.qvel[:] = qpos, qvel
+    perturb_initial_state(body, d, sc.seed)
     if sc.contact in ("points", "penalty"):  # SCA 2009 §4.2: support foot on the ground,
         # at the penalty law's static depth under the body's weight on one foot
         d.qpos[2] -= m.body_mass.sum() * 9.81 / (96 * STIFFNESS_N_PER_M)

@@ -20,6 +20,7 @@ import numpy as np
 
 from stumble.body import Body
 
+_NO_FORCE = np.zeros(3)
 RECORD_HZ = 200.0
 CONTROL_HZ = 500.0  # controller updates; the servos themselves run at every 1 ms step
 CONTACT_FORCE_MIN_N = 1.0  # a foot with less total normal force is not "on the floor"
@@ -165,6 +166,8 @@ def run(ctx: Context, controller: Controller, duration_s: float,
         penalty.apply(d)
     read_sensors(ctx, geo)
     controller.start(ctx)
+    forcing = trip_force is not None and force_body >= 0
+    force_end_s = getattr(trip_force, "t_trip_s", duration_s)
     k_rec = 0
     wall0 = time.perf_counter()
     step = 0
@@ -174,15 +177,16 @@ def run(ctx: Context, controller: Controller, duration_s: float,
         if step % control_every == 0:
             read_sensors(ctx, geo)
             controller.update(ctx)
-        f = np.zeros(3)
-        if trip_force is not None and force_body >= 0:
+        f = _NO_FORCE
+        if forcing:  # only while the collision lasts: nothing per step afterwards
             f = trip_force(t)
-            if f.any():
+            if t > force_end_s:
+                d.xfrc_applied[force_body] = 0.0
+                forcing = False
+            else:
                 p = force_point(d)
                 d.xfrc_applied[force_body, :3] = f
                 d.xfrc_applied[force_body, 3:] = np.cross(p - d.xipos[force_body], f)
-            else:
-                d.xfrc_applied[force_body] = 0.0
         if step % rec_every == 0 and k_rec < n_rec:
             if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
                 rec.diverged, reason = True, "diverged"

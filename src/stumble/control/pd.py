@@ -26,7 +26,6 @@ class ServoBank:
         self.vadr = np.array([m.jnt_dofadr[m.actuator_trnid[i, 0]] for i in range(m.nu)])
         self.kd_over_kp = kd_over_kp_s
         self.kp = m.actuator_gainprm[:, 0].copy()
-        self.torque_limit = m.actuator_forcerange[:, 1].copy()
 
     def ids(self, names) -> np.ndarray:
         """Actuator indices of joint names."""
@@ -44,9 +43,3 @@ class ServoBank:
         m.actuator_gainprm[sel, 0] = self.kp[sel]
         m.actuator_biasprm[sel, 1] = -self.kp[sel]
         m.actuator_biasprm[sel, 2] = -self.kd_over_kp * self.kp[sel]
-
-    def scale_strength(self, factor: float) -> None:
-        """Multiply every torque limit (strength scale of a study)."""
-        self.torque_limit = self.torque_limit * factor
-        self.model.actuator_forcerange[:, 0] = -self.torque_limit
-        self.model.actuator_forcerange[:, 1] = self.torque_limit
