@@ -1,0 +1,1 @@
+"""The neuromuscular reflex controller (seed 003): recorded walk, receptors, network."""
