@@ -9,7 +9,9 @@ import numpy as np
 
 from stumble.body import anthropometry as anth
 from stumble.body import contact as foot_contact
+from stumble.body import muscles
 from stumble.body.joints import JOINTS_3D, JOINTS_PLANAR, PELVIS_ROTATIONS, expand
+from stumble.errors import InputError
 
 # Collision bit masks. A pair collides when (contype_a & conaffinity_b) or
 # (contype_b & conaffinity_a). Segments never collide with each other.
@@ -69,6 +71,7 @@ class Body:
     joints: list[str]
     segments: dict[str, float]
     foot_points: dict[str, list[str]] = field(default_factory=dict)
+    muscles: list = field(default_factory=list)  # stumble.body.muscles.MuscleGeometry
 
     @property
     def dof(self) -> int:
@@ -204,8 +207,13 @@ def _hinges(body, side: str, joint_names: list[str], axes: dict, ranges: dict):
 
 def build(planar: bool = False, height_m: float = 1.75, mass_kg: float = 70.0,
           sex: str = "male", contact: str = "points", timestep_s: float = 0.001,
-          obstacle: tuple[float, float, float, float, float] | None = None) -> Body:
+          obstacle: tuple[float, float, float, float, float] | None = None,
+          actuation: str = "servos") -> Body:
     """Compile the 3D (42 DOF) or planar human for a person of the given size.
+
+    ``actuation``: ``"servos"`` (a PD position servo per DOF) or, planar only,
+    ``"muscles"`` (seed 003 §III: 7 Hill-type muscles per leg on hips, knees and ankles,
+    ``stumble.body.muscles``; a PD servo on the lumbar joint; weak ankle springs).
 
     ``obstacle``: (near face x, height, depth, width, centre y) in m of a rigid box on
     the floor; feet and segments collide with it. Height in m, mass
@@ -216,6 +224,10 @@ def build(planar: bool = False, height_m: float = 1.75, mass_kg: float = 70.0,
     """
     anth.check_person(height_m, mass_kg, sex)
     foot_contact.check_mode(contact)
+    if actuation not in ("servos", "muscles"):
+        raise InputError(f"actuation {actuation!r} is not 'servos' or 'muscles'")
+    if actuation == "muscles" and not planar:
+        raise InputError("the muscle model is planar (seed 003): use planar=True")
     lay = _layout(height_m, mass_kg, sex)
     s = _Layout_spec(planar, timestep_s)
     world = s.worldbody
@@ -305,14 +317,25 @@ def build(planar: bool = False, height_m: float = 1.75, mass_kg: float = 70.0,
             s, ft, toes, side, contact, lay.heel_x, lay.mtp, lay.foot_len, lay.foot_w,
             lay.ankle_h)
 
-    _actuators(s, [h[0] for h in flat], mass_kg)
+    hinges = [h[0] for h in flat]
+    muscle_geometry = []
+    if actuation == "muscles":
+        _actuators(s, [h for h in hinges if h.startswith("lumbar")], mass_kg)
+        muscle_geometry = muscles.add_muscles(s, height_m, mass_kg)
+        for side in ("r", "l"):
+            j = s.joint(f"ankle_angle_{side}")
+            j.stiffness = [muscles.ANKLE_STIFFNESS_NM_PER_RAD, 0.0, 0.0]
+            j.damping = [muscles.ANKLE_DAMPING_NMS_PER_RAD, 0.0, 0.0]
+    else:
+        _actuators(s, hinges, mass_kg)
     model = s.compile()
     foot_contact.configure(model)
     names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(model.njnt)]
     internal = [n for n in names if n in axes]
     masses = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b): float(model.body_mass[b])
               for b in range(1, model.nbody)}
-    return Body(model, planar, height_m, mass_kg, sex, contact, internal, masses, foot_points)
+    return Body(model, planar, height_m, mass_kg, sex, contact, internal, masses, foot_points,
+                muscle_geometry)
 
 
 def _Layout_spec(planar: bool, timestep_s: float) -> mujoco.MjSpec:
