@@ -100,6 +100,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="seconds of physics after the trip at most (default 3)")
     t.add_argument("--no-video", action="store_true", help="skip filmstrip.png and trip.mp4")
     _person_args(t)
+    from stumble.study.cli import add_study_parser
+
+    add_study_parser(sub)
     return p
 
 
@@ -316,7 +319,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 0
-    handlers = {"model": cmd_model, "walk": cmd_walk, "trip": cmd_trip}
+    from stumble.study.cli import run_study_cli
+
+    handlers = {"model": cmd_model, "walk": cmd_walk, "trip": cmd_trip,
+                "study": run_study_cli}
     try:
         return handlers[args.command](args)
     except StumbleError as e:

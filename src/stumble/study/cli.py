@@ -1,0 +1,97 @@
+"""``stumble study``: its arguments and what it does (registered by ``stumble.cli``)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from stumble.study.grid import AXES, Grid, grid_from_args, load_toml
+
+EPILOG = """\
+grid values: one value (1.1), a list (0.8,1.1,1.4) or a range start:stop:count with
+both ends included (0.05:0.75:15 is 15 values). A TOML FILE takes the same keys
+(swing = "0.05:0.75:15", speed = [0.8, 1.1, 1.4], repeats = 5); options override it.
+Running the same command again runs only what DIR does not hold yet.
+
+example:  stumble study --swing 0.05:0.75:15 --speed 0.8,1.1,1.4 --out s/
+"""
+
+
+HELP_ORDER = ("controller", "strategy", "swing", "speed", "mechanism", "obstacle_height", "leg",
+              "delay_scale", "strength_scale", "height", "mass", "sex", "contact", "seed",
+              "duration", "timestep")
+
+
+def workers_arg(text: str) -> int:
+    """A positive whole number of worker processes (argparse type)."""
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {n}")
+    return n
+
+
+def add_study_parser(sub) -> None:
+    """Register ``stumble study`` on the ``stumble`` subparsers."""
+    p = sub.add_parser(
+        "study", help="many trips over a grid: results table, strategy and outcome maps",
+        description="Run a trip for every point of a grid, on local processes or a Dask "
+        "cluster. Writes DIR/results.parquet (one row per run: every scenario parameter "
+        "and every summary.json field), DIR/strategy_map.png, DIR/outcome_map.png and, "
+        "when a delay or strength scale varies, DIR/fall_rate.png.",
+        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("file", nargs="?", type=Path, metavar="FILE", help="a TOML study file")
+    p.add_argument("--out", required=True, type=Path, metavar="DIR", help="study directory")
+    p.add_argument("--workers", type=workers_arg, metavar="N",
+                   help="local worker processes (default: all cores; 1 runs in this process)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run on a Dask distributed cluster, e.g. tcp://10.0.0.5:8786 "
+                   "(pip install \"stumble[cluster]\")")
+    p.add_argument("--retry-errors", action="store_true",
+                   help="run again the runs whose stored row has an error")
+    p.add_argument("--no-plots", action="store_true", help="skip the PNG maps")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    g = p.add_argument_group("grid axes (default: the `stumble trip` default)")
+    for name in HELP_ORDER:
+        axis = AXES[name]
+        g.add_argument(f"--{axis.name.replace('_', '-')}", dest=f"axis_{axis.name}",
+                       metavar="VALUES", help=axis.help)
+    g.add_argument("--repeats", metavar="R",
+                   help="run every grid point with the seeds 1..R (instead of --seed)")
+
+
+def grid_from_namespace(args) -> Grid:
+    """The study's grid: the TOML file's, with the command-line axes replacing its own."""
+    base = load_toml(args.file) if args.file is not None else Grid()
+    specs = {name: getattr(args, f"axis_{name}") for name in AXES}
+    return base.merged(grid_from_args(specs, args.repeats))
+
+
+def run_study_cli(args) -> int:
+    """``stumble study``: validate the whole grid, run what is missing, report and plot."""
+    from stumble.study.runner import StudyInterrupted, run_study, summary_table
+
+    grid = grid_from_namespace(args)
+    scenarios = grid.scenarios()  # every scenario validated before anything runs
+    meta = {"grid": grid.to_json(), "varying": grid.varying()}
+    try:
+        res = run_study(scenarios, args.out, workers=args.workers, scheduler=args.scheduler,
+                        retry_errors=args.retry_errors, progress=not args.quiet,
+                        metadata=meta)
+    except StudyInterrupted as e:
+        print(f"stumble: {e}", file=sys.stderr)
+        return 130
+    print(summary_table(res.rows))
+    written = ["results.parquet"]
+    if not args.no_plots:
+        from stumble.viz.study_plots import write_study_plots
+
+        written += write_study_plots(res.out, res.rows)
+    note = (f"; {res.other_rows} other runs in {res.out}/runs are not in this grid"
+            if res.other_rows else "")
+    print(f"{len(res.rows)} runs ({res.ran} run now, {res.before} before); wrote "
+          f"{', '.join(written)} to {res.out}{note}")
+    return 0

@@ -1,0 +1,402 @@
+"""Studies: grid parsing and its errors, the crash-safe store, resumption, error rows,
+executors (in process, local processes, Dask), plots, and real trips through the CLI."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+from types import SimpleNamespace
+
+import pyarrow.parquet as pq
+import pytest
+
+from stumble import pipeline
+from stumble.cli import main
+from stumble.errors import InputError, SimulationDiverged, StumbleError
+from stumble.study import runner
+from stumble.study.grid import Grid, load_toml, parse_values, run_key
+from stumble.study.runner import StudyInterrupted, flatten, run_study, summary_table
+from stumble.study.store import Store, load_results
+from stumble.trip import Scenario
+
+WALL = {"wall_time_s", "run_wall_time_s"}  # the only columns allowed to differ
+
+
+def fake_summary(sc: Scenario) -> dict:
+    """A deterministic stand-in for ``simulate_trip(sc).summary``."""
+    strategy = sc.strategy if sc.strategy != "auto" else (
+        "elevating" if sc.swing_fraction <= 0.5 else "lowering")
+    fell = sc.delay_scale * sc.swing_fraction >= 0.6
+    return {"controller": sc.controller, "strategy": strategy, "variant": "double_support",
+            "recovered": not fell, "fell": fell, "diverged": False,
+            "swing_fraction": sc.swing_fraction, "speed_m_per_s": sc.speed_m_per_s,
+            "mechanism": sc.mechanism, "leg": sc.leg, "obstacle_height_m": None,
+            "states": [{"name": "passive_reaction", "start_s": 0.0}],
+            "durations_s": {"recovery_step": round(0.5 + sc.swing_fraction, 4),
+                            "trip_to_recovery_contact": 0.6},
+            "rmse_deg": None, "wall_time_s": 0.001, "steps": 10, "seed": sc.seed}
+
+
+@pytest.fixture
+def fake(monkeypatch):
+    """simulate_trip replaced: reflex raises, swing 0.85 diverges; the calls are listed."""
+    calls: list[Scenario] = []
+
+    def simulate_trip(sc, **kw):
+        calls.append(sc)
+        if sc.controller == "reflex":
+            raise InputError("controller 'reflex' is not available (fsm)")
+        if sc.swing_fraction == 0.85:
+            raise SimulationDiverged("the physics diverged at 0.41 s")
+        return SimpleNamespace(summary=fake_summary(sc))
+
+    monkeypatch.setattr(pipeline, "simulate_trip", simulate_trip)
+    return calls
+
+
+def rows_of(path: Path) -> list[dict]:
+    return pq.read_table(path).to_pylist()
+
+
+def strip(rows):
+    return [{k: v for k, v in r.items() if k not in WALL} for r in rows]
+
+
+# ---------------------------------------------------------------- parsing
+
+
+def test_values_ranges_lists_and_singles():
+    swing = parse_values("swing", "0.05:0.75:15")
+    assert len(swing) == 15 and swing[0] == 0.05 and swing[-1] == 0.75
+    assert swing[1] == 0.1 and swing[2] == 0.15  # rounded: keys match typed values
+    assert parse_values("speed", "0.8,1.1,1.4") == [0.8, 1.1, 1.4]
+    assert parse_values("speed", "1.2") == [1.2]
+    assert parse_values("seed", "0:4:5") == [0, 1, 2, 3, 4]
+    assert parse_values("controller", "fsm, reflex") == ["fsm", "reflex"]
+    assert parse_values("speed", [0.8, 1.1, 0.8]) == [0.8, 1.1]  # TOML list, duplicate
+    assert parse_values("speed", "1.1:1.1:1") == [1.1]
+
+
+@pytest.mark.parametrize("axis, spec, words", [
+    ("swing", "0.05:0.75", "not a range start:stop:count"),
+    ("swing", "a:0.7:3", "'a' is not a number"),
+    ("swing", "0.1:0.5:x", "count 'x'"),
+    ("swing", "0.1:0.5:1", "makes no sense"),
+    ("speed", "1.1,,1.4", "empty item"),
+    ("speed", "nan", "not a finite number"),
+    ("seed", "0.5", "not an integer"),
+    ("seed", "0:1:3", "not an integer"),
+    ("strategy", "auto:lowering:2", "takes names, not a range"),
+])
+def test_value_errors_are_one_line(axis, spec, words):
+    with pytest.raises(InputError) as e:
+        parse_values(axis, spec)
+    assert words in str(e.value) and "\n" not in str(e.value)
+    assert str(e.value).startswith(f"--{axis}")
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--swing", "0.05:0.95:3"], "swing fraction 0.95 is outside 0.05-0.9"),
+    (["--speed", "0.8,2.0"], "speed 2.0 m/s is outside"),
+    (["--controller", "fsm,pid"], "controller 'pid' is not one of fsm, reflex"),
+    (["--mechanism", "slip"], "mechanism 'slip'"),
+    (["--height", "3"], "height 3.0 m is outside"),
+    (["--delay-scale", "0.1:2:3"], "delay scale 0.1 is outside"),
+    (["--seed", "1", "--repeats", "3"], "give one, not both"),
+    (["--repeats", "0"], "--repeats: 0 is outside"),
+    (["--workers", "0"], "argument --workers: must be at least 1, got 0"),
+])
+def test_bad_grid_is_one_line_before_anything_runs(tmp_path, capsys, fake, args, words):
+    out = tmp_path / "s"
+    try:
+        code = main(["study", "--out", str(out), *args])
+    except SystemExit as e:  # argparse's own checks
+        code = e.code
+    assert code == 2
+    err = capsys.readouterr().err
+    assert words in err and err.startswith("stumble: ") and err.count("\n") == 1
+    assert not out.exists() and not fake
+
+
+def test_toml_grid_and_its_errors(tmp_path):
+    f = tmp_path / "s.toml"
+    f.write_text(textwrap.dedent("""\
+        description = "obstacle heights"
+        swing = "0.1:0.7:4"
+        speed = [1.0, 1.3]
+        mechanism = ["force", "obstacle"]
+        obstacle-height = [0.08, 0.14]
+        repeats = 2
+        """))
+    g = load_toml(f)
+    assert g.values("seed") == [1, 2] and g.varying() == [
+        "speed", "mechanism", "obstacle_height", "swing", "seed"]
+    scs = g.scenarios()
+    # force trips ignore the obstacle height: 4 swings x 2 speeds x 2 seeds x (1 + 2)
+    assert len(scs) == 4 * 2 * 2 * 3
+    assert {s.obstacle_height_m for s in scs if s.mechanism == "force"} == {0.10}
+    assert len({run_key(s) for s in scs}) == len(scs)
+    # the command line replaces the file's axes
+    g2 = g.merged(Grid({"speed": [1.2]}, None))
+    assert g2.values("speed") == [1.2] and g2.values("swing") == g.values("swing")
+
+    for text, words in [("swingg = 0.2", "unknown key 'swingg'"),
+                        ("swing = 0.2\nspeed = [", "not valid TOML"),
+                        ("swing = \"0.1:0.2\"", "swing: '0.1:0.2' is not a range"),
+                        ("seed = [1]\nrepeats = 2", "seed or repeats, not both"),
+                        ("speed = {a = 1}", "a table is not a value"),
+                        ("repeats = 1.5", "not a whole number")]:
+        f.write_text(text)
+        with pytest.raises(InputError) as e:
+            load_toml(f)
+        assert words in str(e.value) and "\n" not in str(e.value), text
+    with pytest.raises(InputError, match="no such study file"):
+        load_toml(tmp_path / "missing.toml")
+
+
+def test_run_keys_are_stable_and_distinct():
+    a = Scenario(swing_fraction=parse_values("swing", "0.05:0.75:15")[2])
+    b = Scenario(swing_fraction=0.15)
+    assert run_key(a) == run_key(b) and len(run_key(a)) == 16
+    assert run_key(b) != run_key(b.with_(seed=1))
+    assert run_key(b) != run_key(b.with_(delay_scale=1.5))
+    # the key is a pure function of the fields: the same in a fresh interpreter
+    code = "from stumble.study.grid import run_key; from stumble.trip import Scenario; " \
+           "print(run_key(Scenario(swing_fraction=0.15)))"
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert r.stdout.strip() == run_key(b)
+
+
+def test_flatten_nested_and_lists():
+    d = flatten({"a": 1, "durations_s": {"x": 0.5, "y": None},
+                 "states": [{"name": "s", "start_s": 0.0}]})
+    assert d == {"a": 1, "durations_s.x": 0.5, "durations_s.y": None,
+                 "states": '[{"name": "s", "start_s": 0.0}]'}
+
+
+# ---------------------------------------------------------------- running (fake trips)
+
+
+def small_grid(**axes) -> list[Scenario]:
+    base = {"swing": [0.2, 0.4, 0.6, 0.85], "speed": [1.0, 1.3]}
+    return Grid({**base, **axes}).scenarios()
+
+
+def test_study_rows_table_and_rerun(tmp_path, fake, capsys):
+    out = tmp_path / "s"
+    res = run_study(small_grid(), out, workers=1, progress=False)
+    assert len(fake) == 8 and res.ran == 8 and res.before == 0
+    rows = rows_of(out / "results.parquet")
+    assert len(rows) == 8 and [r["key"] for r in rows] == [r["key"] for r in res.rows]
+    r = rows[0]
+    # every scenario parameter and every summary field, nested ones flattened
+    for col in ("swing_fraction", "speed_m_per_s", "leg", "mechanism", "obstacle_height_m",
+                "controller", "strategy_mode", "seed", "height_m", "mass_kg", "sex",
+                "contact", "duration_after_trip_s", "delay_scale", "strength_scale",
+                "timestep_s", "strategy", "variant", "recovered", "fell", "diverged",
+                "durations_s.recovery_step", "durations_s.trip_to_recovery_contact",
+                "states", "steps", "error", "key", "stumble_version"):
+        assert col in r, col
+    assert json.loads(r["states"]) == [{"name": "passive_reaction", "start_s": 0.0}]
+    assert r["durations_s.recovery_step"] == pytest.approx(0.7)
+    assert r["obstacle_height_m"] is None  # a force trip
+    div = [r for r in rows if r["swing_fraction"] == 0.85]
+    assert all(r["diverged"] and "diverged" in r["error"] for r in div)
+    # the same study again: nothing to run, same table
+    fake.clear()
+    res2 = run_study(small_grid(), out, workers=1, progress=False)
+    assert not fake and res2.ran == 0 and res2.before == 8
+    assert strip(rows_of(out / "results.parquet")) == strip(rows)
+    table = summary_table(rows)
+    assert "elevating" in table and "lowering" in table
+    last = table.splitlines()[-1].split()
+    assert last == ["all", "8", "4", "2", "2", "0", "0"]  # 4 recovered, 2 fell, 2 diverged
+
+
+def test_resumption_after_an_interruption(tmp_path, monkeypatch, capsys):
+    out = tmp_path / "s"
+    scs = small_grid(seed=[0, 1])  # 16 runs
+    calls = []
+
+    def interrupted_after_five(sc, **kw):
+        if len(calls) == 5:
+            raise KeyboardInterrupt
+        calls.append(sc)
+        return SimpleNamespace(summary=fake_summary(sc))
+
+    monkeypatch.setattr(pipeline, "simulate_trip", interrupted_after_five)
+    with pytest.raises(StudyInterrupted, match="5 of 16 runs are stored"):
+        run_study(scs, out, workers=1, progress=False)
+    assert len(load_results(out)) == 5 and not (out / "results.parquet").exists()
+    assert not list((out / "runs").glob("journal-*"))  # moved into a part on the way out
+
+    again = []
+
+    def counting(sc, **kw):
+        again.append(sc)
+        return SimpleNamespace(summary=fake_summary(sc))
+
+    monkeypatch.setattr(pipeline, "simulate_trip", counting)
+    assert main(["study", "--out", str(out), "--swing", "0.2,0.4,0.6,0.85", "--speed",
+                 "1.0,1.3", "--seed", "0,1", "--workers", "1", "--no-plots"]) == 0
+    assert len(again) == 11  # only the missing runs
+    assert {run_key(s) for s in again}.isdisjoint({run_key(s) for s in calls})
+    assert len(rows_of(out / "results.parquet")) == 16
+    assert "16 runs (11 run now, 5 before)" in capsys.readouterr().out
+
+
+def test_interrupt_through_the_cli_exits_130(tmp_path, monkeypatch, capsys):
+    def interrupt(sc, **kw):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(pipeline, "simulate_trip", interrupt)
+    assert main(["study", "--out", str(tmp_path / "s"), "--workers", "1"]) == 130
+    err = capsys.readouterr().err
+    assert "interrupted: 0 of 1 runs are stored" in err and "run the same command" in err
+
+
+def test_killed_study_loses_no_finished_run(tmp_path, fake):
+    """SIGKILL in the middle: the journal keeps every finished run, the rerun does the rest."""
+    out = tmp_path / "s"
+    script = textwrap.dedent(f"""\
+        import time
+        from types import SimpleNamespace
+        from stumble import pipeline
+        from stumble.cli import main
+
+        def slow(sc, **kw):
+            time.sleep(0.15)
+            return SimpleNamespace(summary={{"strategy": "elevating", "recovered": True,
+                                             "fell": False, "diverged": False}})
+
+        pipeline.simulate_trip = slow
+        main(["study", "--out", {str(out)!r}, "--swing", "0.05:0.85:40", "--workers", "2",
+              "--quiet", "--no-plots"])
+        """)
+    p = subprocess.Popen([sys.executable, "-c", script], stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 60
+    journal = []
+    while time.monotonic() < deadline:
+        journal = list((out / "runs").glob("journal-*.jsonl")) if out.exists() else []
+        if journal and journal[0].read_text().count("\n") >= 6:
+            break
+        time.sleep(0.05)
+    os.kill(p.pid, signal.SIGKILL)
+    p.wait()
+    stored = load_results(out)
+    assert 6 <= len(stored) < 40
+    assert not (out / "results.parquet").exists()
+    res = run_study(Grid({"swing": parse_values("swing", "0.05:0.85:40")}).scenarios(), out,
+                    workers=1, progress=False)
+    assert len(fake) == 40 - len(stored) and len(res.rows) == 40
+    assert not list((out / "runs").glob("journal-*"))  # the dead session's journal: a part
+
+
+def test_failing_runs_are_rows_and_can_be_retried(tmp_path, fake, capsys):
+    out = tmp_path / "s"
+    args = ["study", "--out", str(out), "--controller", "fsm,reflex", "--swing", "0.2,0.6",
+            "--workers", "1", "--no-plots"]
+    assert main(args) == 0
+    text = capsys.readouterr().out
+    rows = rows_of(out / "results.parquet")
+    reflex = [r for r in rows if r["controller"] == "reflex"]
+    assert len(rows) == 4 and len(reflex) == 2
+    assert all(r["error"] == "InputError: controller 'reflex' is not available (fsm)"
+               for r in reflex)
+    assert all(not r["recovered"] and r["strategy"] is None for r in reflex)
+    assert all(r["error"] is None for r in rows if r["controller"] == "fsm")
+    total = next(line for line in text.splitlines() if line.startswith("all"))
+    assert "reflex -" in text and total.split()[-1] == "2"  # the errors column
+    tb = (out / "errors" / f"{reflex[0]['key']}.txt").read_text()
+    assert "Traceback" in tb and "not available" in tb
+    fake.clear()
+    assert main(args) == 0 and not fake  # errors are finished runs
+    assert main([*args, "--retry-errors"]) == 0
+    assert sorted(s.controller for s in fake) == ["reflex", "reflex"]
+
+
+def test_local_processes_give_the_same_rows(tmp_path, fake):
+    a = run_study(small_grid(), tmp_path / "a", workers=1, progress=False)
+    b = run_study(small_grid(), tmp_path / "b", workers=2, progress=False)
+    assert strip(a.rows) == strip(b.rows)
+
+
+def test_a_worker_that_dies_is_one_error_row(tmp_path, monkeypatch):
+    parent = os.getpid()
+
+    def crash_at_0_6(sc, **kw):
+        if sc.swing_fraction == 0.6 and os.getpid() != parent:
+            os._exit(3)  # as a segfault would
+        return SimpleNamespace(summary=fake_summary(sc))
+
+    monkeypatch.setattr(pipeline, "simulate_trip", crash_at_0_6)
+    res = run_study(small_grid(), tmp_path / "s", workers=2, progress=False)
+    dead = [r for r in res.rows if r["error"]]
+    assert len(res.rows) == 8 and {r["swing_fraction"] for r in dead} == {0.6}
+    assert all("WorkerDied" in r["error"] for r in dead)
+
+
+def test_one_study_per_directory(tmp_path):
+    with Store(tmp_path / "s"), pytest.raises(StumbleError, match="in use by another"):
+        Store(tmp_path / "s").__enter__()
+
+
+def test_missing_pyarrow_is_one_line(monkeypatch, tmp_path):
+    monkeypatch.setitem(sys.modules, "pyarrow", None)
+    with pytest.raises(StumbleError, match=r"needs pyarrow.*pip install pyarrow"):
+        run_study(small_grid(), tmp_path / "s", workers=1, progress=False)
+
+
+def test_plots_and_fall_rate(tmp_path, fake):
+    out = tmp_path / "s"
+    assert main(["study", "--out", str(out), "--swing", "0.2,0.4,0.6", "--speed", "1.0,1.3",
+                 "--delay-scale", "1,1.5,2", "--workers", "1", "--quiet"]) == 0
+    for name in ("strategy_map.png", "outcome_map.png", "fall_rate.png"):
+        assert (out / name).read_bytes()[:4] == b"\x89PNG", name
+    assert main(["study", "--out", str(tmp_path / "t"), "--swing", "0.2,0.6", "--workers", "1",
+                 "--quiet"]) == 0
+    assert not (tmp_path / "t" / "fall_rate.png").exists()  # no scale varies
+
+
+def test_dask_cluster_gives_the_same_rows(tmp_path, fake):
+    distributed = pytest.importorskip("distributed")
+    local = run_study(small_grid(), tmp_path / "a", workers=1, progress=False)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as cluster:
+        res = run_study(small_grid(), tmp_path / "b", scheduler=cluster.scheduler_address,
+                        progress=False)
+    assert strip(res.rows) == strip(local.rows)
+
+
+def test_unreachable_scheduler_is_one_line(tmp_path, capsys, monkeypatch):
+    pytest.importorskip("distributed")
+    monkeypatch.setattr(runner, "CONNECT_TIMEOUT_S", 1.0)
+    assert main(["study", "--out", str(tmp_path / "s"), "--scheduler",
+                 "tcp://127.0.0.1:1"]) == 2
+    err = capsys.readouterr().err
+    assert "cannot reach the Dask scheduler at tcp://127.0.0.1:1" in err
+    assert err.count("\n") == 1 and not (tmp_path / "s").exists()
+
+
+# ---------------------------------------------------------------- real trips
+
+
+def test_real_trips_through_the_cli(tmp_path, capsys):
+    out = tmp_path / "s"
+    assert main(["study", "--out", str(out), "--swing", "0.2,0.65", "--speed", "1.2",
+                 "--duration", "0.6", "--workers", "2", "--quiet"]) == 0
+    rows = rows_of(out / "results.parquet")
+    assert [r["strategy"] for r in rows] == ["elevating", "lowering"]
+    assert all(r["error"] is None and 0 < r["steps"] <= 600 for r in rows)
+    assert all(r["trip_time_s"] > 0.4 and r["wall_time_s"] > 0 for r in rows)
+    # deterministic: the same numbers as a trip run here and now
+    direct = flatten(pipeline.simulate_trip(Scenario(
+        swing_fraction=0.2, speed_m_per_s=1.2, duration_after_trip_s=0.6)).summary)
+    for k, v in direct.items():
+        if k not in WALL:
+            assert rows[0][k] == v, k
+    assert (out / "strategy_map.png").exists() and (out / "outcome_map.png").exists()
