@@ -101,8 +101,10 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--no-video", action="store_true", help="skip filmstrip.png and trip.mp4")
     _person_args(t)
     from stumble.study.cli import add_study_parser
+    from stumble.validate import add_validate_parser
 
     add_study_parser(sub)
+    add_validate_parser(sub)
     return p
 
 
@@ -320,9 +322,10 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 0
     from stumble.study.cli import run_study_cli
+    from stumble.validate import run_validate_cli
 
     handlers = {"model": cmd_model, "walk": cmd_walk, "trip": cmd_trip,
-                "study": run_study_cli}
+                "study": run_study_cli, "validate": run_validate_cli}
     try:
         return handlers[args.command](args)
     except StumbleError as e:

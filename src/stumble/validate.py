@@ -1,0 +1,371 @@
+"""``stumble validate``: a fixed, documented study set beside the published figures.
+
+The study (``validation_scenarios``), for each controller (``fsm``, ``reflex``):
+
+- **Strategy windows** (SCA 2009 §3 after Schillings et al. 2000; Murai & Yamane 2011
+  §IV.A): obstacle trips (10 cm box) of the left leg at 0.05, 0.15, … 0.75 of swing,
+  walking at 1.1 m/s (the reference subject's own speed), strategy mode ``auto``.
+  Humans take the elevating strategy for trips at 5–25 % of swing, the lowering
+  strategy at 55–75 %, and either in between (30–50 %). SCA 2009 words the windows as
+  "% of stride duration in normal walking"; Murai & Yamane and the issue as % of the
+  swing phase, which we follow. Agreement: every run of the window (leaving out runs
+  that raised) took the published strategy; in between, any strategy agrees, but a run
+  whose strategy could not be classified does not.
+- **Recovery durations** (SCA 2009 §5.1–5.2): force trips (the paper's model of the
+  trip, eq. 2–3) at 0.2 of swing (elevating) and 0.65 of swing (lowering), at the
+  walking speed of the paper's input motion for each case: elevating with double
+  support 1.0 m/s, with flight 1.4 m/s; lowering with double support 0.75 m/s, with
+  flight 1.1 m/s. Elevating: toe-off to heel contact of the recovery step
+  (``durations_s.recovery_step``); lowering: trip to recovery-leg contact
+  (``durations_s.trip_to_recovery_contact``). Beside them, the normal-walking swing
+  (toe-off to heel contact) of our walk at 1.0 and 1.4 m/s, and the elevating
+  step's increase over it. Agreement: our value is as close to the motion capture as
+  the paper's own simulation, or within 10 % of the motion-capture value.
+- **Identification errors** (Murai & Yamane 2011 §V.A): average and maximum error of the
+  reflex network's muscle activity identified from walking, from
+  ``stumble.control.reflex.identify.fit_summary()``. Agreement: ours is no larger.
+
+24 trips in all; with the state-machine controller about a minute on two cores. The
+runs are a study in ``DIR`` (``DIR/results.parquet``), so running again reuses them.
+A figure that cannot be computed yet (the reflex controller still missing, say) is
+"not available". The exit status is 0 whatever agrees: it is a report, and
+``DIR/validation.json`` holds the same numbers.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from stumble import __version__
+from stumble.study.grid import run_key, scenario_fields
+from stumble.trip import Scenario
+
+CONTROLLERS = ("fsm", "reflex")
+WINDOW_SPEED_M_PER_S = 1.1  # subject01's treadmill speed (the embedded reference gait)
+WINDOW_SWINGS = (0.05, 0.15, 0.25, 0.35, 0.45, 0.55, 0.65, 0.75)
+# (first, last fraction of swing, strategy): SCA 2009 §3 after Schillings et al. 2000;
+# Murai & Yamane 2011 §IV.A
+WINDOWS = ((0.05, 0.25, "elevating"), (0.30, 0.50, "either"), (0.55, 0.75, "lowering"))
+RELATIVE_TOLERANCE = 0.10  # a duration within 10 % of the motion capture agrees (ours)
+
+
+@dataclass(frozen=True)
+class DurationCase:
+    """A recovery duration of SCA 2009 §5 with the conditions we reproduce it under."""
+
+    name: str
+    source: str
+    mocap_s: float
+    paper_sim_s: float
+    speed_m_per_s: float
+    swing_fraction: float
+    strategy: str
+    variant: str
+    column: str
+
+
+DURATIONS = (
+    # SCA 2009 §5.1: elevating, double support, input motion at 1.0 m/s: 0.742 s mocap,
+    # 0.70 s simulated (toe-off to heel contact)
+    DurationCase("elevating DS: toe-off to heel contact", "SCA 2009 §5.1",
+                 0.742, 0.70, 1.0, 0.2, "elevating", "double_support",
+                 "durations_s.recovery_step"),
+    # SCA 2009 §5.1: elevating, flight, 1.4 m/s: 0.59 s mocap, 0.65 s simulated
+    DurationCase("elevating flight: toe-off to heel contact", "SCA 2009 §5.1",
+                 0.59, 0.65, 1.4, 0.2, "elevating", "flight", "durations_s.recovery_step"),
+    # SCA 2009 §5.2: lowering, double support, input motion at 0.75 m/s: 0.54 s mocap,
+    # 0.70 s simulated (trip to the recovery leg's ground contact)
+    DurationCase("lowering DS: trip to recovery-leg contact", "SCA 2009 §5.2",
+                 0.54, 0.70, 0.75, 0.65, "lowering", "double_support",
+                 "durations_s.trip_to_recovery_contact"),
+    # SCA 2009 §5.2: lowering, flight, input walking at 1.1 m/s: 0.57 s mocap, 0.72 s sim
+    DurationCase("lowering flight: trip to recovery-leg contact", "SCA 2009 §5.2",
+                 0.57, 0.72, 1.1, 0.65, "lowering", "flight",
+                 "durations_s.trip_to_recovery_contact"),
+)
+# SCA 2009 §5.1: toe-off to heel contact in normal walking: double-support case 0.45 s
+# mocap, 0.40 s simulated; flight case ("stride") 0.42 s mocap, 0.3 s simulated
+NORMAL_SWING = ((1.0, 0.45, 0.40), (1.4, 0.42, 0.3))
+# SCA 2009 §5.1: the elevating (double support) step is 64 % longer than normal walking's
+# swing in the motion capture, 75 % in the simulation
+ELEVATING_INCREASE = (0.64, 0.75)
+# Murai & Yamane 2011 §V.A: identification from walking, average error 2.0 %, maximum 36 %
+IDENTIFICATION = (("average", "avg_error", 0.020), ("maximum", "max_error", 0.36))
+
+
+def validation_scenarios(controllers=CONTROLLERS) -> list[tuple[str, Scenario]]:
+    """The fixed study: (case id, scenario) for the windows and the durations."""
+    out = []
+    for ctrl in controllers:
+        for s in WINDOW_SWINGS:
+            out.append((f"{ctrl}/window/{s}", Scenario(
+                swing_fraction=s, speed_m_per_s=WINDOW_SPEED_M_PER_S, mechanism="obstacle",
+                controller=ctrl)))
+        for i, c in enumerate(DURATIONS):
+            out.append((f"{ctrl}/duration/{i}", Scenario(
+                swing_fraction=c.swing_fraction, speed_m_per_s=c.speed_m_per_s,
+                mechanism="force", controller=ctrl)))
+    return out
+
+
+# ---------------------------------------------------------------- comparisons
+
+
+def duration_agrees(ours: float, mocap: float, paper_sim: float) -> bool:
+    """As close to the motion capture as the paper's simulation, or within 10 % of it."""
+    return abs(ours - mocap) <= max(abs(paper_sim - mocap), RELATIVE_TOLERANCE * mocap)
+
+
+def _first_error(rows: list[dict]) -> str | None:
+    errs = [r["error"] for r in rows if r.get("error")]
+    return errs[0] if errs and len(errs) == len(rows) else None
+
+
+def _why(rows: list[dict]) -> str:
+    return _first_error(rows) or "no run"
+
+
+def _s(v: float) -> str:
+    """Seconds as the paper prints them: 0.742 s, 0.70 s."""
+    t = f"{v:.3f}"
+    return (t[:-1] if t.endswith("0") else t) + " s"
+
+
+def _row(figure, source, controller, published, published_text, stumble, stumble_text,
+         agreement, keys=(), note: str | None = None) -> dict:
+    return {"figure": figure, "source": source, "controller": controller,
+            "published": published, "published_text": published_text,
+            "stumble": stumble, "stumble_text": stumble_text, "agreement": agreement,
+            "runs": list(keys), "note": note}
+
+
+def _outcome_word(r: dict) -> str:
+    if r.get("diverged"):
+        return "diverged"
+    return "recovered" if r.get("recovered") else "fell" if r.get("fell") else "no recovery"
+
+
+def window_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
+    """One row per strategy window of a controller."""
+    out = []
+    for lo, hi, published in WINDOWS:
+        rows = [by_case[f"{ctrl}/window/{s}"] for s in WINDOW_SWINGS
+                if lo - 1e-9 <= s <= hi + 1e-9]
+        figure = f"strategy, trip at {lo * 100:.0f}-{hi * 100:.0f} % of swing"
+        pub_text = {"either": "either strategy"}.get(published, published)
+        keys = [r["key"] for r in rows]
+        ran = [r for r in rows if not r.get("error")]
+        if not ran:
+            out.append(_row(figure, "SCA 2009 §3", ctrl, published, pub_text, None,
+                            "not available", "n/a", keys, _why(rows)))
+            continue
+        taken = [r.get("strategy") or "unclassified" for r in ran]
+        counts = {s: taken.count(s) for s in dict.fromkeys(taken)}
+        recovered = sum(bool(r.get("recovered")) for r in ran)
+        text = ", ".join(f"{s} {n}/{len(ran)}" for s, n in counts.items())
+        text += f" (recovered {recovered}/{len(ran)})"
+        if len(ran) < len(rows):
+            text += f"; {len(rows) - len(ran)} raised"
+        agrees = ("unclassified" not in counts
+                  and (published == "either" or set(taken) == {published}))
+        out.append(_row(figure, "SCA 2009 §3", ctrl, published, pub_text, counts, text,
+                        "yes" if agrees else "no", keys))
+    return out
+
+
+def duration_rows(ctrl: str, by_case: dict[str, dict],
+                  normal_swing: dict[float, float]) -> list[dict]:
+    """One row per SCA 2009 §5 duration (and the elevating step's increase, fsm and all)."""
+    out = []
+    for i, c in enumerate(DURATIONS):
+        r = by_case[f"{ctrl}/duration/{i}"]
+        figure = f"{c.name}, {c.speed_m_per_s} m/s"
+        pub = {"mocap_s": c.mocap_s, "paper_sim_s": c.paper_sim_s}
+        pub_text = f"mocap {_s(c.mocap_s)}; sim {_s(c.paper_sim_s)}"
+        value = r.get(c.column)
+        if r.get("error"):
+            out.append(_row(figure, c.source, ctrl, pub, pub_text, None, "not available",
+                            "n/a", [r["key"]], _why([r])))
+            continue
+        variant = (r.get("variant") or "no landing").replace("_", " ")
+        if r.get("strategy") != c.strategy:
+            out.append(_row(figure, c.source, ctrl, pub, pub_text, value,
+                            f"took {r.get('strategy')} instead ({_outcome_word(r)})", "no",
+                            [r["key"]]))
+            continue
+        if value is None:
+            out.append(_row(figure, c.source, ctrl, pub, pub_text, None,
+                            f"no recovery step ({_outcome_word(r)})", "no", [r["key"]]))
+            continue
+        text = f"{_s(value)} ({variant}, {_outcome_word(r)})"
+        ok = duration_agrees(value, c.mocap_s, c.paper_sim_s)
+        out.append(_row(figure, c.source, ctrl, pub, pub_text, value, text,
+                        "yes" if ok else "no", [r["key"]]))
+        if i == 0 and normal_swing.get(c.speed_m_per_s):
+            mocap, sim = ELEVATING_INCREASE
+            inc = value / normal_swing[c.speed_m_per_s] - 1.0
+            out.append(_row(
+                f"elevating DS: step over normal swing, {c.speed_m_per_s} m/s", c.source, ctrl,
+                {"mocap": mocap, "paper_sim": sim}, f"mocap +{mocap:.0%}; sim +{sim:.0%}",
+                round(inc, 4), f"+{inc:.0%}", "yes" if duration_agrees(inc, mocap, sim)
+                else "no", [r["key"]]))
+    return out
+
+
+def normal_swing_s(speeds=tuple(s for s, _, _ in NORMAL_SWING)) -> dict[float, float]:
+    """Mean toe-off to heel-contact time (s) of our 3D walk at each speed (both legs)."""
+    from stumble.body import build
+    from stumble.gait.playback import walk
+
+    body = build()
+    out = {}
+    for v in speeds:
+        ev = walk(body, v, duration_s=4.5).events
+        swings = []
+        for side in ("l", "r"):
+            for to in ev.toe_off_s[side]:
+                hs = [t for t in ev.heel_strike_s[side] if t > to]
+                if hs:
+                    swings.append(hs[0] - to)
+        if swings:
+            out[v] = round(sum(swings) / len(swings), 4)
+    return out
+
+
+def normal_rows(swing: dict[float, float]) -> list[dict]:
+    """Our walk's swing duration beside SCA 2009 §5.1's normal walking."""
+    out = []
+    for v, mocap, sim in NORMAL_SWING:
+        figure = f"normal walking: swing (toe-off to heel contact), {v} m/s"
+        pub = {"mocap_s": mocap, "paper_sim_s": sim}
+        pub_text = f"mocap {_s(mocap)}; sim {_s(sim)}"
+        if v not in swing:
+            out.append(_row(figure, "SCA 2009 §5.1", "walk", pub, pub_text, None,
+                            "not available", "n/a"))
+            continue
+        ours = swing[v]
+        out.append(_row(figure, "SCA 2009 §5.1", "walk", pub, pub_text, ours, _s(ours),
+                        "yes" if duration_agrees(ours, mocap, sim) else "no"))
+    return out
+
+
+def identification_rows() -> list[dict]:
+    """Murai & Yamane 2011 §V.A beside ``stumble.control.reflex.identify.fit_summary()``."""
+    try:
+        from stumble.control.reflex.identify import fit_summary
+    except Exception as e:  # not there yet
+        fit, why = None, f"{type(e).__name__}: {e}"
+    else:
+        try:
+            fit, why = fit_summary(), ""
+        except Exception as e:
+            fit, why = None, f"{type(e).__name__}: {e}"
+    out = []
+    for label, key, published in IDENTIFICATION:
+        figure = f"identification: {label} muscle-activity error"
+        pub_text = f"{published * 100:.1f} %"
+        value = None if fit is None else fit.get(key)
+        if value is None:
+            out.append(_row(figure, "Murai & Yamane 2011 §V.A", "reflex", published, pub_text,
+                            None, "not available", "n/a", note=why or f"no {key} in the fit"))
+            continue
+        value = float(value)
+        out.append(_row(figure, "Murai & Yamane 2011 §V.A", "reflex", published, pub_text,
+                        value, f"{value * 100:.1f} %", "yes" if value <= published else "no"))
+    return out
+
+
+# ---------------------------------------------------------------- running and reporting
+
+
+def run_validation(out: Path, workers: int | None = None, progress: bool = True,
+                   controllers=CONTROLLERS) -> list[dict]:
+    """Run the fixed study in ``out`` (what is missing), compare, write validation.json."""
+    from stumble.study.runner import run_study
+
+    cases = validation_scenarios(controllers)
+    meta = {"validation": {case: scenario_fields(sc) for case, sc in cases}}
+    res = run_study([sc for _, sc in cases], out, workers=workers, progress=progress,
+                    metadata=meta)
+    by_key = {r["key"]: r for r in res.rows}
+    by_case = {case: by_key[run_key(sc)] for case, sc in cases}
+    swing = normal_swing_s()
+    rows = normal_rows(swing)
+    for ctrl in controllers:
+        rows += window_rows(ctrl, by_case)
+        rows += duration_rows(ctrl, by_case, swing)
+    rows += identification_rows()
+    report = {
+        "stumble_version": __version__,
+        "criteria": {
+            "strategy": "every run of the window (runs that raised left out) took the "
+                        "published strategy; between the windows any strategy agrees, an "
+                        "unclassified run does not",
+            "duration": "as close to the motion capture as the paper's simulation, or "
+                        f"within {RELATIVE_TOLERANCE:.0%} of the motion-capture value",
+            "identification": "no larger than the published error",
+        },
+        "normal_swing_s": {str(k): v for k, v in swing.items()},
+        "rows": rows,
+    }
+    path = Path(out) / "validation.json"
+    tmp = path.with_name(".validation.json.tmp")
+    tmp.write_text(json.dumps(report, indent=1) + "\n")
+    os.replace(tmp, path)
+    return rows
+
+
+def format_table(rows: list[dict]) -> str:
+    """figure | source | published value | stumble | agreement, one line per figure."""
+    head = ("figure", "source", "published value", "stumble", "agreement")
+    body = []
+    for r in rows:
+        ctrl = "" if r["controller"] == "walk" else f"{r['controller']}: "
+        body.append((ctrl + r["figure"], r["source"], r["published_text"], r["stumble_text"],
+                     r["agreement"]))
+    width = [max(len(x) for x in col) for col in zip(head, *body, strict=True)]
+    line = " | ".join
+    out = [line(x.ljust(w) for x, w in zip(head, width, strict=True)),
+           "-+-".join("-" * w for w in width)]
+    out += [line(x.ljust(w) for x, w in zip(b, width, strict=True)) for b in body]
+    out.append("DS: double support; mocap and sim: SCA 2009's motion capture and simulation; "
+               "why a figure is not available: validation.json")
+    return "\n".join(s.rstrip() for s in out)
+
+
+def add_validate_parser(sub) -> None:
+    """Register ``stumble validate`` on the ``stumble`` subparsers."""
+    p = sub.add_parser(
+        "validate", help="a fixed study beside the published figures",
+        description="Run a fixed, documented study (24 trips: strategy windows and "
+        "recovery durations, both controllers) and print one table: figure | source | "
+        "published value | stumble | agreement. Writes DIR/validation.json and the "
+        "study's DIR/results.parquet. Exit status 0 whatever agrees.")
+    p.add_argument("--out", type=Path, default=Path("validation"), metavar="DIR",
+                   help="directory of the runs and validation.json (default validation/)")
+    from stumble.study.cli import workers_arg
+
+    p.add_argument("--workers", type=workers_arg, metavar="N",
+                   help="local worker processes (default: all cores)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def run_validate_cli(args) -> int:
+    """``stumble validate``: run, print the table, write validation.json; exit 0."""
+    from stumble.study.runner import StudyInterrupted
+
+    try:
+        rows = run_validation(args.out, workers=args.workers, progress=not args.quiet)
+    except StudyInterrupted as e:
+        print(f"stumble: {e}", file=sys.stderr)
+        return 130
+    print(format_table(rows))
+    agree = sum(r["agreement"] == "yes" for r in rows)
+    na = sum(r["agreement"] == "n/a" for r in rows)
+    print(f"\n{agree} of {len(rows) - na} figures agree ({na} not available); wrote "
+          f"{Path(args.out) / 'validation.json'}")
+    return 0

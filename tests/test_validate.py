@@ -1,0 +1,135 @@
+"""``stumble validate``: the fixed study, the table, validation.json, figures not available."""
+
+import json
+import sys
+import types
+from types import SimpleNamespace
+
+import pytest
+
+from stumble import pipeline, validate
+from stumble.cli import main
+from stumble.errors import InputError
+from stumble.trip import Scenario
+
+
+def fake_trip(sc: Scenario, **kw):
+    """FSM trips with the auto rule and fixed durations; the reflex controller missing."""
+    if sc.controller == "reflex":
+        raise InputError("controller 'reflex' is not available (fsm)")
+    elevating = sc.swing_fraction <= 0.5
+    return SimpleNamespace(summary={
+        "controller": "fsm", "strategy": "elevating" if elevating else "lowering",
+        "variant": "double_support", "recovered": sc.speed_m_per_s < 1.3,
+        "fell": sc.speed_m_per_s >= 1.3, "diverged": False,
+        "durations_s": {"recovery_step": 0.70 if elevating else None,
+                        "trip_to_recovery_contact": 0.58 if elevating else 0.90},
+        "wall_time_s": 0.001})
+
+
+@pytest.fixture
+def fake(monkeypatch):
+    monkeypatch.setattr(pipeline, "simulate_trip", fake_trip)
+    monkeypatch.setattr(validate, "normal_swing_s", lambda: {1.0: 0.42, 1.4: 0.36})
+
+
+def test_the_fixed_study():
+    cases = validate.validation_scenarios()
+    assert len(cases) == 24 and len({c for c, _ in cases}) == 24
+    fsm = [sc for c, sc in cases if sc.controller == "fsm"]
+    windows = [sc for sc in fsm if sc.mechanism == "obstacle"]
+    assert [sc.swing_fraction for sc in windows] == list(validate.WINDOW_SWINGS)
+    assert {sc.speed_m_per_s for sc in windows} == {1.1}
+    durations = [sc for sc in fsm if sc.mechanism == "force"]
+    assert [sc.speed_m_per_s for sc in durations] == [1.0, 1.4, 0.75, 1.1]  # SCA 2009 §5
+    for sc in (s for _, s in cases):
+        sc.validated()
+
+
+def test_duration_agreement_rule():
+    # SCA 2009 §5.1: mocap 0.742 s, paper's simulation 0.70 s: tolerance 0.0742 s (10 %)
+    assert validate.duration_agrees(0.70, 0.742, 0.70)
+    assert validate.duration_agrees(0.80, 0.742, 0.70)
+    assert not validate.duration_agrees(0.66, 0.742, 0.70)
+    # SCA 2009 §5.2: mocap 0.54 s, simulation 0.70 s: the paper's own error, 0.16 s
+    assert validate.duration_agrees(0.69, 0.54, 0.70)
+    assert not validate.duration_agrees(0.71, 0.54, 0.70)
+
+
+def test_validate_prints_the_table_and_writes_json(tmp_path, fake, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "stumble.control.reflex.identify", None)  # not there
+    out = tmp_path / "v"
+    assert main(["validate", "--out", str(out), "--workers", "1", "--quiet"]) == 0
+    text = capsys.readouterr().out
+    lines = text.splitlines()
+    assert [c.strip() for c in lines[0].split(" | ")] == [
+        "figure", "source", "published value", "stumble", "agreement"]
+    report = json.loads((out / "validation.json").read_text())
+    rows = report["rows"]
+    assert len(lines) == len(rows) + 5  # header, rule, rows, legend, blank, closing line
+    by = {(r["figure"], r["controller"]): r for r in rows}
+
+    early = by[("strategy, trip at 5-25 % of swing", "fsm")]
+    assert early["agreement"] == "yes" and early["stumble"] == {"elevating": 3}
+    assert "elevating 3/3" in early["stumble_text"]
+    late = by[("strategy, trip at 55-75 % of swing", "fsm")]
+    assert late["agreement"] == "yes" and late["published"] == "lowering"
+    assert by[("strategy, trip at 30-50 % of swing", "fsm")]["agreement"] == "yes"
+
+    elev = by[("elevating DS: toe-off to heel contact, 1.0 m/s", "fsm")]
+    assert elev["published"] == {"mocap_s": 0.742, "paper_sim_s": 0.70}
+    assert elev["stumble"] == 0.70 and elev["agreement"] == "yes"
+    inc = by[("elevating DS: step over normal swing, 1.0 m/s", "fsm")]
+    assert inc["stumble"] == pytest.approx(0.70 / 0.42 - 1, abs=1e-4)
+    low = by[("lowering DS: trip to recovery-leg contact, 0.75 m/s", "fsm")]
+    assert low["stumble"] == 0.90 and low["agreement"] == "no"
+    normal = by[("normal walking: swing (toe-off to heel contact), 1.0 m/s", "walk")]
+    assert normal["stumble"] == 0.42 and normal["agreement"] == "yes"
+
+    # the reflex controller and its identification are not there: "not available"
+    reflex = [r for r in rows if r["controller"] == "reflex"]
+    assert len(reflex) == 3 + 4 + 2
+    assert all(r["agreement"] == "n/a" and r["stumble_text"] == "not available"
+               for r in reflex)
+    assert "controller 'reflex' is not available" in reflex[0]["note"]
+    assert "not available" in text and "n/a" in text
+    # the runs are a study: there, with their rows
+    assert (out / "results.parquet").exists()
+
+
+def test_identification_rows_from_fit_summary(monkeypatch):
+    mod = types.ModuleType("stumble.control.reflex.identify")
+    mod.fit_summary = lambda: {"avg_error": 0.015, "max_error": 0.41}
+    monkeypatch.setitem(sys.modules, "stumble.control.reflex.identify", mod)
+    avg, mx = validate.identification_rows()
+    assert avg["published"] == 0.020 and avg["stumble"] == 0.015 and avg["agreement"] == "yes"
+    assert mx["published"] == 0.36 and mx["agreement"] == "no"
+    assert avg["stumble_text"] == "1.5 %" and avg["source"] == "Murai & Yamane 2011 §V.A"
+
+    def broken():
+        raise RuntimeError("no network shipped")
+
+    mod.fit_summary = broken
+    rows = validate.identification_rows()
+    assert all(r["agreement"] == "n/a" and "no network shipped" in r["note"] for r in rows)
+
+
+def test_normal_swing_of_our_walk():
+    swing = validate.normal_swing_s(speeds=(1.0,))
+    assert 0.3 < swing[1.0] < 0.6  # SCA 2009 §5.1 reports 0.45 s (mocap), 0.40 s (sim)
+
+
+def test_window_rows_count_unclassified_and_failed_runs():
+    def row(s, strategy, error=None):
+        return {"key": f"k{s}", "strategy": strategy, "recovered": strategy is not None,
+                "error": error}
+
+    by_case = {f"reflex/window/{s}": row(s, "elevating") for s in validate.WINDOW_SWINGS}
+    by_case["reflex/window/0.15"] = row(0.15, None)  # not classified
+    by_case["reflex/window/0.25"] = row(0.25, None, "RuntimeError: boom")
+    by_case["reflex/window/0.65"] = row(0.65, "lowering")
+    early, mid, late = validate.window_rows("reflex", by_case)
+    assert early["stumble"] == {"elevating": 1, "unclassified": 1}
+    assert early["agreement"] == "no" and "1 raised" in early["stumble_text"]
+    assert mid["agreement"] == "yes"  # either strategy
+    assert late["stumble"] == {"elevating": 2, "lowering": 1} and late["agreement"] == "no"
