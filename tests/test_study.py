@@ -340,6 +340,13 @@ def test_a_worker_that_dies_is_one_error_row(tmp_path, monkeypatch):
     assert all("WorkerDied" in r["error"] for r in dead)
 
 
+def test_out_that_is_a_file_is_one_line(tmp_path, capsys, fake):
+    (tmp_path / "f").write_text("")
+    assert main(["study", "--out", str(tmp_path / "f"), "--workers", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "cannot make the study directory" in err and err.count("\n") == 1 and not fake
+
+
 def test_one_study_per_directory(tmp_path):
     with Store(tmp_path / "s"), pytest.raises(StumbleError, match="in use by another"):
         Store(tmp_path / "s").__enter__()

@@ -151,7 +151,11 @@ class Store:
 
     def __enter__(self) -> Store:
         require_pyarrow()
-        self.runs.mkdir(parents=True, exist_ok=True)
+        try:
+            self.runs.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise StumbleError(f"{self.out}: cannot make the study directory "
+                               f"({e.strerror or e})") from None
         self._lock.acquire()
         try:
             self._load()

@@ -12,6 +12,7 @@ from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
+from matplotlib import colormaps
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colors import LinearSegmentedColormap, ListedColormap
 from matplotlib.figure import Figure
@@ -30,6 +31,7 @@ ELEVATING_COLOR = "#e08214"
 LOWERING_COLOR = "#2166ac"
 OUTCOME_COLORS = {"recovered": "#1a9850", "fell": "#d73027", "diverged": "#762a83",
                   "neither": "#fee08b", "error": "#bdbdbd"}
+RDYLGN = colormaps["RdYlGn"]
 SHORT = {"fell": "fell", "diverged": "div.", "neither": "none", "error": "error"}
 FACETS = ("controller", "mechanism")  # one panel per combination present
 POOLED = ("leg", "strategy_mode", "obstacle_height_m", "delay_scale", "strength_scale",
@@ -55,7 +57,7 @@ def _facets(rows: list[dict]) -> dict[tuple, list[dict]]:
 def _pooled_note(rows: list[dict]) -> str:
     parts = []
     for name in POOLED:
-        vals = {r.get(name) for r in rows}
+        vals = {r.get(name) for r in rows} - {None}
         if len(vals) > 1:
             parts.append(f"{name} ({len(vals)})")
     return "pooled over " + ", ".join(parts) if parts else ""
@@ -108,6 +110,12 @@ def _windows_strip(ax) -> None:
         s.set_visible(False)
 
 
+def _dark(cmap, value: float) -> bool:
+    """Whether a colour map's colour at ``value`` (0-1) needs white text."""
+    r, g, b, _ = cmap(value)
+    return 0.299 * r + 0.587 * g + 0.114 * b < 0.5
+
+
 def _annotate(ax, x: float, y: float, text: str, dark: bool, n_cells: int) -> None:
     size = 8 if n_cells <= 60 else 6 if n_cells <= 150 else 0
     if size:
@@ -119,7 +127,7 @@ def plot_strategy_map(path, rows: list[dict]) -> Path:
     """Swing fraction × speed → strategy taken (fraction elevating where runs are pooled).
 
     A strip above each panel shows the human windows of SCA 2009 §3. Grey cells: every
-    run of the cell raised an error."""
+    run of the cell raised an error, or took no strategy that could be classified."""
     facets = _facets(rows)
     fig, axes = _figure(len(facets), rows)
     cmap = LinearSegmentedColormap.from_list("strategy", [LOWERING_COLOR, "#f7f7f7",
@@ -131,13 +139,18 @@ def plot_strategy_map(path, rows: list[dict]) -> Path:
         frac = np.full((len(speeds), len(swings)), np.nan)
         for (i, j), cell in cells.items():
             taken = [r.get("strategy") for r in cell if r.get("strategy") and not r.get("error")]
+            dark = False
             if taken:
-                frac[i, j] = sum(s == "elevating" for s in taken) / len(taken)
-                label = (("E" if frac[i, j] == 1 else "L" if frac[i, j] == 0 else "?")
-                         if len(taken) == 1 else f"{round(100 * frac[i, j])}%\n{len(taken)}")
-            else:
-                label = "error"
-            _annotate(ax, swings[j], speeds[i], label, False, len(cells))
+                k = sum(s == "elevating" for s in taken)
+                frac[i, j] = k / len(taken)
+                n = "" if len(taken) == 1 else f" ({len(taken)})"
+                label = (f"E{n}" if k == len(taken) else f"L{n}"
+                         if k == 0 and all(s == "lowering" for s in taken)
+                         else f"E {k}/{len(taken)}")
+                dark = _dark(cmap, frac[i, j])
+            else:  # every run raised, or none could be classified (an emergent strategy)
+                label = "error" if all(r.get("error") for r in cell) else "unclassified"
+            _annotate(ax, swings[j], speeds[i], label, dark, len(cells))
         ax.pcolormesh(xe, ye, np.zeros_like(frac), cmap=ListedColormap(["#bdbdbd"]))
         mesh = ax.pcolormesh(xe, ye, np.ma.masked_invalid(frac), cmap=cmap, vmin=0, vmax=1,
                              edgecolors="white", linewidth=0.6)
@@ -146,8 +159,9 @@ def plot_strategy_map(path, rows: list[dict]) -> Path:
     cb.set_label("fraction elevating")
     cb.set_ticks([0, 0.5, 1], labels=["lowering", "mixed", "elevating"])
     note = _pooled_note(rows)
-    fig.suptitle("Strategy taken (E elevating, L lowering" + ("; % elevating and runs"
-                 if any(len(c) > 1 for c in _cells(rows)[2].values()) else "") + ")"
+    fig.suptitle("Strategy taken: E elevating, L lowering" + ("; (n): runs in the cell; "
+                 "E k/n: k of n elevating" if any(len(c) > 1 for c in _cells(rows)[2].values())
+                 else "")
                  + (f"\n{note}" if note else ""), fontsize=10)
     fig.savefig(path, dpi=110)
     return Path(path)
@@ -180,14 +194,16 @@ def plot_outcome_map(path, rows: list[dict]) -> Path:
         frac = np.full((len(speeds), len(swings)), np.nan)
         for (i, j), cell in cells.items():
             ok = [r for r in cell if outcome(r) != "error"]
+            dark = False
             if ok:
                 frac[i, j] = sum(outcome(r) == "recovered" for r in ok) / len(ok)
                 label = f"{sum(outcome(r) == 'recovered' for r in ok)}/{len(ok)}"
+                dark = _dark(RDYLGN, frac[i, j])
             else:
                 label = "error"
-            _annotate(ax, swings[j], speeds[i], label, False, len(cells))
+            _annotate(ax, swings[j], speeds[i], label, dark, len(cells))
         ax.pcolormesh(xe, ye, np.zeros_like(frac), cmap=ListedColormap(["#bdbdbd"]))
-        mesh = ax.pcolormesh(xe, ye, np.ma.masked_invalid(frac), cmap="RdYlGn", vmin=0,
+        mesh = ax.pcolormesh(xe, ye, np.ma.masked_invalid(frac), cmap=RDYLGN, vmin=0,
                              vmax=1, edgecolors="white", linewidth=0.6)
     if pooled:
         cb = fig.colorbar(mesh, ax=axes, shrink=0.9, pad=0.02)

@@ -1,0 +1,58 @@
+"""Throughput of a small study with 1 and with 2 workers: trips per second, parallel efficiency.
+
+Run:  python benchmarks/bench_study.py [--swing SPEC] [--speed SPEC] [--workers 1,2]
+
+The study (default: force trips at 8 instants from 0.05 to 0.75 of swing, at 1.0 and
+1.3 m/s, 16 trips) runs end to end as ``stumble study`` runs it, into a fresh directory
+each time: with 1 worker in this process, with N > 1 in a process pool. Every run starts
+with an empty walk cache, so each worker pays for its own walks as in a real study.
+Parallel efficiency = (trips/s with N workers) / (N × trips/s with 1). The load average
+is printed too: other work on the machine lowers the figures.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+import time
+from pathlib import Path
+
+import stumble.pipeline as pipeline
+from stumble.study.grid import Grid, parse_values
+from stumble.study.runner import run_study
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--swing", default="0.05:0.75:8")
+    ap.add_argument("--speed", default="1.0,1.3")
+    ap.add_argument("--workers", default="1,2", help="comma-separated worker counts")
+    args = ap.parse_args()
+    scenarios = Grid({"swing": parse_values("swing", args.swing),
+                      "speed": parse_values("speed", args.speed)}).scenarios()
+    counts = [int(w) for w in args.workers.split(",")]
+    print(f"{len(scenarios)} trips; {os.cpu_count()} cores; load average before "
+          f"{os.getloadavg()[0]:.2f}")
+    rates = {}
+    for n in counts:
+        pipeline._walk.cache_clear()  # each run pays for its walks (forks inherit the cache)
+        with tempfile.TemporaryDirectory() as tmp:
+            t0 = time.perf_counter()
+            res = run_study(scenarios, Path(tmp) / "s", workers=n, progress=False)
+            wall = time.perf_counter() - t0
+        errors = sum(bool(r["error"]) for r in res.rows)
+        rates[n] = len(scenarios) / wall
+        sim = sum(r.get("sim_time_s") or 0.0 for r in res.rows)
+        print(f"{n} worker(s): {wall:6.1f} s, {rates[n]:.2f} trips/s, "
+              f"{sim / wall:.1f} s simulated per s, {errors} errors")
+    base = rates.get(1)
+    for n in counts:
+        if base and n > 1:
+            print(f"parallel efficiency with {n} workers: {rates[n] / (n * base):.2f}"
+                  "   (target >= 0.9)")
+    print(f"load average after {os.getloadavg()[0]:.2f}")
+
+
+if __name__ == "__main__":
+    main()
