@@ -29,6 +29,7 @@ RECOVERED_AFTER_S = 1.0  # the issue: no fall for 1 s after the recovery step la
 UPRIGHT_DEG = 35.0  # trunk tilt from vertical still called upright (ours)
 BOS_MARGIN_M = 0.05  # base of support grown by this (ours)
 SIDES = ("r", "l")
+TOUCHDOWN_SAMPLES = 3  # a touch-down lasts this many recorded samples (15 ms), not a scuff
 
 
 def trunk_tilt_deg(model: mujoco.MjModel, xmat: np.ndarray) -> float:
@@ -53,15 +54,27 @@ def com_over_base(ctx: Context) -> bool:
 
 @dataclass
 class StopRule:
-    """Stops a run at a fall, or once the person has recovered (see module docstring)."""
+    """Stops a run at a fall, or once the person has recovered (see module docstring).
 
-    strategy: str
+    ``strategy`` None: the controller was not told a strategy (the reflex network), and
+    ``classified`` names the one that emerged, from the motion alone (seed 003 §V.B):
+    elevating if the tripped foot's next floor contact (lasting 15 ms) is beyond the
+    obstacle's far face ``far_x`` (it passed over), lowering if it touches down short of
+    it; the recovery step is then the other leg's next landing.
+    """
+
+    strategy: str | None
     tripped: str
     fall_height_m: float
+    far_x: float | None = None  # m, far face of the obstacle (emergent strategy only)
     landing_s: float | None = None
     fell_s: float | None = None
     recovered_s: float | None = None
+    classified: str | None = None
+    tripped_down_x: float | None = None  # m, heel x of the tripped foot's next contact
+    tripped_down_s: float | None = None  # s, when it touched down
     _other_left: bool = False
+    _down: int = 0
 
     def __call__(self, ctx: Context, rec: Recording, k: int) -> str:
         s = ctx.sensors
@@ -80,6 +93,8 @@ class StopRule:
     def _landing(self, ctx: Context) -> float | None:
         """The recovery foot touches the floor in front of the other foot."""
         s, m, d = ctx.sensors, ctx.model, ctx.data
+        if self.strategy is None:
+            return self._emergent_landing(ctx)
         rec = self.tripped if self.strategy == "elevating" else OTHER[self.tripped]
         if not s.foot_on_floor[rec]:
             self._other_left = True
@@ -87,6 +102,29 @@ class StopRule:
                  > d.xpos[m.body(f"foot_{OTHER[rec]}").id, 0])
         if s.foot_on_floor[rec] and ahead and s.t > 0.02 and (
                 self.strategy == "elevating" or self._other_left):
+            return s.t
+        return None
+
+
+    def _emergent_landing(self, ctx: Context) -> float | None:
+        s, m, d = ctx.sensors, ctx.model, ctx.data
+        trip, other = self.tripped, OTHER[self.tripped]
+        if self.classified is None:
+            self._down = self._down + 1 if s.foot_on_floor[trip] and s.t > 0.02 else 0
+            if self._down >= TOUCHDOWN_SAMPLES:
+                heel = float(d.site_xpos[[m.site(n).id for n in
+                                          ctx.body.foot_points[trip]], 0].min())
+                self.tripped_down_x = heel
+                self.tripped_down_s = s.t
+                if heel > self.far_x:
+                    self.classified = "elevating"
+                    return s.t
+                self.classified = "lowering"
+            return None
+        if not s.foot_on_floor[other]:
+            self._other_left = True
+        ahead = (d.xpos[m.body(f"foot_{other}").id, 0] > d.xpos[m.body(f"foot_{trip}").id, 0])
+        if self._other_left and s.foot_on_floor[other] and ahead:
             return s.t
         return None
 

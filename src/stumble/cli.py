@@ -78,16 +78,25 @@ def _parser() -> argparse.ArgumentParser:
                        description="Simulate one trip: writes summary.json, timeseries.csv, "
                        "trajectories.png, filmstrip.png and trip.mp4 to DIR.")
     t.add_argument("--out", required=True, type=Path, metavar="DIR", help="output directory")
-    t.add_argument("--controller", choices=("fsm",), default="fsm",
-                   help="fsm: the state-machine controllers of SCA 2009")
+    t.add_argument("--controller", choices=("fsm", "reflex"), default="fsm",
+                   help="fsm: the state-machine controllers of SCA 2009 on the 3D human; "
+                   "reflex: the neuromuscular reflex network of seed 003 on the planar "
+                   "musculoskeletal human (its strategy emerges)")
+    t.add_argument("--network", type=Path, metavar="FILE",
+                   help="reflex controller: a network.npz from `stumble reflex fit` "
+                   "(default: the network shipped with stumble)")
+    t.add_argument("--no-trunk-balance", action="store_true",
+                   help="reflex controller: without the stance hips' trunk-lean reflex "
+                   "(our addition to seed 003; see the README)")
     t.add_argument("--strategy", choices=("auto", "elevating", "lowering"), default="auto",
                    help="auto: elevating up to 0.5 of swing, lowering above (default auto)")
     t.add_argument("--swing", type=float, default=0.2, metavar="F",
                    help="trip instant as a fraction of the tripped leg's swing, 0.05-0.9")
     t.add_argument("--speed", type=float, default=1.2, metavar="V",
                    help="walking speed in m/s, 0.7-1.6 (default 1.2)")
-    t.add_argument("--mechanism", choices=("force", "obstacle"), default="force",
-                   help="force: SCA 2009 eq. 2-3 on the swing toe; obstacle: a rigid box")
+    t.add_argument("--mechanism", choices=("force", "obstacle"), default=None,
+                   help="force: SCA 2009 eq. 2-3 on the swing toe; obstacle: a rigid box "
+                   "(default: force for fsm, obstacle for reflex, as each seed)")
     t.add_argument("--obstacle-height", type=float, default=0.10, metavar="M",
                    help="obstacle height in m (default 0.10)")
     t.add_argument("--leg", choices=("left", "right"), default="left", help="tripped leg")
@@ -105,6 +114,25 @@ def _parser() -> argparse.ArgumentParser:
 
     add_study_parser(sub)
     add_validate_parser(sub)
+
+    r = sub.add_parser("reflex", help="the neuromuscular reflex network (seed 003)",
+                       description="The neuromuscular reflex network of seed 003.")
+    rsub = r.add_subparsers(dest="reflex_command", metavar="ACTION", parser_class=_Parser,
+                            required=True)
+    f = rsub.add_parser("fit", help="identify the network from the recorded walk",
+                        description="Identify the reflex network from walking alone: "
+                        "inverse dynamics, static optimisation, back-propagation. Writes "
+                        "network.npz, fit.json, activity_fit.png, walking_moments.csv and "
+                        "walking_activity.csv to DIR.")
+    f.add_argument("--out", required=True, type=Path, metavar="DIR", help="output directory")
+    f.add_argument("--seed", type=int, default=0, help="initial weights (default 0)")
+    f.add_argument("--iterations", type=int, default=None, metavar="N",
+                   help="back-propagation iterations of the seed's schedule (default 1000)")
+    f.add_argument("--refine", type=int, default=None, metavar="N",
+                   help="quasi-Newton refinement iterations after it (default 1500; 0: "
+                   "the seed's schedule only)")
+    f.add_argument("--contact-afferents", action="store_true",
+                   help="add foot-contact afferents (the seed's proposed extension)")
     return p
 
 
@@ -278,18 +306,27 @@ def cmd_trip(args) -> int:
     from stumble.pipeline import simulate_trip
     from stumble.trip import Scenario
 
-    if args.planar:
-        raise InputError("the fsm controller drives the 3D model; --planar is for the "
-                         "reflex controller")
+    if args.planar and args.controller == "fsm":
+        raise InputError("the fsm controller drives the 3D model; the reflex controller "
+                         "uses the planar one (--controller reflex)")
+    if (args.network or args.no_trunk_balance) and args.controller != "reflex":
+        raise InputError("--network and --no-trunk-balance are for --controller reflex")
     scenario = Scenario(swing_fraction=args.swing, speed_m_per_s=args.speed,
-                        leg=args.leg, mechanism=args.mechanism,
+                        leg=args.leg, mechanism=args.mechanism or (
+                            "obstacle" if args.controller == "reflex" else "force"),
                         obstacle_height_m=args.obstacle_height, controller=args.controller,
                         strategy=args.strategy, seed=args.seed, height_m=args.height,
                         mass_kg=args.mass, sex=args.sex, contact=args.contact,
                         duration_after_trip_s=args.duration).validated()
     reference = _load_reference_trip(args.reference) if args.reference else None
+    network = None
+    if args.network:
+        from stumble.control.reflex.network import Network
+
+        network = Network.load(args.network)
     out = prepare_dir(args.out)
-    result = simulate_trip(scenario, reference=reference)
+    result = simulate_trip(scenario, reference=reference, network=network,
+                           trunk_balance=not args.no_trunk_balance)
     write_summary(out, result)
     write_timeseries(out, result)
     written = ["summary.json", "timeseries.csv",
@@ -297,10 +334,58 @@ def cmd_trip(args) -> int:
     s = result.summary
     outcome = ("diverged" if s["diverged"] else "recovered" if s["recovered"]
                else "fell" if s["fell"] else "did not recover within the time")
-    print(f"{s['strategy']} strategy ({s['variant']}): {outcome}; simulated "
+    strategy = s["strategy"] or "no"
+    print(f"{strategy} strategy ({s['variant']}): {outcome}; simulated "
           f"{s['sim_time_s']:.2f} s in {s['wall_time_s']:.2f} s; wrote {', '.join(written)} "
           f"to {out}")
     return 0
+
+
+def cmd_reflex(args) -> int:
+    """``stumble reflex fit``: identify the network and write its files."""
+    from stumble.control.reflex.identify import ITERATIONS, REFINE_ITERATIONS, fit
+    from stumble.outputs import prepare_dir, write_fit
+
+    it = ITERATIONS if args.iterations is None else args.iterations
+    refine = REFINE_ITERATIONS if args.refine is None else args.refine
+    if it < 0 or refine < 0 or it + refine == 0:
+        raise InputError("--iterations and --refine must be >= 0 and not both 0")
+    out = prepare_dir(args.out)
+    bar = _Progress("fitting", sys.stderr.isatty())
+    result = fit(seed=args.seed, iterations=it, refine_iterations=refine,
+                 contact=args.contact_afferents, progress=bar)
+    bar.done()
+    written = write_fit(out, result)
+    r = result.report
+    print(f"identified: average activity error {100 * r['avg_error']:.2f} %, maximum "
+          f"{100 * r['max_error']:.1f} % (seed 003: 2.0 %, 36 %) after {r['iterations']} "
+          f"iterations in {r['wall_time_s']:.1f} s; wrote {', '.join(written)} to {out}")
+    return 0
+
+
+class _Progress:
+    """A one-line progress bar on stderr (only on a terminal)."""
+
+    def __init__(self, label: str, show: bool):
+        import time
+
+        self.label, self.show, self.t0 = label, show, time.perf_counter()
+
+    def __call__(self, done: int, total: int) -> None:
+        if not self.show or total <= 0:
+            return
+        import time
+
+        frac = min(1.0, done / total)
+        el = time.perf_counter() - self.t0
+        eta = el / frac - el if frac > 0 else 0.0
+        bar = "#" * int(30 * frac)
+        print(f"\r{self.label} [{bar:30s}] {100 * frac:3.0f} %  ETA {eta:4.0f} s", end="",
+              file=sys.stderr, flush=True)
+
+    def done(self) -> None:
+        if self.show:
+            print(file=sys.stderr)
 
 
 def _load_reference_trip(path: Path) -> dict:
@@ -324,7 +409,7 @@ def main(argv: list[str] | None = None) -> int:
     from stumble.study.cli import run_study_cli
     from stumble.validate import run_validate_cli
 
-    handlers = {"model": cmd_model, "walk": cmd_walk, "trip": cmd_trip,
+    handlers = {"model": cmd_model, "walk": cmd_walk, "trip": cmd_trip, "reflex": cmd_reflex,
                 "study": run_study_cli, "validate": run_validate_cli}
     try:
         return handlers[args.command](args)

@@ -72,6 +72,9 @@ def write_media(out: Path, result: TripResult, video: bool, progress: bool) -> l
     plot_trajectories(out / "trajectories.png", result.body.model, rec.time_s, rec.qpos,
                       result.scenario.side, s["strategy"], result.states, title)
     written = ["trajectories.png"]
+    if result.scenario.controller == "reflex":
+        write_muscle_tensions(out, result)
+        written.append("muscle_tensions.png")
     if not video:
         return written
     from stumble.viz.render import render_frames, render_video, save_filmstrip, video_available
@@ -108,3 +111,105 @@ def prepare_dir(out: Path) -> Path:
         raise InputError(f"cannot create output directory {out}: {e.strerror}") from None
     return out
 
+
+
+TENSION_WINDOW_S = (-0.1, 0.6)  # muscle_tensions.png: from before the trip to 0.6 s after
+
+
+def write_muscle_tensions(out: Path, result: TripResult) -> None:
+    """``muscle_tensions.png`` (seed 003 Fig. 5): tensions of a reflex trip vs walking."""
+    from stumble.body.muscles import MUSCLE_NAMES
+    from stumble.control.reflex.identify import default_network
+    from stumble.control.reflex.receptors import IB_FORCE_N, IB_GAIN
+    from stumble.pipeline import _phase
+    from stumble.viz.reflex_plots import plot_muscle_tensions
+
+    rec, m, s = result.recording, result.body.model, result.summary
+    tripped = result.scenario.side
+    legs = (tripped, {"r": "l", "l": "r"}[tripped])
+    ids = [[m.actuator(f"{mus}_{side}").id for mus in MUSCLE_NAMES] for side in legs]
+    sel = rec.time_s <= TENSION_WINDOW_S[1]
+    f_trip = np.stack([-rec.actuator_force[sel][:, row] for row in ids], axis=1)
+    net = default_network()
+    t_walk = np.arange(TENSION_WINDOW_S[0], TENSION_WINDOW_S[1], 0.002)
+    f_walk = np.full((len(t_walk), 2, len(MUSCLE_NAMES)), np.nan)
+    if net.walk_rates is not None:
+        T = net.walk_rates.shape[1]
+        phase = _phase(result.playback, s["trip_time_s"]) + t_walk / result.playback.stride_s
+        k = np.round(phase * T).astype(int) % T
+        for col, side in enumerate(legs):
+            ib = net.walk_rates["rl".index(side)][k][:, 2:21:3]
+            f_walk[:, col] = IB_FORCE_N * (np.exp(ib / IB_GAIN) - 1.0)  # invert Ib's law
+    names = {"r": "right", "l": "left"}
+    plot_muscle_tensions(
+        out / "muscle_tensions.png", rec.time_s[sel], f_trip, t_walk, f_walk,
+        (f"{names[legs[0]]} leg (tripped)", f"{names[legs[1]]} leg (support)"),
+        f"muscle tension (N): trip at {s['swing_fraction']:.2f} of swing "
+        f"({s['strategy'] or 'no strategy'}) vs walking")
+
+
+def write_fit(out: Path, fit, video: bool = True) -> list[str]:
+    """The files of ``stumble reflex fit``: network, figures of the fit, walking data, and
+    one walking step under the network (seed 003 Fig. 3) in fit.json and walking_step.png."""
+    from stumble.body.muscles import MUSCLE_NAMES
+    from stumble.control.reflex.walking import write_moments_csv
+    from stumble.pipeline import simulate_walking_step
+    from stumble.viz.reflex_plots import plot_activity_fit
+
+    fit.network.save(out / "network.npz")
+    step = simulate_walking_step(fit.network)
+    fit.report["walking_step"] = {
+        "rmse_deg": step.rmse_deg, "duration_s": round(step.duration_s, 3),
+        "fell": step.fell, "start": "right heel strike, subject's speed",
+        "trunk_balance": True}
+    (out / "fit.json").write_text(json.dumps(fit.report, indent=1) + "\n")
+    ident = fit.ident
+    T = len(ident.time_s)
+    pct = 100.0 * np.arange(T) / T
+    walk = ident.walk
+    events = {}
+    for side, lab in (("r", "R"), ("l", "L")):
+        for key, ev in (("heel_strike_s", "HS"), ("toe_off_s", "TO")):
+            for t in np.atleast_1d(getattr(walk, key)[side]):
+                events[f"{lab} {ev}"] = float(100.0 * (t % ident.stride_s) / ident.stride_s)
+    r = fit.report
+    plot_activity_fit(
+        out / "activity_fit.png", pct, ident.activity[0], fit.activity_net[0], events,
+        f"right-leg muscle activity: identified vs network (average error "
+        f"{100 * r['avg_error']:.1f} %, max {100 * r['max_error']:.0f} %; seed 003: 2.0 %, 36 %)")
+    write_moments_csv(walk, out / "walking_moments.csv")
+    grid = np.linspace(0.0, 100.0, 51)
+    ext = np.append(pct, 100.0)
+    with (out / "walking_activity.csv").open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["percent", *[f"{mus}_{kind}" for mus in MUSCLE_NAMES
+                                 for kind in ("target", "network")]])
+        cols = []
+        for j in range(len(MUSCLE_NAMES)):
+            for series in (ident.activity[0, :, j], fit.activity_net[0, :, j]):
+                cols.append(np.interp(grid, ext, np.append(series, series[0])))
+        for i, p in enumerate(grid):
+            w.writerow([round(float(p), 1), *[round(float(c[i]), 5) for c in cols]])
+    written = ["network.npz", "fit.json", "activity_fit.png", "walking_moments.csv",
+               "walking_activity.csv"]
+    if video and _walking_step_strip(out / "walking_step.png", step):
+        written.append("walking_step.png")
+    return written
+
+
+def _walking_step_strip(path: Path, step) -> bool:
+    """Seed 003 Fig. 3: the recorded step (top row) and the simulated one (bottom)."""
+    from stumble.viz.render import render_frames, save_filmstrip, video_available
+
+    ok, why = video_available()
+    if not ok:
+        print(f"stumble: {why}", file=sys.stderr)
+        return False
+    rec = step.recording
+    ks = np.linspace(0, len(rec.time_s) - 1, 6).round().astype(int)
+    qs = np.vstack([step.reference_qpos[ks], rec.qpos[ks]])
+    frames = render_frames(step.body.model, qs, width=320, height=360, distance=2.6)
+    labels = ([f"recorded {rec.time_s[k]:.2f} s" for k in ks]
+              + [f"network {rec.time_s[k]:.2f} s" for k in ks])
+    save_filmstrip(path, frames, labels, columns=len(ks))
+    return True

@@ -29,6 +29,7 @@ from stumble.control.fsm import TripFSM
 from stumble.control.fsm_params import FSMParams
 from stumble.errors import InputError
 from stumble.gait.playback import Playback, walk
+from stumble.gait.reference import load_reference
 from stumble.sim import Context, Recording, Sensors, run
 from stumble.trip import OBSTACLE_DEPTH_M, OBSTACLE_WIDTH_M, Scenario, trip_time
 
@@ -101,39 +102,70 @@ def perturb_initial_state(body: Body, data: mujoco.MjData, seed: int) -> None:
     data.qvel[v] += rng.normal(0.0, SEED_VELOCITY_SD_RAD_S, len(v))
 
 
-def _controller(scenario: Scenario, strategy: str, params: FSMParams | None):
-    if scenario.controller != "fsm":
-        raise InputError(f"controller {scenario.controller!r} is not available (fsm)")
-    p = replace(params or FSMParams(), delay_scale=scenario.delay_scale)
-    return TripFSM(strategy, scenario.side, scenario.speed_m_per_s, p)
+def _controller(sc: Scenario, strategy: str | None, params: FSMParams | None,
+                network, pb: Playback, t_trip: float, trunk_balance: bool = True):
+    if sc.controller == "reflex":
+        from stumble.control.reflex.controller import ReflexController, TrunkBalance
+        from stumble.control.reflex.identify import default_network, history_before
+
+        net = (network or default_network()).with_delay_scale(sc.delay_scale)
+        history = None
+        if net.walk_rates is not None:
+            history = history_before(net.walk_rates, _phase(pb, t_trip),
+                                     2 * net.topology.max_lag + 2)
+        return ReflexController(net, history, TrunkBalance() if trunk_balance else None)
+    p = replace(params or FSMParams(), delay_scale=sc.delay_scale)
+    return TripFSM(strategy, sc.side, sc.speed_m_per_s, p)
+
+
+def _phase(pb: Playback, t: float) -> float:
+    """Fraction of the stride (from right heel strike) at time ``t`` of a playback."""
+    hs = np.asarray(pb.events.heel_strike_s["r"])
+    before = hs[hs <= t]
+    after = hs[hs > t]
+    if len(before) and len(after):
+        return float((t - before[-1]) / (after[0] - before[-1]))
+    return float(((t - (before[-1] if len(before) else after[0])) / pb.stride_s) % 1.0)
 
 
 def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
-                  reference: dict | None = None) -> TripResult:
+                  reference: dict | None = None, network=None,
+                  trunk_balance: bool = True) -> TripResult:
     """Walk, trip and recover (or fall): the whole pipeline for one scenario.
+
+    Controller ``fsm`` (SCA 2009) drives the 3D human; ``reflex`` (seed 003) the planar
+    musculoskeletal human, with ``network`` (a ``stumble.control.reflex.Network``) or the
+    shipped one; its strategy is not chosen but classified from the motion.
+    ``trunk_balance``: the reflex controller's stance-hip trunk-lean reflex
+    (``stumble.control.reflex.controller.TrunkBalance``; our addition, on by default).
 
     ``reference``: optional {"time_s": (T,), "<coordinate>": (T,) deg} of a recorded trip
     (t = 0 the trip; coordinates named as our model: pelvis_tilt, hip_flexion_l, ...)
     for the joint-pitch RMSE of SCA 2009 Table 2.
     """
     sc = scenario.validated()
+    reflex = sc.controller == "reflex"
     p = params or FSMParams()
-    strategy = p.strategy_for(sc.swing_fraction) if sc.strategy == "auto" else sc.strategy
+    strategy = None
+    if not reflex:
+        strategy = p.strategy_for(sc.swing_fraction) if sc.strategy == "auto" else sc.strategy
     base, pb = _walk(sc.height_m, sc.mass_kg, sc.sex, sc.contact, sc.speed_m_per_s,
-                     sc.timestep_s)
+                     sc.timestep_s, reflex)
     t_trip = trip_time(pb.events, sc.side, sc.swing_fraction, after_s=WALK_BEFORE_TRIP_S)
     qpos, qvel = pb.state_at(t_trip)
     obstacle = None
+    front, low, lane = _toe_front(base, qpos, sc.side)
+    far_x = front + OBSTACLE_GAP_M + OBSTACLE_DEPTH_M  # force trips: a notional obstacle
     if sc.mechanism == "obstacle":
-        front, low, lane = _toe_front(base, qpos, sc.side)
         if low > sc.obstacle_height_m - 0.01:
             raise InputError(f"at {sc.swing_fraction} of swing the toe is {low:.3f} m up, "
                              f"over a {sc.obstacle_height_m} m obstacle")
         obstacle = (front + OBSTACLE_GAP_M, sc.obstacle_height_m, OBSTACLE_DEPTH_M,
                     OBSTACLE_WIDTH_M, lane)
         _check_clear_of_stance(base, qpos, {"l": "r", "r": "l"}[sc.side], obstacle)
-    body = build(height_m=sc.height_m, mass_kg=sc.mass_kg, sex=sc.sex, contact=sc.contact,
-                 obstacle=obstacle, timestep_s=sc.timestep_s)
+    body = build(planar=reflex, height_m=sc.height_m, mass_kg=sc.mass_kg, sex=sc.sex,
+                 contact=sc.contact, obstacle=obstacle, timestep_s=sc.timestep_s,
+                 actuation="muscles" if reflex else "servos")
     m = body.model
     d = mujoco.MjData(m)
     d.qpos[:], d.qvel[:] = qpos, qvel
@@ -141,29 +173,53 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     if sc.contact in ("points", "penalty"):  # SCA 2009 §4.2: support foot on the ground,
         # at the penalty law's static depth under the body's weight on one foot
         d.qpos[2] -= m.body_mass.sum() * 9.81 / (96 * STIFFNESS_N_PER_M)
-    m.actuator_forcerange[:] *= sc.strength_scale
+    _scale_strength(m, sc.strength_scale)
     ctx = Context(m, d, body, Sensors(), t0=0.0)
-    controller = _controller(sc, strategy, p)
-    stop = StopRule(strategy, sc.side, FALL_PELVIS_FRACTION * _standing_pelvis(body))
+    controller = _controller(sc, strategy, p, network, pb, t_trip, trunk_balance)
+    stop = StopRule(strategy, sc.side, FALL_PELVIS_FRACTION * _standing_pelvis(body),
+                    far_x=far_x)
     force_kwargs = {}
     if sc.mechanism == "force":
-        toe_body = m.body(f"toes_{sc.side}").id
+        toe = f"toes_{sc.side}" if not reflex else f"foot_{sc.side}"
+        toe_body = m.body(toe).id
         tip_sites = np.array([m.site(n).id for n in body.foot_points[sc.side][-6:]])
         force_kwargs = {"trip_force": sc.force, "force_body": toe_body,
                         "force_point": lambda dd: dd.site_xpos[tip_sites].mean(axis=0)}
     penalty = PenaltyContact.for_body(body) if sc.contact == "penalty" else None
+    control_every = None
+    if reflex:  # the network ticks at its own rate (1 kHz)
+        control_every = max(1, round(1.0 / (controller.net.topology.rate_hz * m.opt.timestep)))
     rec = run(ctx, controller, sc.duration_after_trip_s, stop=stop, penalty=penalty,
-              **force_kwargs)
+              control_every=control_every, **force_kwargs)
+    strategy = strategy or stop.classified
     summary = _summary(sc, strategy, controller, rec, stop, body, pb, t_trip, reference)
-    return TripResult(summary, rec, body, pb, sc, list(controller.log))
+    states = list(controller.log)
+    if reflex:  # one network, no states: the filmstrip shows the events instead
+        states = [("trip", 0.0)]
+        if stop.tripped_down_s is not None:
+            states.append((f"tripped foot down ({stop.classified})", stop.tripped_down_s))
+        if stop.landing_s is not None and stop.landing_s != stop.tripped_down_s:
+            states.append(("recovery step lands", stop.landing_s))
+        summary["obstacle_far_x_m"] = round(far_x - float(qpos[0]), 4)
+        summary["tripped_foot_down_x_m"] = (None if stop.tripped_down_x is None else
+                                            round(stop.tripped_down_x - float(qpos[0]), 4))
+    return TripResult(summary, rec, body, pb, sc, states)
+
+
+def _scale_strength(m: mujoco.MjModel, scale: float) -> None:
+    """Multiply every servo's torque limit and every muscle's F_max by ``scale``."""
+    m.actuator_forcerange[:] *= scale
+    muscle = m.actuator_gaintype == mujoco.mjtGain.mjGAIN_MUSCLE
+    m.actuator_gainprm[muscle, 2] *= scale
+    m.actuator_biasprm[muscle, 2] *= scale
 
 
 @lru_cache(maxsize=16)
 def _walk(height_m: float, mass_kg: float, sex: str, contact: str, speed_m_per_s: float,
-          timestep_s: float) -> tuple[Body, Playback]:
+          timestep_s: float, planar: bool = False) -> tuple[Body, Playback]:
     """The body and its walk before the trip; deterministic, so cached per process."""
-    base = build(height_m=height_m, mass_kg=mass_kg, sex=sex, contact=contact,
-                 timestep_s=timestep_s)
+    base = build(planar=planar, height_m=height_m, mass_kg=mass_kg, sex=sex, contact=contact,
+                 timestep_s=timestep_s, actuation="muscles" if planar else "servos")
     return base, walk(base, speed_m_per_s, duration_s=WALK_BEFORE_TRIP_S + 2.5 * 1.6)
 
 
@@ -196,7 +252,7 @@ def _summary(sc: Scenario, strategy: str, controller, rec: Recording, stop: Stop
                 durations["recovery_step"] = round(t_trip - offs[-1] + landing, 4)
         durations["trip_to_recovery_contact"] = round(landing, 4)
     rmse = None
-    if reference is not None:
+    if reference is not None and strategy is not None:
         sim = pitch_angles_deg(m, rec.qpos, sc.side, strategy)
         ref = table2_from_coordinates(reference, sc.side, strategy)
         rmse = {k: round(v, 3) for k, v in rmse_deg(
@@ -233,3 +289,44 @@ def _summary(sc: Scenario, strategy: str, controller, rec: Recording, stop: Stop
         "strength_scale": sc.strength_scale,
         "walking_stride_s": round(pb.stride_s, 4),
     }
+
+
+@dataclass
+class StepResult:
+    """One walking step under the reflex network (seed 003 Fig. 3)."""
+
+    rmse_deg: dict  # per coordinate: simulated vs recorded, over the step
+    duration_s: float
+    fell: bool
+    recording: Recording
+    body: Body
+    reference_qpos: np.ndarray  # (T, nq) the recorded walk at the recording's times
+
+
+def simulate_walking_step(network=None, trunk_balance: bool = True,
+                          speed_m_per_s: float | None = None) -> StepResult:
+    """One step (half a stride, from right heel strike) of walking under the network,
+    from the played-back state, against the recorded walk (seed 003 §V.A, Fig. 3)."""
+    from stumble.control.reflex.controller import ReflexController, TrunkBalance
+    from stumble.control.reflex.identify import default_network, history_before
+
+    net = network or default_network()
+    speed = speed_m_per_s or load_reference().speed_m_per_s
+    body, pb = _walk(1.75, 70.0, "male", "points", round(speed, 4), 0.001, True)
+    m = body.model
+    t0 = next(t for t in pb.events.heel_strike_s["r"] if t >= WALK_BEFORE_TRIP_S)
+    d = mujoco.MjData(m)
+    d.qpos[:], d.qvel[:] = pb.state_at(t0)
+    d.qpos[1] -= m.body_mass.sum() * 9.81 / (96 * STIFFNESS_N_PER_M)  # as simulate_trip
+    history = history_before(net.walk_rates, _phase(pb, t0), 2 * net.topology.max_lag + 2)
+    ctrl = ReflexController(net, history, TrunkBalance() if trunk_balance else None)
+    stop = StopRule("elevating", "l", FALL_PELVIS_FRACTION * _standing_pelvis(body))
+    duration = 0.5 * pb.stride_s
+    rec = run(Context(m, d, body, Sensors(), t0=0.0), ctrl, duration, stop=stop,
+              control_every=max(1, round(1.0 / (net.topology.rate_hz * m.opt.timestep))))
+    ref = np.array([pb.state_at(t0 + t)[0] for t in rec.time_s])
+    names = ["pelvis_tilt", *body.joints]
+    adr = [m.jnt_qposadr[m.joint(n).id] for n in names]
+    rmse = {n: round(float(np.degrees(np.sqrt(np.mean((rec.qpos[:, a] - ref[:, a]) ** 2)))), 2)
+            for n, a in zip(names, adr, strict=True)}
+    return StepResult(rmse, float(rec.time_s[-1]), stop.fell_s is not None, rec, body, ref)

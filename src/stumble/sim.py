@@ -33,6 +33,7 @@ class Sensors:
     t: float = 0.0  # s since the trip
     foot_on_floor: dict[str, bool] = field(default_factory=lambda: {"r": True, "l": True})
     foot_on_obstacle: dict[str, bool] = field(default_factory=lambda: {"r": False, "l": False})
+    foot_force_n: dict[str, float] = field(default_factory=lambda: {"r": 0.0, "l": 0.0})
     segment_on_floor: bool = False  # a body other than the feet touches the floor
     com: np.ndarray = field(default_factory=lambda: np.zeros(3))
     com_vel: np.ndarray = field(default_factory=lambda: np.zeros(3))
@@ -79,6 +80,7 @@ class Recording:
     trip_force: np.ndarray  # (T, 3) N
     state: list[str]
     segment_on_floor: np.ndarray  # (T,)
+    actuator_force: np.ndarray | None = None  # (T, nu) N or N·m (muscles: negative = pull)
     steps: int = 0
     wall_time_s: float = 0.0
     physics_time_s: float = 0.0  # of which inside MuJoCo's step
@@ -133,6 +135,7 @@ def read_sensors(ctx: Context, geo: Geometry) -> None:
     s.foot_on_floor = {"r": bool(force[0] > CONTACT_FORCE_MIN_N),
                        "l": bool(force[1] > CONTACT_FORCE_MIN_N)}
     s.foot_on_obstacle = {"r": on_obst[0], "l": on_obst[1]}
+    s.foot_force_n = {"r": float(force[0]), "l": float(force[1])}
     s.segment_on_floor = seg_floor
     mujoco.mj_subtreeVel(m, d)
     s.com = d.subtree_com[1].copy()
@@ -155,7 +158,7 @@ def run(ctx: Context, controller: Controller, duration_s: float,
     rec = Recording(np.zeros(n_rec), np.zeros((n_rec, m.nq)), np.zeros((n_rec, m.nv)),
                     np.zeros((n_rec, 3)), np.zeros((n_rec, 3)), np.zeros((n_rec, 2), bool),
                     np.zeros((n_rec, 2), bool), np.zeros((n_rec, 3)), [""] * n_rec,
-                    np.zeros(n_rec, bool))
+                    np.zeros(n_rec, bool), np.zeros((n_rec, m.nu)))
     geo = Geometry(ctx.body)
     ctx.penalty = penalty
     if penalty is not None:
@@ -203,6 +206,7 @@ def run(ctx: Context, controller: Controller, duration_s: float,
             rec.trip_force[k_rec] = f
             rec.state[k_rec] = controller.state()
             rec.segment_on_floor[k_rec] = ctx.sensors.segment_on_floor
+            rec.actuator_force[k_rec] = d.actuator_force
             k_rec += 1
             if stop is not None:
                 why = stop(ctx, rec, k_rec)
@@ -226,7 +230,7 @@ def run(ctx: Context, controller: Controller, duration_s: float,
     rec.steps = step
     rec.stop_reason = reason
     for name in ("time_s", "qpos", "qvel", "com", "com_vel", "foot_on_floor",
-                 "foot_on_obstacle", "trip_force", "segment_on_floor"):
+                 "foot_on_obstacle", "trip_force", "segment_on_floor", "actuator_force"):
         setattr(rec, name, getattr(rec, name)[:k_rec])
     rec.state = rec.state[:k_rec]
     return rec

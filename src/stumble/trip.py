@@ -35,6 +35,7 @@ OBSTACLE_WIDTH_M = 0.14  # across: the tripped foot's lane only, as the pop-up o
 # lie under the stance foot for trips before mid swing (our choice)
 MECHANISMS = ("force", "obstacle")
 LEGS = ("left", "right")
+CONTROLLERS = ("fsm", "reflex")  # SCA 2009 state machines; seed 003 reflex network
 
 
 @dataclass(frozen=True)
@@ -104,6 +105,11 @@ class Scenario:
             raise InputError(f"obstacle height {self.obstacle_height_m} m is outside 0.02-0.3 m")
         if self.strategy not in ("auto", "elevating", "lowering"):
             raise InputError(f"strategy {self.strategy!r} is not auto, elevating or lowering")
+        if self.controller not in CONTROLLERS:
+            raise InputError(f"controller {self.controller!r} is not fsm or reflex")
+        if self.controller == "reflex" and self.strategy != "auto":
+            raise InputError("the reflex controller is not told a strategy: it emerges "
+                             "(use strategy auto)")
         if not 0.2 <= self.delay_scale <= 5.0:
             raise InputError(f"delay scale {self.delay_scale} is outside 0.2-5")
         if not 0.1 <= self.strength_scale <= 5.0:

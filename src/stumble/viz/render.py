@@ -583,10 +583,11 @@ def render_video(
 
 
 def save_filmstrip(path, frames: Sequence[np.ndarray], labels: Sequence[str] | None = None,
-                   dpi: float = 100.0) -> Path:
-    """Tile frames left to right into one PNG with a label above each; return the path.
+                   dpi: float = 100.0, columns: int | None = None) -> Path:
+    """Tile frames left to right (``columns`` per row; default all in one row) into one
+    PNG with a label above each; return the path.
 
-    The PNG is ``len(frames) * frame_width`` pixels wide and ``frame_height + 30`` tall.
+    One row is ``columns * frame_width`` pixels wide and ``frame_height + 30`` tall.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -599,20 +600,25 @@ def save_filmstrip(path, frames: Sequence[np.ndarray], labels: Sequence[str] | N
         raise InputError("all filmstrip frames must have the same size")
     if labels is not None and len(labels) != len(frames):
         raise InputError(f"{len(labels)} labels for {len(frames)} filmstrip frames")
-    n = len(frames)
+    n = columns or len(frames)
+    rows = -(-len(frames) // n)
     label_h = 30
-    total_w, total_h = n * w, h + label_h
+    row_h = h + label_h
+    total_w, total_h = n * w, rows * row_h
     fig = Figure(figsize=(total_w / dpi, total_h / dpi), dpi=dpi)
     FigureCanvasAgg(fig)
     fig.patch.set_facecolor("white")
     try:
         for i, frame in enumerate(frames):
-            ax = fig.add_axes((i / n, 0.0, 1.0 / n, h / total_h))
+            r, c = divmod(i, n)
+            bottom = (rows - 1 - r) * row_h / total_h
+            ax = fig.add_axes((c / n, bottom, 1.0 / n, h / total_h))
             ax.imshow(frame, interpolation="nearest", aspect="auto")
             ax.set_axis_off()
             if labels is not None:
-                fig.text((i + 0.5) / n, 1.0 - 0.5 * label_h / total_h, str(labels[i]),
-                         ha="center", va="center", fontsize=0.45 * label_h * 72.0 / dpi)
+                fig.text((c + 0.5) / n, bottom + (h + 0.5 * label_h) / total_h,
+                         str(labels[i]), ha="center", va="center",
+                         fontsize=0.45 * label_h * 72.0 / dpi)
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(path, dpi=dpi, format="png")

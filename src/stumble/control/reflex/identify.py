@@ -1,0 +1,318 @@
+"""Identify the reflex network from walking alone (seed 003 §III steps 1-3, §V.A).
+
+1. Inverse dynamics of the recorded walk: joint moments over the stride
+   (``stumble.control.reflex.walking``).
+2. Static optimisation: muscle activities a ∈ [0.01, 1] that reproduce the hip, knee and
+   ankle moments of each leg with the least summed squared activity, through the same
+   eq. 1 muscles the simulation uses (``stumble.body.muscles``); the tensions follow, and
+   the receptor rates from the same motion (``receptors``).
+3. Back-propagation through the delayed network (``network``): first the seed's
+   schedule (learning rate 0.01, forgetting rate 0.001, 1000 iterations, §V.A), then
+   (our improvement, reported separately) quasi-Newton refinement of the same loss.
+
+The network is trained on the motor neurons' *excitation*, u = a + τ ȧ, so that
+MuJoCo's activation dynamics (τ = 10 ms) reproduces the identified activity a; the
+errors are reported on the activity, as the seed's Figure 2 shows it.
+
+Seed 003 §V.A leaves open what "forgetting rate" means; we read it as Ishikawa's
+learning with forgetting (1996, Neural Networks 9:509), a constant decay ε·sign(w) of
+every weight per iteration, and "learning rate 0.01" as the step on the per-sample
+squared error summed over one pass of the data (the batch form of on-line
+back-propagation). Both are parameters of ``train``.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from functools import cache
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import lsq_linear, minimize
+
+from stumble.body import Body, build
+from stumble.body.muscles import (
+    MUSCLE_NAMES,
+    TAU_ACTIVATION_S,
+    force_length,
+    force_velocity,
+    passive_force,
+)
+from stumble.control.reflex.network import Network, Topology
+from stumble.control.reflex.receptors import GTOFilter, gto_static, spindle_ia, spindle_ii
+
+SIDES = ("r", "l")
+JOINTS = ("hip", "knee", "ankle")
+LEARNING_RATE = 0.01  # seed 003 §V.A
+FORGETTING_RATE = 0.001  # seed 003 §V.A
+ITERATIONS = 1000  # seed 003 §V.A
+REFINE_ITERATIONS = 1500  # our improvement: L-BFGS iterations after the seed's schedule
+MOMENT_WEIGHT = 10.0  # static optimisation: weight of 1 N·m moment error vs activity²
+PUBLISHED_AVG_ERROR = 0.020  # seed 003 §V.A
+PUBLISHED_MAX_ERROR = 0.36  # seed 003 §V.A
+SHIPPED = "network.npz"  # fitted network shipped in stumble/control/reflex/data/
+
+
+@dataclass
+class Identification:
+    """Targets and inputs of the network over one periodic stride, per side (r, l)."""
+
+    time_s: np.ndarray  # (T,)
+    stride_s: float
+    moments_nm: np.ndarray  # (2, T, 3) hip, knee, ankle (OpenSim signs)
+    moments_fit_nm: np.ndarray  # (2, T, 3) what the optimised muscles produce
+    activity: np.ndarray  # (2, T, 7)
+    excitation: np.ndarray  # (2, T, 7) u = a + τ ȧ
+    force_n: np.ndarray  # (2, T, 7)
+    rates: np.ndarray  # (2, T, n_signals) receptor rates, Ib before its filter
+    signals: np.ndarray  # (2, T, n_signals) network inputs (Ib filtered)
+    walk: object = None
+
+
+@dataclass
+class FitResult:
+    """A fitted network and the figures of its fit."""
+
+    network: Network
+    ident: Identification
+    excitation_net: np.ndarray  # (2, T, 7)
+    activity_net: np.ndarray  # (2, T, 7)
+    report: dict = field(default_factory=dict)
+
+
+def _coef_matrix(body: Body, side: str) -> tuple[np.ndarray, list]:
+    """(7, 3) tendon coefficients (m/rad) of one leg's muscles on hip, knee, ankle."""
+    geos = {g.name: g for g in body.muscles}
+    names = {"hip": f"hip_flexion_{side}", "knee": f"knee_angle_{side}",
+             "ankle": f"ankle_angle_{side}"}
+    cm = np.zeros((len(MUSCLE_NAMES), 3))
+    gs = []
+    for i, mus in enumerate(MUSCLE_NAMES):
+        g = geos[f"{mus}_{side}"]
+        gs.append(g)
+        for joint, c in zip(g.joints, g.coef_m, strict=True):
+            cm[i, [names[j] for j in JOINTS].index(joint)] = c
+    return cm, gs
+
+
+def static_optimisation(gain: np.ndarray, passive: np.ndarray, coef: np.ndarray,
+                        moments: np.ndarray, weight: float = MOMENT_WEIGHT) -> np.ndarray:
+    """Activities (T, 7) minimising Σa² + weight²·|moment error|² with 0.01 ≤ a ≤ 1.
+
+    ``gain``/``passive``: (T, 7) active force at full activation and passive force (N);
+    ``coef``: (7, 3) tendon coefficients (joint moment = −coef·tension); ``moments``:
+    (T, 3) N·m. A soft equality: where the muscles cannot reach a moment, the closest.
+    """
+    T, n = gain.shape
+    out = np.empty((T, n))
+    eye = np.eye(n)
+    for t in range(T):
+        a_mat = -(coef * gain[t][:, None]).T  # (3, 7)
+        b = moments[t] + coef.T @ passive[t]
+        sol = lsq_linear(np.vstack([weight * a_mat, eye]),
+                         np.concatenate([weight * b, np.zeros(n)]),
+                         bounds=(0.01, 1.0), method="bvls")
+        out[t] = np.clip(sol.x, 0.01, 1.0)  # bvls may overshoot a bound by 1 ulp
+    return out
+
+
+def _periodic_activation(u: np.ndarray, dt: float) -> np.ndarray:
+    """Steady-state first-order activation (τ = 10 ms) of a periodic excitation (T, …)."""
+    alpha = 1.0 - np.exp(-dt / TAU_ACTIVATION_S)
+    a = np.array(u[-1], dtype=float)
+    for _ in range(2):  # two passes reach the periodic steady state
+        out = np.empty_like(u)
+        for k in range(len(u)):
+            a = a + alpha * (u[k] - a)
+            out[k] = a
+    return out
+
+
+def identify(body: Body | None = None, rate_hz: float = 1000.0,
+             contact: bool = False) -> Identification:
+    """Steps 1-2: moments, activities, tensions and receptor rates of the recorded walk."""
+    from stumble.control.reflex.walking import recorded_walk
+
+    body = body or reflex_body()
+    m = body.model
+    walk = recorded_walk(body, rate_hz=rate_hz)
+    T = len(walk.time_s)
+    dt = 1.0 / rate_hz
+    n_sig = 3 * len(MUSCLE_NAMES) + (1 if contact else 0)
+    shape = (2, T, len(MUSCLE_NAMES))
+    moments, fit, act, exc, force = (np.zeros((2, T, 3)), np.zeros((2, T, 3)),
+                                     np.zeros(shape), np.zeros(shape), np.zeros(shape))
+    rates = np.zeros((2, T, n_sig))
+    for k, side in enumerate(SIDES):
+        coef, gs = _coef_matrix(body, side)
+        q = np.stack([walk.qpos[:, m.jnt_qposadr[m.joint(f"{j}_{side}").id]]
+                      for j in ("hip_flexion", "knee_angle", "ankle_angle")], axis=1)
+        qd = np.stack([walk.qvel[:, m.jnt_dofadr[m.joint(f"{j}_{side}").id]]
+                       for j in ("hip_flexion", "knee_angle", "ankle_angle")], axis=1)
+        length = q @ coef.T  # (T, 7) tendon lengths
+        vel = qd @ coef.T
+        l_ref = np.array([g.l_ref_m for g in gs])
+        l0 = np.array([g.l0_m for g in gs])
+        l_opt = np.array([g.l_opt_m for g in gs])
+        vmax = np.array([g.muscle.v_max for g in gs])
+        f_max = np.array([g.f_max_n for g in gs])
+        ln = 1.0 + (length - l_ref) / l0
+        vn = vel / (l0 * vmax)
+        gain = f_max * force_length(ln) * force_velocity(vn)
+        passive = f_max * passive_force(ln)
+        moments[k] = np.stack([walk.moments_nm[f"{j}_{side}"] for j in JOINTS], axis=1)
+        act[k] = static_optimisation(gain, passive, coef, moments[k])
+        force[k] = act[k] * gain + passive
+        fit[k] = -(force[k] @ coef)
+        adot = (np.roll(act[k], -1, axis=0) - np.roll(act[k], 1, axis=0)) / (2 * dt)
+        exc[k] = np.clip(act[k] + TAU_ACTIVATION_S * adot, 0.01, 1.0)
+        stretch = l_opt * (ln - 1.0)
+        fibre_vel = l_opt * vel / l0
+        rates[k, :, 0:21:3] = spindle_ia(stretch, fibre_vel)
+        rates[k, :, 1:21:3] = spindle_ii(stretch)
+        rates[k, :, 2:21:3] = gto_static(force[k])
+        if contact:
+            rates[k, :, 21] = walk.grf[side][:, 2] / (m.body_mass.sum() * 9.81)
+    signals = rates.copy()
+    gto = GTOFilter(dt, 2 * len(MUSCLE_NAMES))
+    ib = gto.periodic(np.concatenate([rates[0, :, 2:21:3], rates[1, :, 2:21:3]], axis=1))
+    signals[0, :, 2:21:3] = ib[:, :7]
+    signals[1, :, 2:21:3] = ib[:, 7:]
+    return Identification(walk.time_s, float(walk.stride_s), moments, fit, act, exc, force,
+                          rates, signals, walk)
+
+
+def reflex_body(height_m: float = 1.75, mass_kg: float = 70.0, sex: str = "male",
+                **kwargs) -> Body:
+    """The planar musculoskeletal body of seed 003 §III."""
+    return build(planar=True, height_m=height_m, mass_kg=mass_kg, sex=sex,
+                 actuation="muscles", **kwargs)
+
+
+def _loss_grad(net: Network, xds: list[np.ndarray], targets: np.ndarray):
+    """Summed squared excitation error over both sides and its gradient."""
+    loss, grad = 0.0, 0.0
+    for xd, tgt in zip(xds, targets, strict=True):
+        u, cache_ = net.forward(xd)
+        err = u - tgt
+        loss += 0.5 * float((err ** 2).sum())
+        grad = grad + net.gradient(xd, err, cache_)
+    return loss, grad
+
+
+def train(ident: Identification, topology: Topology | None = None, seed: int = 0,
+          learning_rate: float = LEARNING_RATE, forgetting: float = FORGETTING_RATE,
+          iterations: int = ITERATIONS, refine_iterations: int = REFINE_ITERATIONS,
+          progress=None) -> tuple[Network, dict]:
+    """Step 3: back-propagation (seed schedule), then refinement. Returns net, report."""
+    topology = topology or Topology()
+    sig = ident.signals.reshape(-1, ident.signals.shape[-1])
+    std = sig.std(axis=0)
+    std[std < 1e-9] = 1.0
+    net = Network.initial(topology, sig.mean(axis=0), std, seed=seed)
+    xds = [net.delayed_inputs(ident.signals[k]) for k in range(2)]
+    targets = ident.excitation
+    n_samples = targets.shape[0] * targets.shape[1]
+    theta = net.pack()
+    n_w = int(Network._mask(topology).sum())
+    t0 = time.perf_counter()
+    # The seed's schedule: on-line back-propagation's batch form. The step on the
+    # summed error of one pass is the learning rate times the number of samples per
+    # pass / n_samples: we take mean-per-sample gradient times rate × samples / 100 so
+    # that one iteration moves as far as 100 on-line updates (our reading; see module).
+    step = learning_rate * n_samples / 100.0
+    for it in range(iterations):
+        net.unpack(theta)
+        _loss, grad = _loss_grad(net, xds, targets)
+        theta = theta - step * grad / n_samples
+        theta[:n_w] -= forgetting * learning_rate * np.sign(theta[:n_w])  # Ishikawa 1996
+        if progress is not None and it % 50 == 0:
+            progress(it, iterations + refine_iterations)
+    net.unpack(theta)
+    paper = errors(net, ident)
+    paper_wall = time.perf_counter() - t0
+    if refine_iterations > 0:
+        counter = {"n": iterations}
+
+        def fun(th):
+            net.unpack(th)
+            loss_, g = _loss_grad(net, xds, targets)
+            return loss_ / n_samples, g / n_samples
+
+        def cb(_th):
+            counter["n"] += 1
+            if progress is not None and counter["n"] % 50 == 0:
+                progress(counter["n"], iterations + refine_iterations)
+
+        res = minimize(fun, theta, jac=True, method="L-BFGS-B", callback=cb,
+                       options={"maxiter": refine_iterations, "maxfun": 2 * refine_iterations})
+        theta = res.x
+        net.unpack(theta)
+    final = errors(net, ident)
+    report = {
+        "avg_error": final["avg_error"], "max_error": final["max_error"],
+        "iterations": iterations + refine_iterations,
+        "wall_time_s": round(time.perf_counter() - t0, 2),
+        "paper_schedule": {**paper, "iterations": iterations,
+                           "learning_rate": learning_rate, "forgetting_rate": forgetting,
+                           "wall_time_s": round(paper_wall, 2)},
+        "refinement": {"method": "L-BFGS-B", "iterations": refine_iterations},
+        "published": {"avg_error": PUBLISHED_AVG_ERROR, "max_error": PUBLISHED_MAX_ERROR,
+                      "source": "Murai & Yamane 2011 §V.A"},
+        "error_definition": "|network activity − identified activity|, activity in 0-1",
+        "samples": int(n_samples), "parameters": int(theta.size),
+    }
+    net.info = {k: report[k] for k in ("avg_error", "max_error", "iterations")}
+    return net, report
+
+
+def network_activity(net: Network, ident: Identification) -> tuple[np.ndarray, np.ndarray]:
+    """The network's excitation and activity (2, T, 7) over the walking data."""
+    dt = 1.0 / net.topology.rate_hz
+    exc = np.stack([net.excitation(ident.signals[k]) for k in range(2)])
+    act = np.stack([_periodic_activation(exc[k], dt) for k in range(2)])
+    return exc, act
+
+
+def errors(net: Network, ident: Identification) -> dict:
+    """Average and maximum activity error (fractions of full activity)."""
+    _exc, act = network_activity(net, ident)
+    e = np.abs(act - ident.activity)
+    return {"avg_error": round(float(e.mean()), 5), "max_error": round(float(e.max()), 5)}
+
+
+def fit(seed: int = 0, iterations: int = ITERATIONS,
+        refine_iterations: int = REFINE_ITERATIONS, contact: bool = False,
+        progress=None) -> FitResult:
+    """Identify and train: the whole of seed 003 §III's identification."""
+    ident = identify(contact=contact)
+    net, report = train(ident, Topology(contact=contact), seed=seed, iterations=iterations,
+                        refine_iterations=refine_iterations, progress=progress)
+    net.walk_rates = ident.rates
+    exc, act = network_activity(net, ident)
+    return FitResult(net, ident, exc, act, report)
+
+
+@cache
+def default_network() -> Network:
+    """The network shipped with the package (made by ``stumble reflex fit``, seed 0)."""
+    path = resources.files("stumble.control.reflex") / "data" / SHIPPED
+    with resources.as_file(path) as p:
+        return Network.load(Path(p))
+
+
+def fit_summary() -> dict:
+    """Identification errors of the shipped network, for validation tables."""
+    net = default_network()
+    return dict(net.info) if net.info else {}
+
+
+def history_before(walk_rates: np.ndarray, phase: float, samples: int) -> np.ndarray:
+    """(samples, 2, n_signals) receptor rates (Ib unfiltered) leading up to a gait phase
+    (fraction of the stride from right heel strike), oldest first."""
+    T = walk_rates.shape[1]
+    end = round(phase * T)
+    idx = np.arange(end - samples, end) % T
+    return np.transpose(walk_rates[:, idx], (1, 0, 2))

@@ -1,0 +1,70 @@
+"""Plots of the reflex controller: the identification fit (seed 003 Fig. 2) and the
+muscle tensions of a trip against walking (seed 003 Fig. 5)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+from stumble.body.muscles import MUSCLE_NAMES
+
+
+def plot_activity_fit(path: Path, percent: np.ndarray, target: np.ndarray,
+                      network: np.ndarray, events: dict[str, float], title: str) -> None:
+    """Identified (dotted) and network (solid) activity per muscle over the stride.
+
+    ``target``/``network``: (T, 7) activity in 0-1; ``events``: label -> percent.
+    """
+    fig, axes = plt.subplots(len(MUSCLE_NAMES), 1, figsize=(7.5, 10.5), sharex=True)
+    for j, (ax, name) in enumerate(zip(axes, MUSCLE_NAMES, strict=True)):
+        ax.plot(percent, target[:, j], ":", color="tab:blue", lw=2.0,
+                label="identified (inverse dynamics + static optimisation)")
+        ax.plot(percent, network[:, j], "-", color="tab:red", lw=1.3, label="network")
+        ax.set_ylabel(name, rotation=0, ha="right", va="center")
+        top = max(0.1, float(max(target[:, j].max(), network[:, j].max())) * 1.15)
+        ax.set_ylim(0.0, top)
+        for label, x in events.items():
+            ax.axvline(x, color="0.3" if "R" in label else "0.6",
+                       ls="-" if "HS" in label else "--", lw=0.8)
+        ax.grid(alpha=0.3)
+    for label, x in events.items():
+        axes[0].text(x, axes[0].get_ylim()[1], label, ha="center", va="bottom", fontsize=8)
+    axes[-1].set_xlabel("% of stride from right heel strike")
+    axes[0].legend(loc="upper left", bbox_to_anchor=(0.0, 1.9), ncol=2, fontsize=8,
+                   frameon=False)
+    fig.suptitle(title, fontsize=10, y=0.995)
+    fig.tight_layout(rect=(0, 0, 1, 0.965))
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_muscle_tensions(path: Path, t_trip: np.ndarray, f_trip: np.ndarray,
+                         t_walk: np.ndarray, f_walk: np.ndarray, sides: tuple[str, str],
+                         title: str) -> None:
+    """Tension (N) per muscle of both legs: this trip (solid) and walking (dotted).
+
+    ``f_*``: (T, 2, 7) tensions of the (tripped, support) legs; time 0 the trip.
+    """
+    fig, axes = plt.subplots(len(MUSCLE_NAMES), 2, figsize=(9.0, 10.5), sharex=True)
+    for col, label in enumerate(sides):
+        for j, name in enumerate(MUSCLE_NAMES):
+            ax = axes[j, col]
+            ax.plot(t_walk, f_walk[:, col, j], ":", color="tab:blue", lw=1.8,
+                    label="walking without trip")
+            ax.plot(t_trip, f_trip[:, col, j], "-", color="tab:red", lw=1.2, label="trip")
+            ax.axvline(0.0, color="k", lw=0.8)
+            ax.grid(alpha=0.3)
+            if col == 0:
+                ax.set_ylabel(name, rotation=0, ha="right", va="center")
+        axes[0, col].set_title(label, fontsize=10)
+        axes[-1, col].set_xlabel("time from the trip (s)")
+    axes[0, 0].legend(loc="upper left", fontsize=8)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout(rect=(0, 0, 1, 0.97))
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -1,0 +1,210 @@
+"""The reflex controller of seed 003: receptors, delays (Table I), identification,
+the runtime network, and the emergence of both strategies from one network."""
+
+import numpy as np
+import pytest
+
+from stumble.body.muscles import MUSCLE_NAMES
+from stumble.control.reflex import receptors as R
+from stumble.control.reflex.controller import ReflexController
+from stumble.control.reflex.identify import (
+    default_network,
+    fit,
+    identify,
+    static_optimisation,
+)
+from stumble.control.reflex.network import NERVE_LENGTH_M, Network, Topology
+from stumble.errors import InputError
+from stumble.pipeline import simulate_trip
+from stumble.trip import Scenario
+
+J = {name: j for j, name in enumerate(MUSCLE_NAMES)}
+
+
+# ---- receptors ---------------------------------------------------------------------
+def test_spindle_rates():
+    assert R.spindle_ia(0.0, 0.0) == pytest.approx(80.0)
+    assert R.spindle_ii(0.001) == pytest.approx(80.0 + 13.5)
+    assert R.spindle_ia(0.002, 0.0) == pytest.approx(84.0)
+    # power law of stretch velocity, exponent 0.6 (Prochazka & Gorassini 1998)
+    a = R.spindle_ia(0.0, 0.010) - 80.0
+    b = R.spindle_ia(0.0, 0.020) - 80.0
+    assert b / a == pytest.approx(2 ** 0.6)
+    assert R.spindle_ia(-0.1, -1.0) == 0.0  # rates never go negative
+
+
+def test_tendon_organ_law_and_filter():
+    assert R.gto_static(4.0) == pytest.approx(60.0 * np.log(2.0))
+    assert R.gto_static(0.0) == 0.0
+    f = R.GTOFilter(0.001, 2)
+    f.reset(np.array([100.0, 50.0]))
+    for _ in range(100):
+        y = f.step(np.array([100.0, 50.0]))
+    assert y == pytest.approx([100.0, 50.0])  # unit DC gain, starts at steady state
+    g = R.GTOFilter(0.001, 1)
+    first = g.step(np.array([1.0]))
+    assert first[0] == pytest.approx(1.7, abs=0.01)  # high-frequency gain 1.7/1
+
+
+# ---- delays of Table I ----------------------------------------------------------------
+def test_nerve_delays_follow_table_one():
+    t = Topology()
+    d = t.path_delays_s()
+    # SOL -> S1 -> SOL: 1.28 m afferent at 57.6 m/s plus 1.28 m efferent at 52.4 m/s
+    assert d[("SOL", "S1", "SOL")] == pytest.approx(1.28 / 57.6 + 1.28 / 52.4)
+    assert d[("RF", "L2", "VAS")] == pytest.approx(0.57 / 57.6 + 0.68 / 52.4)
+    assert ("HAMS", "L2", "RF") not in d  # no HAMS fibre in L2 (Table I: —)
+    assert len(t.connections()) == sum(len(v) for v in NERVE_LENGTH_M.values()) == 19
+    assert len(t.inputs()) == 3 * 19
+
+
+def test_a_signal_reaches_a_muscle_exactly_after_its_path_delay():
+    """A spike in SOL's tendon organ reaches SOL through S2 after 22 + 24 ms, TA through
+    S1 after 22 + 20 ms, GLU through S2 after 22 + 9 ms, never earlier; RF and VAS
+    (bound to L2-L4 only) never."""
+    t = Topology()
+    rng = np.random.default_rng(0)
+    net = Network.initial(t, np.zeros(21), np.ones(21), seed=1)
+    base = rng.normal(size=(400, 21))
+    spiked = base.copy()
+    spiked[100, 3 * J["SOL"] + 2] += 5.0
+    du = np.abs(net.excitation(spiked) - net.excitation(base))
+    first = {m: int(np.flatnonzero(du[:, J[m]] > 1e-12)[0]) if du[:, J[m]].max() > 1e-12
+             else None for m in MUSCLE_NAMES}
+    assert first["SOL"] == 100 + round(1.25 / 57.6 * 1000) + round(1.25 / 52.4 * 1000)
+    assert first["TA"] == 100 + round(1.28 / 57.6 * 1000) + round(1.05 / 52.4 * 1000)
+    assert first["GLU"] == 100 + round(1.25 / 57.6 * 1000) + round(0.47 / 52.4 * 1000)
+    assert first["RF"] is None and first["VAS"] is None
+
+
+def test_slower_nerves_lengthen_every_delay():
+    t = Topology()
+    slow = Network.initial(t, np.zeros(21), np.ones(21)).with_delay_scale(2.0).topology
+    assert slow.max_lag == pytest.approx(2 * t.max_lag, abs=2)
+
+
+# ---- network maths ---------------------------------------------------------------------
+def test_gradient_matches_finite_differences():
+    t = Topology(rate_hz=200.0, hidden=3)
+    rng = np.random.default_rng(1)
+    net = Network.initial(t, np.zeros(21), np.ones(21), seed=2)
+    net.c = rng.normal(size=7)
+    xd = net.delayed_inputs(rng.normal(size=(40, 21)))
+    tgt = rng.uniform(size=(40, 7))
+
+    def loss(th):
+        net.unpack(th)
+        return 0.5 * float(((net.forward(xd)[0] - tgt) ** 2).sum())
+
+    th = net.pack()
+    u, cache = net.forward(xd)
+    g = net.gradient(xd, u - tgt, cache)
+    for i in range(0, th.size, 11):
+        e = np.zeros_like(th)
+        e[i] = 1e-6
+        assert (loss(th + e) - loss(th - e)) / 2e-6 == pytest.approx(g[i], abs=1e-6)
+
+
+def test_controller_ticks_equal_the_batch_network():
+    """The runtime ring buffers compute what the identification's shifted arrays do."""
+    net = default_network()
+    ctrl = ReflexController(net)
+    ctrl.net = net
+    # bind the index arrays without a model
+    t = net.topology
+    ins, conns = t.inputs(), t.connections()
+    ctrl.in_sig = np.array([s for _x, s, _y in ins])
+    ctrl.in_lag = np.array([lag for *_x, lag in ins])
+    ctrl.c_lag = np.array([lag for *_x, lag in conns])
+    ctrl.c_units = net.units_of()
+    ctrl.n_buf = t.max_lag + 2
+    ctrl.sig_buf = np.zeros((ctrl.n_buf, 2, t.n_signals))
+    ctrl.hid_buf = np.zeros((ctrl.n_buf, 2, net.w.shape[1]))
+    ctrl.k = 0
+    H = t.hidden
+    ctrl.sum_mat = np.zeros((len(conns) * H, 7))
+    for k, (_s, j, _lag) in enumerate(conns):
+        ctrl.sum_mat[k * H:(k + 1) * H, j] = 1.0
+    rng = np.random.default_rng(4)
+    sig = net.mean + net.std * rng.normal(size=(2, 150, t.n_signals))
+    ticks = np.array([ctrl._tick(sig[:, k % 150]) for k in range(300)])[150:]
+    batch = np.stack([net.excitation(sig[s]) for s in range(2)], axis=1)
+    assert np.abs(ticks - batch).max() < 1e-12
+
+
+def test_network_file_round_trip_and_errors(tmp_path):
+    net = default_network()
+    net.save(tmp_path / "n.npz")
+    back = Network.load(tmp_path / "n.npz")
+    assert np.array_equal(back.w, net.w) and back.info == net.info
+    assert back.walk_rates.shape == net.walk_rates.shape
+    with pytest.raises(InputError, match="does not exist"):
+        Network.load(tmp_path / "missing.npz")
+    (tmp_path / "bad.npz").write_bytes(b"not a numpy file")
+    with pytest.raises(InputError, match="not a stumble reflex network"):
+        Network.load(tmp_path / "bad.npz")
+
+
+# ---- identification ------------------------------------------------------------------
+def test_static_optimisation_reproduces_reachable_moments():
+    rng = np.random.default_rng(5)
+    coef = np.array([[0.08, 0.05, 0], [0.1, 0, 0], [0, 0, -0.04], [0, 0.05, 0.05],
+                     [-0.08, -0.06, 0], [0, -0.06, 0], [0, 0, 0.05]])
+    gain = rng.uniform(500.0, 3000.0, (20, 7))
+    passive = np.zeros((20, 7))
+    a_true = rng.uniform(0.05, 0.5, (20, 7))
+    moments = -(a_true * gain) @ coef
+    a = static_optimisation(gain, passive, coef, moments, weight=1000.0)
+    assert np.abs(-(a * gain) @ coef - moments).max() < 0.05  # N·m
+    assert np.all(a >= 0.01 - 1e-12) and np.all(a <= 1.0 + 1e-12)
+    # least squared activity: never more than the activity that made the moments
+    assert np.all((a ** 2).sum(axis=1) <= (a_true ** 2).sum(axis=1) + 1e-6)
+
+
+@pytest.fixture(scope="module")
+def ident():
+    return identify()
+
+
+def test_walking_moments_are_reproduced_by_the_muscles(ident):
+    err = ident.moments_nm - ident.moments_fit_nm
+    rms = np.sqrt((err ** 2).mean(axis=(0, 1)))
+    assert rms[2] < 0.5  # ankle: N·m, reproduced (SOL, GAS, TA suffice)
+    assert np.all(rms < 5.0)  # hip and knee: within a few N·m of moments up to 65 N·m
+    # ankle plantarflexion in late stance from SOL and GAS, swing from TA
+    assert ident.activity[0, :, J["SOL"]].max() > 0.3
+    assert 0.0 <= ident.activity.min() and ident.activity.max() <= 1.0
+
+
+def test_fit_reaches_the_seeds_average_error_quickly(ident):
+    r = fit(iterations=20, refine_iterations=150)
+    assert r.report["avg_error"] < 0.03  # seed 003: 2.0 % after 1000 iterations
+    assert r.report["paper_schedule"]["iterations"] == 20
+    assert r.network.walk_rates.shape == (2, len(ident.time_s), 21)
+
+
+def test_shipped_network_fits_walking_like_the_seed():
+    info = default_network().info
+    assert info["avg_error"] < 0.02  # seed 003 §V.A: 2.0 %
+    assert info["iterations"] >= 1000
+
+
+# ---- emergence ---------------------------------------------------------------------------
+@pytest.mark.parametrize("swing, expected", [(0.13, "elevating"), (0.56, "lowering")])
+def test_both_strategies_emerge_from_one_network(swing, expected):
+    """Seed 003 CASE 1 and CASE 2: same network, never switched, strategy from motion."""
+    r = simulate_trip(Scenario(controller="reflex", swing_fraction=swing,
+                               mechanism="obstacle", duration_after_trip_s=1.0))
+    s = r.summary
+    assert s["strategy"] == expected
+    assert not s["diverged"]
+    assert s["states"] == [{"name": "reflex", "start_s": 0.0}]  # no switching
+    if expected == "elevating":  # the foot came down beyond the obstacle's far face
+        assert s["tripped_foot_down_x_m"] > s["obstacle_far_x_m"]
+    else:
+        assert s["tripped_foot_down_x_m"] < s["obstacle_far_x_m"] - 0.1
+
+
+def test_reflex_is_not_told_a_strategy():
+    with pytest.raises(InputError, match="emerges"):
+        Scenario(controller="reflex", strategy="elevating").validated()

@@ -1,0 +1,58 @@
+"""``stumble reflex fit`` and ``stumble trip --controller reflex`` as a user runs them."""
+
+import csv
+import json
+
+import pytest
+
+from stumble.cli import main
+
+
+def test_reflex_fit_writes_its_files(tmp_path, capsys):
+    out = tmp_path / "net"
+    assert main(["reflex", "fit", "--out", str(out), "--iterations", "10",
+                 "--refine", "20"]) == 0
+    fit = json.loads((out / "fit.json").read_text())
+    for key in ("avg_error", "max_error", "iterations", "wall_time_s"):
+        assert key in fit
+    assert fit["iterations"] == 30
+    assert set(fit["walking_step"]["rmse_deg"]) >= {"hip_flexion_r", "knee_angle_l"}
+    with (out / "walking_moments.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 51 and list(rows[0]) == ["percent", "hip_moment_nm",
+                                                "knee_moment_nm", "ankle_moment_nm"]
+    # the ankle's plantarflexor moment in late stance: about -1.6 N·m/kg × 70 kg
+    assert min(float(r["ankle_moment_nm"]) for r in rows) < -80.0
+    with (out / "walking_activity.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 51 and "SOL_network" in rows[0] and "HAMS_target" in rows[0]
+    assert (out / "activity_fit.png").stat().st_size > 10_000
+    assert (out / "network.npz").is_file()
+    assert "identified" in capsys.readouterr().out
+
+
+def test_reflex_trip_with_a_fitted_network(tmp_path):
+    net = tmp_path / "net"
+    main(["reflex", "fit", "--out", str(net), "--iterations", "5", "--refine", "5"])
+    out = tmp_path / "trip"
+    assert main(["trip", "--controller", "reflex", "--network", str(net / "network.npz"),
+                 "--swing", "0.56", "--duration", "0.6", "--no-video", "--out",
+                 str(out)]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    assert s["controller"] == "reflex" and s["mechanism"] == "obstacle"
+    assert s["strategy"] in ("elevating", "lowering", None)
+    assert (out / "muscle_tensions.png").stat().st_size > 10_000
+    header = (out / "timeseries.csv").read_text().splitlines()[0]
+    assert "knee_angle_l_deg" in header and "subtalar" not in header
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["trip", "--controller", "reflex", "--strategy", "lowering"], "emerges"),
+    (["trip", "--network", "x.npz"], "for --controller reflex"),
+    (["trip", "--controller", "reflex", "--network", "missing.npz"], "does not exist"),
+    (["reflex", "fit", "--iterations", "0", "--refine", "0"], "not both 0"),
+])
+def test_reflex_errors_are_one_line(tmp_path, capsys, argv, message):
+    assert main([*argv, "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
