@@ -109,22 +109,8 @@ def test_controller_ticks_equal_the_batch_network():
     """The runtime ring buffers compute what the identification's shifted arrays do."""
     net = default_network()
     ctrl = ReflexController(net)
-    ctrl.net = net
-    # bind the index arrays without a model
+    ctrl._bind_network()
     t = net.topology
-    ins, conns = t.inputs(), t.connections()
-    ctrl.in_sig = np.array([s for _x, s, _y in ins])
-    ctrl.in_lag = np.array([lag for *_x, lag in ins])
-    ctrl.c_lag = np.array([lag for *_x, lag in conns])
-    ctrl.c_units = net.units_of()
-    ctrl.n_buf = t.max_lag + 2
-    ctrl.sig_buf = np.zeros((ctrl.n_buf, 2, t.n_signals))
-    ctrl.hid_buf = np.zeros((ctrl.n_buf, 2, net.w.shape[1]))
-    ctrl.k = 0
-    H = t.hidden
-    ctrl.sum_mat = np.zeros((len(conns) * H, 7))
-    for k, (_s, j, _lag) in enumerate(conns):
-        ctrl.sum_mat[k * H:(k + 1) * H, j] = 1.0
     rng = np.random.default_rng(4)
     sig = net.mean + net.std * rng.normal(size=(2, 150, t.n_signals))
     ticks = np.array([ctrl._tick(sig[:, k % 150]) for k in range(300)])[150:]

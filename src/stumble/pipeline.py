@@ -113,7 +113,10 @@ def _controller(sc: Scenario, strategy: str | None, params: FSMParams | None,
         if net.walk_rates is not None:
             history = history_before(net.walk_rates, _phase(pb, t_trip),
                                      2 * net.topology.max_lag + 2)
-        return ReflexController(net, history, TrunkBalance() if trunk_balance else None)
+        balance = None
+        if trunk_balance:  # its vestibulospinal latency scales with the nerve delays
+            balance = TrunkBalance(delay_s=TrunkBalance.DELAY_S * sc.delay_scale)
+        return ReflexController(net, history, balance)
     p = replace(params or FSMParams(), delay_scale=sc.delay_scale)
     return TripFSM(strategy, sc.side, sc.speed_m_per_s, p)
 

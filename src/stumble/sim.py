@@ -154,6 +154,9 @@ def run(ctx: Context, controller: Controller, duration_s: float,
     n_steps = round(duration_s / dt)
     rec_every = max(1, round(1.0 / (RECORD_HZ * dt)))
     control_every = control_every or max(1, round(1.0 / (CONTROL_HZ * dt)))
+    # contacts, COM and pelvis: at every control update, or as often as the controller
+    # asks (``sensor_hz``); the recording and the stop rule read them at RECORD_HZ
+    sensor_every = max(control_every, round(1.0 / (getattr(controller, "sensor_hz", 1e9) * dt)))
     n_rec = n_steps // rec_every + 1
     rec = Recording(np.zeros(n_rec), np.zeros((n_rec, m.nq)), np.zeros((n_rec, m.nv)),
                     np.zeros((n_rec, 3)), np.zeros((n_rec, 3)), np.zeros((n_rec, 2), bool),
@@ -178,7 +181,8 @@ def run(ctx: Context, controller: Controller, duration_s: float,
     for step in range(n_steps + 1):
         t = d.time - ctx.t0
         if step % control_every == 0:
-            read_sensors(ctx, geo)
+            if step % sensor_every == 0:
+                read_sensors(ctx, geo)
             controller.update(ctx)
         f = _NO_FORCE
         if forcing:  # only while the collision lasts: nothing per step afterwards

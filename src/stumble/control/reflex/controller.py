@@ -15,11 +15,22 @@ that led up to it (the seed replays the walk and its inverse dynamics until the 
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from stumble.body.muscles import MUSCLE_NAMES
 from stumble.control.reflex.network import Network
-from stumble.control.reflex.receptors import GTOFilter, gto_static, spindle_ia, spindle_ii
+from stumble.control.reflex.receptors import (
+    IA_BASE,
+    IA_STRETCH_GAIN,
+    IA_VELOCITY_EXPONENT,
+    IA_VELOCITY_GAIN,
+    II_BASE,
+    II_STRETCH_GAIN,
+    GTOFilter,
+    gto_static,
+)
 from stumble.sim import Context
 
 SIDES = ("r", "l")
@@ -38,37 +49,52 @@ class TrunkBalance:
     paper's table), delayed by a vestibulospinal latency (``delay_s``, our choice 20 ms).
     """
 
+    DELAY_S = 0.02  # vestibulospinal latency (our choice)
+
     def __init__(self, kp_per_rad: float = 1.91, kd_s_per_rad: float = 0.2,
-                 lean_ref_rad: float = 0.105, delay_s: float = 0.02, rate_hz: float = 1000.0):
+                 lean_ref_rad: float = 0.105, delay_s: float = DELAY_S,
+                 rate_hz: float = 1000.0):
         self.kp, self.kd, self.ref = kp_per_rad, kd_s_per_rad, lean_ref_rad
         self.lag = max(1, round(delay_s * rate_hz))
         self.buf = np.zeros((self.lag + 1, 2))
         self.k = 0
+        self.tid = -1
         self.mus = np.zeros(len(MUSCLE_NAMES))
         for name, sign in (("GLU", 1.0), ("HAMS", 1.0), ("RF", -1.0)):
             self.mus[MUSCLE_NAMES.index(name)] = sign
 
     def excitation(self, ctx: Context) -> np.ndarray:
-        """(2, 7) excitation to add for the sides r, l."""
-        m, d = ctx.model, ctx.data
-        tid = m.body("torso").id
-        zx, zz = d.xmat[tid, 2], d.xmat[tid, 8]  # torso z axis, world x and z parts
-        lean = float(np.arctan2(zx, zz))  # forward lean, rad
-        rate = float(d.cvel[tid, 1])  # pitch rate about +y (forward lean), rad/s
-        self.buf[self.k % len(self.buf)] = (lean, rate)
+        """(2, 7) excitation to add for the sides r, l (a buffer reused every call)."""
+        d = ctx.data
+        if self.tid < 0:
+            self.tid = ctx.model.body("torso").id
+            self.out = np.zeros((2, len(MUSCLE_NAMES)))
+        xm = d.xmat[self.tid]
+        lean = math.atan2(xm[2], xm[8])  # torso z axis leaning towards +x: forward, rad
+        rate = d.cvel[self.tid, 1]  # pitch rate about +y (forward lean), rad/s
+        i = self.k % len(self.buf)
+        self.buf[i, 0], self.buf[i, 1] = lean, rate
         lean_d, rate_d = self.buf[(self.k - self.lag) % len(self.buf)]
         self.k += 1
         drive = self.kp * (lean_d - self.ref) + self.kd * rate_d
         f = ctx.sensors.foot_force_n
-        total = max(f["r"] + f["l"], 1e-6)
-        share = np.array([f["r"] / total, f["l"] / total])
-        return share[:, None] * drive * self.mus[None, :]
+        fr, fl = f["r"], f["l"]
+        total = fr + fl
+        if total <= 0.0:
+            self.out[:] = 0.0
+            return self.out
+        np.multiply(self.mus, drive * fr / total, out=self.out[0])
+        np.multiply(self.mus, drive * fl / total, out=self.out[1])
+        return self.out
 
 
 class ReflexController:
     """Seed 003's neuromuscular network driving the 14 muscles of the planar body."""
 
     name = "reflex"
+    # foot loads (trunk balance, contact afferents) at 200 Hz, as the recording: the
+    # network itself reads the muscles at every tick
+    sensor_hz = 200.0
 
     def __init__(self, network: Network, history: np.ndarray | None = None,
                  balance: TrunkBalance | None = None):
@@ -94,54 +120,75 @@ class ReflexController:
         self.l_opt = np.array([[x.l_opt_m for x in row] for row in g])
         self.lumbar = m.actuator("lumbar_extension").id
         self.lumbar_q = m.jnt_qposadr[m.joint("lumbar_extension").id]
+        self.body_weight_n = float(m.body_mass.sum()) * 9.81
+        ids = self.act_ids.ravel()
+        # the 14 muscles are contiguous actuators: read them through a slice (a view)
+        lo = int(ids[0])
+        self.act_slice = (slice(lo, lo + ids.size) if np.array_equal(
+            ids, np.arange(lo, lo + ids.size)) else ids)
+        # receptor constants per muscle (flat r then l): stretch and its rate in mm, mm/s
+        self.k_mm = (1000.0 * self.l_opt / self.l0).ravel()
+        self.l_ref_flat = self.l_ref.ravel()
+        self._bind_network()
+
+    def _bind_network(self) -> None:
+        """Ring buffers and index arrays of the network (no model needed)."""
         t = self.net.topology
+        net = self.net
         self.dt = 1.0 / t.rate_hz
+        n_sig = t.n_signals
+        self.inv_std = 1.0 / net.std
         ins = t.inputs()
-        self.in_sig = np.array([sig for _s, sig, _lag in ins])
         self.in_lag = np.array([lag for _s, _sig, lag in ins])
+        in_sig = np.array([sig for _s, sig, _lag in ins])
         conns = t.connections()
-        self.c_lag = np.array([lag for _s, _j, lag in conns])
-        self.c_units = self.net.units_of()
-        self.c_muscle = np.array([j for _s, j, _lag in conns])
+        H = t.hidden
+        SH = net.w.shape[1]
+        self.c_lag = np.repeat([lag for _s, _j, lag in conns], H)
+        units = net.units_of().ravel()  # (C·H,)
         self.n_buf = t.max_lag + 2
-        self.sig_buf = np.zeros((self.n_buf, 2, t.n_signals))
-        self.hid_buf = np.zeros((self.n_buf, 2, self.net.w.shape[1]))
+        # flat ring buffers (slot, side, channel) and the offsets of what each reads
+        self.sig_buf = np.zeros(self.n_buf * 2 * n_sig)
+        self.hid_buf = np.zeros(self.n_buf * 2 * SH)
+        self.sig_row, self.hid_row = 2 * n_sig, 2 * SH
+        self.in_off = np.array([s * n_sig + in_sig for s in range(2)])  # (2, n_in)
+        self.hid_off = np.array([s * SH + units for s in range(2)])  # (2, C·H)
+        self.w, self.b, self.c = net.w, net.b, net.c
+        # motor-neuron sum: weights of each path times its segment's interneurons -> muscle
+        mv = np.zeros((len(conns) * H, len(MUSCLE_NAMES)))
+        for k, (_s, j, _lag) in enumerate(conns):
+            mv[k * H:(k + 1) * H, j] = net.v[k]
+        self.mv = mv
         self.k = 0
         self.gto = GTOFilter(self.dt, 2 * len(MUSCLE_NAMES))
-        self.body_weight_n = float(m.body_mass.sum()) * 9.81
+        self.rates = np.zeros((2, n_sig))
         self.contact = t.contact
-        # motor-neuron sum as one matrix product: (C·H) -> 7 muscles
-        H = t.hidden
-        self.sum_mat = np.zeros((len(conns) * H, len(MUSCLE_NAMES)))
-        for k, j in enumerate(self.c_muscle):
-            self.sum_mat[k * H:(k + 1) * H, j] = 1.0
 
     def _tick(self, rates: np.ndarray) -> np.ndarray:
-        """Push one sample of standardised rates (2, n_signals); returns excitation (2, 7)."""
-        net, n = self.net, self.n_buf
-        self.sig_buf[self.k % n] = (rates - net.mean) / net.std
-        x = self.sig_buf[(self.k - self.in_lag) % n, :, self.in_sig]  # (n_in, 2)
-        h = np.tanh(x.T @ net.w + net.b)  # (2, S·H)
-        self.hid_buf[self.k % n] = h
-        hd = self.hid_buf[(self.k - self.c_lag) % n]  # (C, 2, S·H)
-        rows = np.arange(len(self.c_lag))[:, None]
-        sel = hd[rows, :, self.c_units]  # (C, H, 2)
-        z = (sel * net.v[:, :, None]).reshape(-1, 2).T @ self.sum_mat + net.c
-        self.k += 1
-        return 1.0 / (1.0 + np.exp(-z))
+        """Push one sample of rates (2, n_signals); returns excitation (2, 7)."""
+        n, k = self.n_buf, self.k
+        slot = k % n
+        self.sig_buf[slot * self.sig_row:(slot + 1) * self.sig_row] = (
+            (rates - self.net.mean) * self.inv_std).ravel()
+        x = self.sig_buf.take(((k - self.in_lag) % n) * self.sig_row + self.in_off)
+        h = np.tanh(x @ self.w + self.b)  # (2, S·H) interneurons
+        self.hid_buf[slot * self.hid_row:(slot + 1) * self.hid_row] = h.ravel()
+        hd = self.hid_buf.take(((k - self.c_lag) % n) * self.hid_row + self.hid_off)
+        self.k = k + 1
+        return 1.0 / (1.0 + np.exp(-(hd @ self.mv + self.c)))
 
     def _rates(self, ctx: Context) -> np.ndarray:
         d = ctx.data
-        ids = self.act_ids
-        ln = 1.0 + (d.actuator_length[ids] - self.l_ref) / self.l0
-        stretch = self.l_opt * (ln - 1.0)
-        vel = self.l_opt * d.actuator_velocity[ids] / self.l0
-        force = -d.actuator_force[ids]
-        ib = self.gto.step(gto_static(force).ravel()).reshape(2, -1)
-        out = np.empty((2, self.net.topology.n_signals))
-        out[:, 0:21:3] = spindle_ia(stretch, vel)
-        out[:, 1:21:3] = spindle_ii(stretch)
-        out[:, 2:21:3] = ib
+        sl = self.act_slice
+        d_mm = self.k_mm * (d.actuator_length[sl] - self.l_ref_flat)  # fibre stretch, mm
+        v_mm = self.k_mm * d.actuator_velocity[sl]  # fibre stretch velocity, mm/s
+        out = self.rates  # (2, n_signals): per muscle Ia, II, Ib; r then l
+        ia = np.copysign(np.abs(v_mm) ** IA_VELOCITY_EXPONENT, v_mm)
+        ia *= IA_VELOCITY_GAIN
+        ia += IA_STRETCH_GAIN * d_mm + IA_BASE
+        out[:, 0:21:3] = np.maximum(ia, 0.0).reshape(2, -1)
+        out[:, 1:21:3] = np.maximum(II_BASE + II_STRETCH_GAIN * d_mm, 0.0).reshape(2, -1)
+        out[:, 2:21:3] = self.gto.step(gto_static(-d.actuator_force[sl])).reshape(2, -1)
         if self.contact:
             f = ctx.sensors.foot_force_n
             out[:, 21] = [f["r"] / self.body_weight_n, f["l"] / self.body_weight_n]
@@ -153,7 +200,7 @@ class ReflexController:
         self._bind(ctx)
         if self.history is not None:
             hist = np.asarray(self.history)
-            ib = hist[:, :, 2:21:3].reshape(len(hist), -1)
+            ib = hist[:, :, 2:21:3].reshape(len(hist), -1)  # (N, 14): r muscles, l muscles
             self.gto.reset(ib[0])
             for k in range(len(hist)):
                 r = hist[k].copy()
@@ -169,14 +216,15 @@ class ReflexController:
 
     def update(self, ctx: Context) -> None:
         """One network tick: sense, propagate, excite."""
-        self.excitation = self._tick(self._rates(ctx))
+        exc = self._tick(self._rates(ctx))
         if self.balance is not None:
-            self.excitation = self.excitation + self.balance.excitation(ctx)
-        self._apply(ctx)
+            exc += self.balance.excitation(ctx)
+        self.excitation = exc
+        np.clip(exc.ravel(), 0.01, 1.0, out=ctx.data.ctrl[self.act_slice])
 
     def _apply(self, ctx: Context) -> None:
         d = ctx.data
-        d.ctrl[self.act_ids] = np.clip(self.excitation, 0.01, 1.0)
+        d.ctrl[self.act_slice] = np.clip(self.excitation.ravel(), 0.01, 1.0)
         d.ctrl[self.lumbar] = self.lumbar_target
 
     def state(self) -> str:
