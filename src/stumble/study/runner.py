@@ -167,9 +167,10 @@ def _worker_init(parent_pid: int, close_fds: tuple[int, ...] = ()) -> None:
 
 def _pool(workers: int, close_fds: tuple[int, ...] = ()) -> ProcessPoolExecutor:
     # fork: workers start at once and share what the parent imported (MuJoCo, the pipeline)
-    ctx = multiprocessing.get_context("fork") if sys.platform.startswith("linux") else None
+    fork = sys.platform.startswith("linux")
+    ctx = multiprocessing.get_context("fork") if fork else None
     return ProcessPoolExecutor(workers, mp_context=ctx, initializer=_worker_init,
-                               initargs=(os.getpid(), close_fds))
+                               initargs=(os.getpid(), close_fds if fork else ()))
 
 
 class _Shield:
