@@ -369,6 +369,15 @@ def test_plots_and_fall_rate(tmp_path, fake):
     assert not (tmp_path / "t" / "fall_rate.png").exists()  # no scale varies
 
 
+def test_maps_pool_only_within_a_panel():
+    from stumble.viz.study_plots import _facets, _pooled
+
+    rows = [{"controller": c, "mechanism": "force", "swing_fraction": 0.2,
+             "speed_m_per_s": 1.1} for c in ("fsm", "reflex")]
+    assert not _pooled(_facets(rows))  # two panels of one run each
+    assert _pooled(_facets(rows + rows[:1]))
+
+
 def test_dask_cluster_gives_the_same_rows(tmp_path, fake):
     distributed = pytest.importorskip("distributed")
     local = run_study(small_grid(), tmp_path / "a", workers=1, progress=False)

@@ -32,7 +32,8 @@ LOWERING_COLOR = "#2166ac"
 OUTCOME_COLORS = {"recovered": "#1a9850", "fell": "#d73027", "diverged": "#762a83",
                   "neither": "#fee08b", "error": "#bdbdbd"}
 RDYLGN = colormaps["RdYlGn"]
-SHORT = {"fell": "fell", "diverged": "div.", "neither": "none", "error": "error"}
+SHORT = {"fell": "fell", "diverged": "div.", "neither": "not yet", "error": "error"}
+LEGEND = {"neither": "neither (not recovered in time)"}
 FACETS = ("controller", "mechanism")  # one panel per combination present
 POOLED = ("leg", "strategy_mode", "obstacle_height_m", "delay_scale", "strength_scale",
           "height_m", "mass_kg", "sex", "contact", "seed", "duration_after_trip_s",
@@ -71,6 +72,11 @@ def _cells(rows: list[dict]) -> tuple[list[float], list[float], dict]:
         cells[(speeds.index(float(r["speed_m_per_s"])),
                swings.index(float(r["swing_fraction"])))].append(r)
     return swings, speeds, cells
+
+
+def _pooled(facets: dict[tuple, list[dict]]) -> bool:
+    """Whether any cell of any panel holds more than one run."""
+    return any(len(c) > 1 for rs in facets.values() for c in _cells(rs)[2].values())
 
 
 def _figure(n: int, rows_all: list[dict]) -> tuple[Figure, list]:
@@ -160,8 +166,7 @@ def plot_strategy_map(path, rows: list[dict]) -> Path:
     cb.set_ticks([0, 0.5, 1], labels=["lowering", "mixed", "elevating"])
     note = _pooled_note(rows)
     fig.suptitle("Strategy taken: E elevating, L lowering" + ("; (n): runs in the cell; "
-                 "E k/n: k of n elevating" if any(len(c) > 1 for c in _cells(rows)[2].values())
-                 else "")
+                 "E k/n: k of n elevating" if _pooled(facets) else "")
                  + (f"\n{note}" if note else ""), fontsize=10)
     fig.savefig(path, dpi=110)
     return Path(path)
@@ -174,7 +179,7 @@ def plot_outcome_map(path, rows: list[dict]) -> Path:
     "recovered/runs" written in the cell."""
     facets = _facets(rows)
     fig, axes = _figure(len(facets), rows)
-    pooled = any(len(c) > 1 for c in _cells(rows)[2].values())
+    pooled = _pooled(facets)
     mesh = None
     for ax, ((ctrl, mech), rs) in zip(axes, facets.items(), strict=True):
         swings, speeds, cells = _cells(rs)
@@ -212,7 +217,7 @@ def plot_outcome_map(path, rows: list[dict]) -> Path:
         counts = defaultdict(int)
         for r in rows:
             counts[outcome(r)] += 1
-        handles = [Patch(color=c, label=f"{k} ({counts[k]})")
+        handles = [Patch(color=c, label=f"{LEGEND.get(k, k)} ({counts[k]})")
                    for k, c in OUTCOME_COLORS.items() if counts[k]]
         fig.legend(handles=handles, loc="outside right center", fontsize=8, frameon=False)
     note = _pooled_note(rows)
