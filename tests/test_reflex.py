@@ -194,3 +194,21 @@ def test_both_strategies_emerge_from_one_network(swing, expected):
 def test_reflex_is_not_told_a_strategy():
     with pytest.raises(InputError, match="emerges"):
         Scenario(controller="reflex", strategy="elevating").validated()
+
+
+def test_block_evaluation_equals_tick_by_tick(monkeypatch):
+    """Evaluating the network once per block of ticks changes nothing but the speed."""
+    from stumble.control.reflex import controller as C
+
+    orig = C.ReflexController.__init__
+    runs = {}
+    for block in (1, None):
+        def init(self, *args, _block=block, **kwargs):
+            orig(self, *args, **{**kwargs, "block": _block})
+        monkeypatch.setattr(C.ReflexController, "__init__", init)
+        r = simulate_trip(Scenario(controller="reflex", swing_fraction=0.3,
+                                   mechanism="obstacle", duration_after_trip_s=0.5))
+        runs[block] = r.recording
+    assert len(runs[1].time_s) == len(runs[None].time_s) > 50
+    assert np.abs(runs[1].qpos - runs[None].qpos).max() < 1e-9
+    assert np.abs(runs[1].actuator_force - runs[None].actuator_force).max() < 1e-6

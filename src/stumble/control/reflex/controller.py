@@ -1,12 +1,17 @@
 """The reflex network as a trip controller: one network, never switched (seed 003 §IV.B).
 
 At every network tick (1 kHz by default) the controller reads each muscle's fibre
-stretch, stretch velocity and tension from MuJoCo, turns them into receptor rates, pushes
-them into a ring buffer, evaluates each spinal segment's interneurons on inputs as old as
-their afferent paths, pushes those into a second ring buffer, and sets each muscle's
-excitation from interneuron outputs as old as their efferent paths. MuJoCo's muscle
-actuators then do activation dynamics and eq. 1 in C. The lumbar servo holds the trunk
-at its angle at the trip (seed 003 §IV.B: upper body on PD servos).
+stretch, stretch velocity and tension from MuJoCo and turns them into receptor rates;
+each spinal segment's interneurons see those rates as old as their afferent paths, and
+each muscle's excitation comes from interneuron outputs as old as their efferent paths.
+MuJoCo's muscle actuators then do activation dynamics and eq. 1 in C. The lumbar servo
+holds the trunk at its angle at the trip (seed 003 §IV.B: upper body on PD servos).
+
+No path is shorter than its afferent plus efferent delay (17 ms at the nominal
+velocities), so the excitations of the next ``block`` ticks are already fixed by the
+state sensed so far. The controller therefore stores the sensed state at every tick
+(three slice copies) and evaluates receptors and network once per block, vectorised:
+the same numbers as tick by tick (``block=1``), at a fraction of the Python cost.
 
 Before the trip the buffers are filled from the walking data the network was identified
 from, at the same phase of the gait, so the first 50 ms after the trip see the walk
@@ -18,6 +23,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy import signal
 
 from stumble.body.muscles import MUSCLE_NAMES
 from stumble.control.reflex.network import Network
@@ -34,6 +40,7 @@ from stumble.control.reflex.receptors import (
 from stumble.sim import Context
 
 SIDES = ("r", "l")
+N_MUSCLES = len(MUSCLE_NAMES)
 
 
 class TrunkBalance:
@@ -46,7 +53,8 @@ class TrunkBalance:
     forward lean θ, the hip flexor (HFL; here RF) the negative, in proportion to the
     leg's share of the body weight. Gains as reported in reimplementations of Geyer &
     Herr 2010 (k_p 1.91 /rad, k_d 0.2 s/rad, θ_ref 0.105 rad; not re-checked against the
-    paper's table), delayed by a vestibulospinal latency (``delay_s``, our choice 20 ms).
+    paper's table). Lean, pitch rate and load share all arrive through one
+    vestibulospinal latency (``delay_s``, our choice 20 ms).
     """
 
     DELAY_S = 0.02  # vestibulospinal latency (our choice)
@@ -56,36 +64,25 @@ class TrunkBalance:
                  rate_hz: float = 1000.0):
         self.kp, self.kd, self.ref = kp_per_rad, kd_s_per_rad, lean_ref_rad
         self.lag = max(1, round(delay_s * rate_hz))
-        self.buf = np.zeros((self.lag + 1, 2))
-        self.k = 0
-        self.tid = -1
-        self.mus = np.zeros(len(MUSCLE_NAMES))
+        self.mus = np.zeros(N_MUSCLES)
         for name, sign in (("GLU", 1.0), ("HAMS", 1.0), ("RF", -1.0)):
             self.mus[MUSCLE_NAMES.index(name)] = sign
 
-    def excitation(self, ctx: Context) -> np.ndarray:
-        """(2, 7) excitation to add for the sides r, l (a buffer reused every call)."""
+    def sense(self, ctx: Context, tid: int) -> tuple[float, float, float]:
+        """(lean rad, pitch rate rad/s, right leg's share of the foot load) now."""
         d = ctx.data
-        if self.tid < 0:
-            self.tid = ctx.model.body("torso").id
-            self.out = np.zeros((2, len(MUSCLE_NAMES)))
-        xm = d.xmat[self.tid]
-        lean = math.atan2(xm[2], xm[8])  # torso z axis leaning towards +x: forward, rad
-        rate = d.cvel[self.tid, 1]  # pitch rate about +y (forward lean), rad/s
-        i = self.k % len(self.buf)
-        self.buf[i, 0], self.buf[i, 1] = lean, rate
-        lean_d, rate_d = self.buf[(self.k - self.lag) % len(self.buf)]
-        self.k += 1
-        drive = self.kp * (lean_d - self.ref) + self.kd * rate_d
+        zx, zz = d.xmat[tid, 2], d.xmat[tid, 8]  # torso z axis: world x and z parts
         f = ctx.sensors.foot_force_n
-        fr, fl = f["r"], f["l"]
-        total = fr + fl
-        if total <= 0.0:
-            self.out[:] = 0.0
-            return self.out
-        np.multiply(self.mus, drive * fr / total, out=self.out[0])
-        np.multiply(self.mus, drive * fl / total, out=self.out[1])
-        return self.out
+        total = f["r"] + f["l"]
+        share = f["r"] / total if total > 0.0 else 0.5
+        # forward lean (z axis towards +x), pitch rate about +y
+        return math.atan2(zx, zz), d.cvel[tid, 1], share
+
+    def drive(self, sensed: np.ndarray) -> np.ndarray:
+        """(n, 2, 7) excitation from (n, 3) delayed lean, rate and right load share."""
+        g = self.kp * (sensed[:, 0] - self.ref) + self.kd * sensed[:, 1]
+        share = np.stack([sensed[:, 2], 1.0 - sensed[:, 2]], axis=1)  # (n, 2)
+        return (g[:, None] * share)[:, :, None] * self.mus
 
 
 class ReflexController:
@@ -97,45 +94,42 @@ class ReflexController:
     sensor_hz = 200.0
 
     def __init__(self, network: Network, history: np.ndarray | None = None,
-                 balance: TrunkBalance | None = None):
+                 balance: TrunkBalance | None = None, block: int | None = None):
         """``history``: (N, 2, n_signals) receptor rates of the walk before the trip,
         oldest first, sides r and l (from ``identify.history_before``); ``balance``: the
-        stance hips' trunk-lean reflex (None: off)."""
+        stance hips' trunk-lean reflex (None: off); ``block``: ticks evaluated at once
+        (default: as many as the shortest reflex path allows; 1: tick by tick)."""
         self.net = network
         self.history = history
         self.balance = balance
-        self.excitation = np.zeros((2, len(MUSCLE_NAMES)))
+        self.block_request = block
+        self.excitation = np.zeros((2, N_MUSCLES))
         self.log: list[tuple[str, float]] = []
 
     # ---- set-up -----------------------------------------------------------------
     def _bind(self, ctx: Context) -> None:
         m = ctx.model
-        body = ctx.body
-        geos = {g.name: g for g in body.muscles}
+        geos = {g.name: g for g in ctx.body.muscles}
         self.act_ids = np.array([[m.actuator(f"{mus}_{s}").id for mus in MUSCLE_NAMES]
                                  for s in SIDES])
-        g = [[geos[f"{mus}_{s}"] for mus in MUSCLE_NAMES] for s in SIDES]
-        self.l_ref = np.array([[x.l_ref_m for x in row] for row in g])
-        self.l0 = np.array([[x.l0_m for x in row] for row in g])
-        self.l_opt = np.array([[x.l_opt_m for x in row] for row in g])
+        g = [geos[f"{mus}_{s}"] for s in SIDES for mus in MUSCLE_NAMES]
         self.lumbar = m.actuator("lumbar_extension").id
         self.lumbar_q = m.jnt_qposadr[m.joint("lumbar_extension").id]
+        self.torso = m.body("torso").id
         self.body_weight_n = float(m.body_mass.sum()) * 9.81
         ids = self.act_ids.ravel()
-        # the 14 muscles are contiguous actuators: read them through a slice (a view)
-        lo = int(ids[0])
+        lo = int(ids[0])  # the 14 muscles are contiguous actuators: read through a slice
         self.act_slice = (slice(lo, lo + ids.size) if np.array_equal(
             ids, np.arange(lo, lo + ids.size)) else ids)
-        # receptor constants per muscle (flat r then l): stretch and its rate in mm, mm/s
-        self.k_mm = (1000.0 * self.l_opt / self.l0).ravel()
-        self.l_ref_flat = self.l_ref.ravel()
+        # fibre stretch (mm) = k_mm·(tendon length − l_ref); its rate likewise (rigid tendon)
+        self.k_mm = np.array([1000.0 * x.l_opt_m / x.l0_m for x in g])
+        self.l_ref = np.array([x.l_ref_m for x in g])
         self._bind_network()
 
     def _bind_network(self) -> None:
         """Ring buffers and index arrays of the network (no model needed)."""
         t = self.net.topology
         net = self.net
-        self.dt = 1.0 / t.rate_hz
         n_sig = t.n_signals
         self.inv_std = 1.0 / net.std
         ins = t.inputs()
@@ -146,7 +140,13 @@ class ReflexController:
         SH = net.w.shape[1]
         self.c_lag = np.repeat([lag for _s, _j, lag in conns], H)
         units = net.units_of().ravel()  # (C·H,)
-        self.n_buf = t.max_lag + 2
+        # ticks whose output is fixed by what has been sensed: the shortest path
+        self.a_min = int(self.in_lag.min())
+        longest = self.a_min + int(self.c_lag.min())
+        if self.balance is not None:
+            longest = min(longest, self.balance.lag)
+        self.block = max(1, min(self.block_request or longest, longest))
+        self.n_buf = t.max_lag + 2 * self.block + self.a_min + 2
         # flat ring buffers (slot, side, channel) and the offsets of what each reads
         self.sig_buf = np.zeros(self.n_buf * 2 * n_sig)
         self.hid_buf = np.zeros(self.n_buf * 2 * SH)
@@ -154,45 +154,85 @@ class ReflexController:
         self.in_off = np.array([s * n_sig + in_sig for s in range(2)])  # (2, n_in)
         self.hid_off = np.array([s * SH + units for s in range(2)])  # (2, C·H)
         self.w, self.b, self.c = net.w, net.b, net.c
-        # motor-neuron sum: weights of each path times its segment's interneurons -> muscle
-        mv = np.zeros((len(conns) * H, len(MUSCLE_NAMES)))
+        mv = np.zeros((len(conns) * H, N_MUSCLES))  # path weights -> motor neurons
         for k, (_s, j, _lag) in enumerate(conns):
             mv[k * H:(k + 1) * H, j] = net.v[k]
         self.mv = mv
-        self.k = 0
-        self.gto = GTOFilter(self.dt, 2 * len(MUSCLE_NAMES))
-        self.rates = np.zeros((2, n_sig))
+        self.k = 0  # ticks sensed so far
+        self.h_done = 0  # interneuron ticks evaluated so far
+        self.gto = GTOFilter(1.0 / t.rate_hz, 2 * N_MUSCLES)
         self.contact = t.contact
+        # per-tick sensed state of the current block, and the block's excitations
+        self.sensed = np.zeros((self.block, 3, 2 * N_MUSCLES))  # length, velocity, force
+        self.loads = np.zeros((self.block, 2))
+        self.exc_block = np.zeros((self.block, 2, N_MUSCLES))
+        self.block_start = 0
+        if self.balance is not None:
+            self.bal_buf = np.zeros((self.balance.lag + self.block + 1, 3))
+
+    # ---- the network over a range of ticks --------------------------------------------
+    def _push_signals(self, first: int, rates: np.ndarray) -> None:
+        """Store rates (n, 2, n_signals) of ticks first, first+1, …"""
+        n = len(rates)
+        z = ((rates - self.net.mean) * self.inv_std).reshape(n, -1)
+        slots = (first + np.arange(n)) % self.n_buf
+        self.sig_buf.reshape(self.n_buf, -1)[slots] = z
+
+    def _interneurons(self, upto: int) -> None:
+        """Evaluate interneurons of ticks h_done … upto−1 (their inputs are sensed)."""
+        if upto <= self.h_done:
+            return
+        ticks = np.arange(self.h_done, upto)
+        idx = ((ticks[:, None, None] - self.in_lag) % self.n_buf) * self.sig_row + self.in_off
+        h = np.tanh(self.sig_buf.take(idx) @ self.w + self.b)  # (n, 2, S·H)
+        self.hid_buf.reshape(self.n_buf, -1)[ticks % self.n_buf] = h.reshape(len(ticks), -1)
+        self.h_done = upto
+
+    def _motor(self, first: int, n: int) -> np.ndarray:
+        """Excitation (n, 2, 7) of ticks first … first+n−1."""
+        ticks = np.arange(first, first + n)
+        idx = ((ticks[:, None, None] - self.c_lag) % self.n_buf) * self.hid_row + self.hid_off
+        return 1.0 / (1.0 + np.exp(-(self.hid_buf.take(idx) @ self.mv + self.c)))
 
     def _tick(self, rates: np.ndarray) -> np.ndarray:
-        """Push one sample of rates (2, n_signals); returns excitation (2, 7)."""
-        n, k = self.n_buf, self.k
-        slot = k % n
-        self.sig_buf[slot * self.sig_row:(slot + 1) * self.sig_row] = (
-            (rates - self.net.mean) * self.inv_std).ravel()
-        x = self.sig_buf.take(((k - self.in_lag) % n) * self.sig_row + self.in_off)
-        h = np.tanh(x @ self.w + self.b)  # (2, S·H) interneurons
-        self.hid_buf[slot * self.hid_row:(slot + 1) * self.hid_row] = h.ravel()
-        hd = self.hid_buf.take(((k - self.c_lag) % n) * self.hid_row + self.hid_off)
+        """One tick from given rates (2, n_signals), Ib filtered: its excitation (2, 7)."""
+        k = self.k
+        self._push_signals(k, rates[None])
+        self._interneurons(k + 1)
         self.k = k + 1
-        return 1.0 / (1.0 + np.exp(-(hd @ self.mv + self.c)))
+        return self._motor(k, 1)[0]
 
-    def _rates(self, ctx: Context) -> np.ndarray:
-        d = ctx.data
-        sl = self.act_slice
-        d_mm = self.k_mm * (d.actuator_length[sl] - self.l_ref_flat)  # fibre stretch, mm
-        v_mm = self.k_mm * d.actuator_velocity[sl]  # fibre stretch velocity, mm/s
-        out = self.rates  # (2, n_signals): per muscle Ia, II, Ib; r then l
-        ia = np.copysign(np.abs(v_mm) ** IA_VELOCITY_EXPONENT, v_mm)
-        ia *= IA_VELOCITY_GAIN
-        ia += IA_STRETCH_GAIN * d_mm + IA_BASE
-        out[:, 0:21:3] = np.maximum(ia, 0.0).reshape(2, -1)
-        out[:, 1:21:3] = np.maximum(II_BASE + II_STRETCH_GAIN * d_mm, 0.0).reshape(2, -1)
-        out[:, 2:21:3] = self.gto.step(gto_static(-d.actuator_force[sl])).reshape(2, -1)
+    def _rates(self, sensed: np.ndarray, loads: np.ndarray) -> np.ndarray:
+        """Receptor rates (n, 2, n_signals) from sensed (n, 3, 14) muscle states."""
+        n = len(sensed)
+        d_mm = self.k_mm * (sensed[:, 0] - self.l_ref)  # fibre stretch, mm
+        v_mm = self.k_mm * sensed[:, 1]  # fibre stretch velocity, mm/s
+        ia = (IA_VELOCITY_GAIN * np.copysign(np.abs(v_mm) ** IA_VELOCITY_EXPONENT, v_mm)
+              + IA_STRETCH_GAIN * d_mm + IA_BASE)
+        ib, self.gto.z = signal.lfilter(self.gto.b, self.gto.a, gto_static(-sensed[:, 2]),
+                                        axis=0, zi=self.gto.z)
+        out = np.empty((n, 2, self.net.topology.n_signals))
+        out[:, :, 0:21:3] = np.maximum(ia, 0.0).reshape(n, 2, -1)
+        out[:, :, 1:21:3] = np.maximum(II_BASE + II_STRETCH_GAIN * d_mm, 0.0).reshape(n, 2, -1)
+        out[:, :, 2:21:3] = ib.reshape(n, 2, -1)
         if self.contact:
-            f = ctx.sensors.foot_force_n
-            out[:, 21] = [f["r"] / self.body_weight_n, f["l"] / self.body_weight_n]
+            out[:, :, 21] = loads / self.body_weight_n
         return out
+
+    def _next_block(self) -> None:
+        """Sense the finished block, then fix the excitations of the next one."""
+        k, nb = self.k, self.block
+        if k > self.block_start:  # the ticks sensed since the last block
+            n = k - self.block_start
+            self._push_signals(self.block_start, self._rates(self.sensed[:n], self.loads[:n]))
+        self._interneurons(k + self.a_min)
+        self.exc_block = self._motor(k, nb)
+        if self.balance is not None:
+            ticks = np.arange(k, k + nb) - self.balance.lag
+            self.exc_block = self.exc_block + self.balance.drive(
+                self.bal_buf[ticks % len(self.bal_buf)])
+        self.ctrl_block = np.clip(self.exc_block.reshape(nb, -1), 0.01, 1.0)
+        self.block_start = k
 
     # ---- Controller protocol ---------------------------------------------------------
     def start(self, ctx: Context) -> None:
@@ -210,22 +250,33 @@ class ReflexController:
             # excitation, filtered by the 10 ms activation, is within a few % of it)
             act = ctx.model.actuator_actadr[self.act_ids]
             ctx.data.act[act] = np.clip(self.excitation, 0.01, 1.0)
+        if self.balance is not None:  # before the trip: the lean and loads of this instant
+            self.bal_buf[:] = self.balance.sense(ctx, self.torso)
+        self.block_start = self.k
         self.lumbar_target = float(ctx.data.qpos[self.lumbar_q])
+        ctx.data.ctrl[self.lumbar] = self.lumbar_target
         self.log.append(("reflex", 0.0))
-        self._apply(ctx)
 
     def update(self, ctx: Context) -> None:
-        """One network tick: sense, propagate, excite."""
-        exc = self._tick(self._rates(ctx))
-        if self.balance is not None:
-            exc += self.balance.excitation(ctx)
-        self.excitation = exc
-        np.clip(exc.ravel(), 0.01, 1.0, out=ctx.data.ctrl[self.act_slice])
-
-    def _apply(self, ctx: Context) -> None:
+        """One network tick: sense the muscles now, excite them as the block fixed."""
+        i = self.k - self.block_start
+        if i == self.block or (i == 0 and self.k == self.block_start):
+            self._next_block()
+            i = 0
         d = ctx.data
-        d.ctrl[self.act_slice] = np.clip(self.excitation.ravel(), 0.01, 1.0)
-        d.ctrl[self.lumbar] = self.lumbar_target
+        sl = self.act_slice
+        row = self.sensed[i]
+        row[0] = d.actuator_length[sl]
+        row[1] = d.actuator_velocity[sl]
+        row[2] = d.actuator_force[sl]
+        if self.contact:
+            f = ctx.sensors.foot_force_n
+            self.loads[i] = f["r"], f["l"]
+        if self.balance is not None:
+            self.bal_buf[self.k % len(self.bal_buf)] = self.balance.sense(ctx, self.torso)
+        self.excitation = self.exc_block[i]
+        d.ctrl[sl] = self.ctrl_block[i]
+        self.k += 1
 
     def state(self) -> str:
         """The network has one state."""
