@@ -11,11 +11,9 @@ the time spent inside ``mj_step`` during the trip gives the controller's own ove
 from __future__ import annotations
 
 import argparse
-import time
 
-import mujoco
+from against_raw import time_against_raw
 
-from stumble.pipeline import simulate_trip
 from stumble.trip import Scenario
 
 
@@ -28,19 +26,9 @@ def main() -> None:
     args = ap.parse_args()
     sc = Scenario(swing_fraction=args.swing, speed_m_per_s=args.speed, contact=args.contact,
                   duration_after_trip_s=2.0)
-    best_trip, best_raw, best_phys = float("inf"), float("inf"), float("inf")
-    for _ in range(args.repeats):
-        r = simulate_trip(sc)
-        rec = r.recording
-        best_trip = min(best_trip, rec.wall_time_s)
-        best_phys = min(best_phys, rec.physics_time_s)
-        m = r.body.model
-        d = mujoco.MjData(m)
-        d.qpos[:], d.qvel[:] = rec.qpos[0], rec.qvel[0]
-        t0 = time.perf_counter()
-        for _ in range(rec.steps):
-            mujoco.mj_step(m, d)
-        best_raw = min(best_raw, time.perf_counter() - t0)
+    t = time_against_raw(sc, args.repeats)
+    r, rec = t.result, t.result.recording
+    best_trip, best_phys, best_raw = t.trip_s, t.physics_s, t.raw_s
     sim_s = r.summary["sim_time_s"]
     print(f"contact {args.contact}: {rec.steps} steps, {sim_s:.2f} s simulated "
           f"({r.summary['stop_reason']})")
