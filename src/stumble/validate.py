@@ -106,9 +106,10 @@ def validation_scenarios(controllers=CONTROLLERS) -> list[tuple[str, Scenario]]:
                 swing_fraction=s, speed_m_per_s=WINDOW_SPEED_M_PER_S, mechanism="obstacle",
                 controller=ctrl)))
         for i, c in enumerate(DURATIONS):
+            # each seed's mechanism: SCA 2009's tripping force, seed 003's obstacle
             out.append((f"{ctrl}/duration/{i}", Scenario(
                 swing_fraction=c.swing_fraction, speed_m_per_s=c.speed_m_per_s,
-                mechanism="force", controller=ctrl)))
+                mechanism="force" if ctrl == "fsm" else "obstacle", controller=ctrl)))
     return out
 
 
@@ -194,7 +195,9 @@ def duration_rows(ctrl: str, by_case: dict[str, dict],
         variant = (r.get("variant") or "no landing").replace("_", " ")
         if r.get("strategy") != c.strategy:
             out.append(_row(figure, c.source, ctrl, pub, pub_text, value,
-                            f"took {r.get('strategy')} instead ({_outcome_word(r)})", "no",
+                            (f"took {r['strategy']} instead" if r.get("strategy") else
+                             "no strategy: the foot had not come down")
+                            + f" ({_outcome_word(r)})", "no",
                             [r["key"]]))
             continue
         if value is None:
