@@ -82,7 +82,9 @@ def test_same_inputs_give_the_same_numbers():
 
 @pytest.mark.parametrize(("f", "v", "mechanism", "strategy"), [
     (0.2, 1.2, "force", "elevating"), (0.15, 1.0, "obstacle", "elevating"),
-    (0.75, 1.2, "force", "lowering"),
+    (0.75, 1.2, "force", "lowering"), (0.65, 1.2, "force", "lowering"),
+    # the tripped leg, behind the box, crosses it in Double Support (double_support_lowering)
+    (0.75, 1.4, "obstacle", "lowering"),
 ])
 def test_trips_that_recover(f, v, mechanism, strategy):
     r = simulate_trip(Scenario(swing_fraction=f, speed_m_per_s=v, mechanism=mechanism))
@@ -104,3 +106,12 @@ def test_seed_perturbs_the_start_reproducibly_and_params_are_not_mutated():
     d = simulate_trip(Scenario(seed=7, **short))
     assert (b.recording.qpos == d.recording.qpos).all()
     assert a.summary["seed"] == 7
+
+
+def test_lowering_double_support_has_its_own_targets():
+    from stumble.control.fsm import TripFSM
+
+    low, elev = (TripFSM(s, "l", 1.2) for s in ("lowering", "elevating"))
+    assert low._table("double_support") == "double_support_lowering"
+    assert elev._table("double_support") == "double_support"
+    assert low._table("fall") == "fall"  # no lowering table of its own

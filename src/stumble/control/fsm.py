@@ -223,17 +223,17 @@ class TripFSM:
                 self._switch("flight", t, d)
             elif (s.com_vel[2] < self.p.fall_vz_m_per_s and t - self.t_state > 0.05
                   and self.left_floor[rec] and self._rec_cleared(ctx)):
-                self._switch("fall", t, d)
+                self._switch("fall", t, d, targets=self._table("fall"))
             elif (s.foot_on_floor[rec] and self.left_floor[rec] and t - self.t_state > 0.1
                   and self._ahead(ctx, rec, sup, 0.0)):
-                self._switch("double_support", t, d)
+                self._switch("double_support", t, d, targets=self._table("double_support"))
         elif st == "flight" and s.foot_on_floor[rec] and self._ahead(ctx, rec, sup, 0.0):
             self._switch("single_support_after_trip", t, d)
             self.left_floor[sup] = True
             self._set_kp(f"hip_flexion_{rec}", self.p.kp_ssat_support_hip)
         elif (st == "fall" and s.foot_on_floor[rec] and self.left_floor[rec]
               and self._ahead(ctx, rec, sup, 0.0)):
-            self._switch("double_support", t, d)
+            self._switch("double_support", t, d, targets=self._table("double_support"))
         elif st == "double_support" and not s.foot_on_floor[sup]:
             self._switch("single_support_after_trip", t, d)
             self._set_kp(f"hip_flexion_{rec}", self.p.kp_ssat_support_hip)
@@ -254,6 +254,12 @@ class TripFSM:
                 for name in self.p.arms_deg["walking"]:
                     self._command("arms.walking", name, d)
                 self._arms_walking = True
+
+    def _table(self, state: str) -> str:
+        """The targets of a state: ``<state>_lowering`` when the lowering strategy has its
+        own (the legs' roles differ: its rear leg is the tripped one, behind the obstacle)."""
+        own = f"{state}_lowering"
+        return own if self.strategy == "lowering" and own in self.p.targets_deg else state
 
     def _ahead(self, ctx: Context, a: str, b: str, margin: float) -> bool:
         """Foot ``a`` is more than ``margin`` m ahead of foot ``b``."""

@@ -134,6 +134,18 @@ def _targets() -> dict[str, dict[str, float | str]]:
             "rec.knee_angle": -8.0, "rec.ankle_angle": "hold",
             "sup.hip_flexion": 35.0, "sup.knee_angle": -70.0, "sup.ankle_angle": 5.0,
         },
+        "double_support_lowering": {
+            # Double Support of the lowering strategy (ours): the rear leg is the tripped
+            # one, lowered just behind the obstacle, so its swing forward must cross it as a
+            # trailing limb. With Double Support's 70° of knee flexion its toe caught the
+            # box again (obstacle trips at 0.75 of swing, 1.2-1.4 m/s, fell ~2 s later).
+            # The knee flexes as in the elevating clearance (90-110° reached, Eng et al.
+            # 1994; Schillings et al. 2000; the grid gives the same result for -100 to
+            # -125), the ankle dorsiflexes the toe up (tibialis anterior, as there).
+            "rec.hip_flexion": "attitude", "rec.hip_adduction": "attitude",
+            "rec.knee_angle": -8.0, "rec.ankle_angle": "hold",
+            "sup.hip_flexion": 35.0, "sup.knee_angle": -110.0, "sup.ankle_angle": 15.0,
+        },
         "single_support_after_trip": {
             # SCA 2009 §4.3: stance hip keeps the torso attitude, stance knee extended,
             # the swing leg moves forward flexed
