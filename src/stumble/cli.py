@@ -133,6 +133,8 @@ def _parser() -> argparse.ArgumentParser:
                    "the seed's schedule only)")
     f.add_argument("--contact-afferents", action="store_true",
                    help="add foot-contact afferents (the seed's proposed extension)")
+    f.add_argument("--no-video", action="store_true",
+                   help="skip walking_step.png (the rendered walking step)")
     return p
 
 
@@ -355,7 +357,7 @@ def cmd_reflex(args) -> int:
     result = fit(seed=args.seed, iterations=it, refine_iterations=refine,
                  contact=args.contact_afferents, progress=bar)
     bar.done()
-    written = write_fit(out, result)
+    written = write_fit(out, result, video=not args.no_video)
     r = result.report
     print(f"identified: average activity error {100 * r['avg_error']:.2f} %, maximum "
           f"{100 * r['max_error']:.1f} % (seed 003: 2.0 %, 36 %) after {r['iterations']} "
