@@ -7,6 +7,7 @@ motion capture, within ranges grounded in the literature (the defaults' comments
 the number recovered (tie-break: the time survived). Seeded and deterministic.
 
 Run:  python scripts/tune_fsm.py [--candidates N] [--workers N] [--seed S]
+      [--grid small|full|lowering] [--only all|lowering] [--around JSON]
 Prints the best parameter set as Python, to be carried into fsm_params.py by hand.
 """
 
@@ -42,12 +43,24 @@ SPACE = {
     "clear_margin_m": (("clear_margin_m",), 0.06, 0.2),
     "swap_trip_hip": (("targets_deg", "leg_swap", "trip.hip_flexion"), -10.0, 20.0),
     "swap_trip_ankle": (("targets_deg", "leg_swap", "trip.ankle_angle"), -10.0, 20.0),
+    "swap_trip_knee": (("targets_deg", "leg_swap", "trip.knee_angle"), -20.0, 0.0),
+    "low_rec_ankle": (("targets_deg", "clearance_lowering", "rec.ankle_angle"), 0.0, 25.0),
+    "ds_low_sup_knee": (("targets_deg", "double_support_lowering", "sup.knee_angle"), -125.0,
+                        -90.0),
+    "ds_low_sup_hip": (("targets_deg", "double_support_lowering", "sup.hip_flexion"), 15.0,
+                       50.0),
 }
+# the targets that only the lowering strategy uses (--only lowering)
+LOWERING = ("low_sup_ankle", "low_rec_hip", "low_rec_knee", "low_rec_ankle", "swap_trip_hip",
+            "swap_trip_ankle", "swap_trip_knee", "ds_low_sup_knee", "ds_low_sup_hip")
 GRID = [(f, v, mech) for mech in ("force", "obstacle") for f in (0.1, 0.3, 0.45, 0.55, 0.65, 0.75)
         for v in (1.0, 1.4)]
 # the issue's grid: swing 0.05-0.75, 1.0-1.4 m/s, both mechanisms (--grid full)
 FULL_GRID = [(f, v, mech) for mech in ("force", "obstacle")
              for f in (0.05, 0.15, 0.25, 0.35, 0.45, 0.55, 0.65, 0.75) for v in (1.0, 1.2, 1.4)]
+# the lowering half of the issue's grid (auto chooses lowering above 0.5 of swing)
+LOWERING_GRID = [(f, v, mech) for mech in ("force", "obstacle") for f in (0.55, 0.65, 0.75)
+                 for v in (1.0, 1.2, 1.4)]
 
 
 def params_from(x: dict):
@@ -83,14 +96,16 @@ def main() -> None:
     ap.add_argument("--candidates", type=int, default=48)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--grid", choices=("small", "full"), default="small")
+    ap.add_argument("--grid", choices=("small", "full", "lowering"), default="small")
+    ap.add_argument("--only", choices=("all", "lowering"), default="all",
+                    help="search only the lowering strategy's targets (others stay default)")
     ap.add_argument("--around", metavar="JSON",
                     help="search locally: Gaussian steps (15 %% of each range) around these "
                     "values, a JSON object of SPACE names (default: uniform over the ranges)")
     args = ap.parse_args()
     global GRID
-    if args.grid == "full":
-        GRID = FULL_GRID
+    GRID = {"small": GRID, "full": FULL_GRID, "lowering": LOWERING_GRID}[args.grid]
+    space = {k: v for k, v in SPACE.items() if args.only == "all" or k in LOWERING}
     rng = np.random.default_rng(args.seed)
     from stumble.control.fsm_params import FSMParams
 
@@ -101,20 +116,28 @@ def main() -> None:
                       else getattr(default, path[0]))
     if args.around:
         base.update(json.loads(args.around))
-        cands = [base] + [{k: float(np.clip(base[k] + rng.normal(0, 0.15 * (hi - lo)), lo, hi))
-                           for k, (_p, lo, hi) in SPACE.items()}
+        cands = [base] + [{**base, **{k: float(np.clip(base[k] + rng.normal(0, 0.15 * (hi - lo)),
+                                                       lo, hi))
+                                      for k, (_p, lo, hi) in space.items()}}
                           for _ in range(args.candidates)]
     else:
-        cands = [base] + [{k: float(rng.uniform(lo, hi)) for k, (_p, lo, hi) in SPACE.items()}
+        cands = [base] + [{**base, **{k: float(rng.uniform(lo, hi))
+                                      for k, (_p, lo, hi) in space.items()}}
                           for _ in range(args.candidates)]
     t0 = time.time()
     best = None
-    with ProcessPoolExecutor(args.workers) as ex:
-        for i, (x, score) in enumerate(zip(cands, ex.map(evaluate, cands), strict=True)):
+    # one worker: evaluate in this process (no pool), for a machine shared with others
+    ex = ProcessPoolExecutor(args.workers) if args.workers > 1 else None
+    scores = ex.map(evaluate, cands) if ex else map(evaluate, cands)
+    try:
+        for i, (x, score) in enumerate(zip(cands, scores, strict=True)):
             if best is None or score > best[1]:
                 best = (x, score)
             print(f"{i:3d} recovered {score[0]:2d}/{len(GRID)} survived {score[1]:6.2f} s "
                   f"best {best[1][0]} ({time.time() - t0:.0f} s)", flush=True)
+    finally:
+        if ex:
+            ex.shutdown()
     print(json.dumps({"recovered": best[1][0], "of": len(GRID), "params": best[0]}, indent=1))
 
 
