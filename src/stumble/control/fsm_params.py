@@ -138,7 +138,8 @@ def _targets() -> dict[str, dict[str, float | str]]:
             # Double Support of the lowering strategy (ours): the rear leg is the tripped
             # one, lowered just behind the obstacle, so its swing forward must cross it as a
             # trailing limb. With Double Support's 70° of knee flexion its toe caught the
-            # box again (obstacle trips at 0.75 of swing, 1.2-1.4 m/s, fell ~2 s later).
+            # box again for 25-35 ms (obstacle trips at 0.75 of swing, 1.2-1.4 m/s, fell ~2 s
+            # later; with these targets it grazes it for 15-25 ms and they recover).
             # The knee flexes as in the elevating clearance (90-110° reached, Eng et al.
             # 1994; Schillings et al. 2000; the grid gives the same result for -100 to
             # -125), the ankle dorsiflexes the toe up (tibialis anterior, as there).
