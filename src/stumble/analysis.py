@@ -30,6 +30,8 @@ UPRIGHT_DEG = 35.0  # trunk tilt from vertical still called upright (ours)
 BOS_MARGIN_M = 0.05  # base of support grown by this (ours)
 SIDES = ("r", "l")
 TOUCHDOWN_SAMPLES = 3  # a touch-down lasts this many recorded samples (15 ms), not a scuff
+MIN_AIRBORNE_S = 0.1  # the recovery foot was in the air this long before it lands: a
+# touch right after the trip is the trip's own scuff (ours)
 
 
 def trunk_tilt_deg(model: mujoco.MjModel, xmat: np.ndarray) -> float:
@@ -75,6 +77,8 @@ class StopRule:
     tripped_down_s: float | None = None  # s, when it touched down
     _other_left: bool = False
     _down: int = 0
+    _down_s: float = 0.0
+    _airborne_since: float | None = 0.0  # the swing foot is in the air at the trip
 
     def __call__(self, ctx: Context, rec: Recording, k: int) -> str:
         s = ctx.sensors
@@ -98,11 +102,24 @@ class StopRule:
         rec = self.tripped if self.strategy == "elevating" else OTHER[self.tripped]
         if not s.foot_on_floor[rec]:
             self._other_left = True
+            self._airborne_since = (s.t if self._airborne_since is None
+                                    else self._airborne_since)
+            self._down = 0
+            return None
         ahead = (d.xpos[m.body(f"foot_{rec}").id, 0]
                  > d.xpos[m.body(f"foot_{OTHER[rec]}").id, 0])
-        if s.foot_on_floor[rec] and ahead and s.t > 0.02 and (
+        flew = (self._airborne_since is not None
+                and s.t - self._airborne_since >= MIN_AIRBORNE_S)
+        if ahead and s.t > 0.02 and flew and (
                 self.strategy == "elevating" or self._other_left):
-            return s.t
+            self._down += 1
+            if self._down == 1:
+                self._down_s = s.t
+            if self._down >= TOUCHDOWN_SAMPLES:  # a step, not a scuff: the contact's start
+                return self._down_s
+        else:
+            self._down = 0
+            self._airborne_since = None
         return None
 
 
