@@ -47,13 +47,21 @@ def frames_at_states(result: TripResult, most: int = 7) -> tuple[list[np.ndarray
     """qpos at the first entry of each state (as SCA 2009 Figures 7-9), then the end."""
     rec = result.recording
     qs, labels, seen = [], [], set()
-    for name, t in result.states:
+    states = list(result.states)
+    if result.scenario.controller == "reflex" and len(rec.time_s):
+        # one network state: show its events and the motion every 0.15 s between them
+        marks = {round(t, 2) for _n, t in states}
+        states += [(f"@{t:.2f}", t) for t in np.arange(0.15, rec.time_s[-1] - 0.05, 0.15)
+                   if all(abs(t - m) > 0.05 for m in marks)]
+        states.sort(key=lambda nt: nt[1])
+    for name, t in states:
         if name in seen or len(qs) >= most:
             continue
         seen.add(name)
         k = min(int(np.searchsorted(rec.time_s, t + 0.03)), len(rec.time_s) - 1)
         qs.append(rec.qpos[k])
-        labels.append(f"{name.replace('_', ' ')} ({t:.2f} s)")
+        labels.append(f"{t:.2f} s" if name.startswith("@")
+                      else f"{name.replace('_', ' ')} ({t:.2f} s)")
     end = result.summary.get("stop_reason", "")
     qs.append(rec.qpos[-1])
     labels.append(f"end: {end} ({rec.time_s[-1]:.2f} s)")
