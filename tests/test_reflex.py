@@ -58,6 +58,17 @@ def test_nerve_delays_follow_table_one():
     assert len(t.inputs()) == 3 * 19
 
 
+def test_contact_afferent_nerves_are_soleus_plus_seven_cm():
+    """The foot-contact afferents' nerve to S1/S2 is documented as SOL's + 7 cm (S2 read
+    1.33 m); at 1 kHz both give the same 23-sample delay."""
+    from stumble.control.reflex.network import CONTACT_NERVE_M
+
+    for seg, length in CONTACT_NERVE_M.items():
+        assert length == pytest.approx(NERVE_LENGTH_M["SOL"][seg] + 0.07)
+    lags = {lag for _s, sig, lag in Topology(contact=True).inputs() if sig == 21}
+    assert lags == {round(1.35 / 57.6 * 1000), round(1.32 / 57.6 * 1000)} == {23}
+
+
 def test_a_signal_reaches_a_muscle_exactly_after_its_path_delay():
     """A spike in SOL's tendon organ reaches SOL through S2 after 22 + 24 ms, TA through
     S1 after 22 + 20 ms, GLU through S2 after 22 + 9 ms, never earlier; RF and VAS

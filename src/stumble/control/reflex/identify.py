@@ -15,10 +15,13 @@ MuJoCo's activation dynamics (τ = 10 ms) reproduces the identified activity a; 
 errors are reported on the activity, as the seed's Figure 2 shows it.
 
 Seed 003 §V.A leaves open what "forgetting rate" means; we read it as Ishikawa's
-learning with forgetting (1996, Neural Networks 9:509), a constant decay ε·sign(w) of
-every weight per iteration, and "learning rate 0.01" as the step on the per-sample
-squared error summed over one pass of the data (the batch form of on-line
-back-propagation). Both are parameters of ``train``.
+learning with forgetting (1996, Neural Networks 9:509): a constant decay η·ε·sign(w)
+per iteration (η the learning rate, ε the forgetting rate) of the input-to-interneuron
+weights ``w`` (not of the motor-path weights ``v`` nor of the biases). Each iteration is
+one batch step of η/100 on the per-sample squared error summed over one pass of the
+data: 1/100 of one pass of on-line back-propagation at rate η, i.e. as far as
+n_samples/100 (about 25) on-line updates; the 1/100 is our choice. η and ε are
+parameters of ``train``.
 """
 
 from __future__ import annotations
@@ -218,10 +221,10 @@ def train(ident: Identification, topology: Topology | None = None, seed: int = 0
     theta = net.pack()
     n_w = int(Network._mask(topology).sum())
     t0 = time.perf_counter()
-    # The seed's schedule: on-line back-propagation's batch form. The step on the
-    # summed error of one pass is the learning rate times the number of samples per
-    # pass / n_samples: we take mean-per-sample gradient times rate × samples / 100 so
-    # that one iteration moves as far as 100 on-line updates (our reading; see module).
+    # The seed's schedule in batch form: one on-line pass at rate η moves about
+    # η × (gradient summed over the pass); one iteration here moves η/100 × that sum
+    # (= η × n_samples/100 × the mean gradient), as far as n_samples/100 ≈ 25 on-line
+    # updates (our choice; see module).
     step = learning_rate * n_samples / 100.0
     for it in range(iterations):
         net.unpack(theta)

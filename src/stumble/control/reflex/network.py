@@ -50,7 +50,7 @@ NERVE_LENGTH_M: dict[str, dict[str, float]] = {
 }
 AFFERENT_M_PER_S = 57.6  # human sciatic nerve, muscle afferents (1994, Muscle & Nerve)
 EFFERENT_M_PER_S = 52.4  # human sciatic nerve, motor fibres (same source)
-CONTACT_NERVE_M = {"S1": 1.35, "S2": 1.33}  # sole to S1/S2 (our estimate: SOL's + 7 cm)
+CONTACT_NERVE_M = {"S1": 1.35, "S2": 1.32}  # sole to S1/S2 (our estimate: SOL's + 7 cm)
 HIDDEN_PER_SEGMENT = 6
 RATE_HZ = 1000.0
 
