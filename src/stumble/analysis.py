@@ -78,6 +78,7 @@ class StopRule:
     _other_left: bool = False
     _down: int = 0
     _down_s: float = 0.0
+    _down_x: float = 0.0
     _airborne_since: float | None = 0.0  # the swing foot is in the air at the trip
 
     def __call__(self, ctx: Context, rec: Recording, k: int) -> str:
@@ -96,10 +97,16 @@ class StopRule:
 
     def _landing(self, ctx: Context) -> float | None:
         """The recovery foot touches the floor in front of the other foot."""
-        s, m, d = ctx.sensors, ctx.model, ctx.data
         if self.strategy is None:
             return self._emergent_landing(ctx)
         rec = self.tripped if self.strategy == "elevating" else OTHER[self.tripped]
+        return self._recovery_step(ctx, rec, need_left=self.strategy != "elevating")
+
+    def _recovery_step(self, ctx: Context, rec: str, need_left: bool) -> float | None:
+        """When ``rec`` lands ahead of the other foot: a touch-down of at least 15 ms
+        after at least 0.1 s in the air (and, ``need_left``, after leaving the floor
+        since the trip); the time returned is the contact's start."""
+        s, m, d = ctx.sensors, ctx.model, ctx.data
         if not s.foot_on_floor[rec]:
             self._other_left = True
             self._airborne_since = (s.t if self._airborne_since is None
@@ -110,8 +117,7 @@ class StopRule:
                  > d.xpos[m.body(f"foot_{OTHER[rec]}").id, 0])
         flew = (self._airborne_since is not None
                 and s.t - self._airborne_since >= MIN_AIRBORNE_S)
-        if ahead and s.t > 0.02 and flew and (
-                self.strategy == "elevating" or self._other_left):
+        if ahead and s.t > 0.02 and flew and (not need_left or self._other_left):
             self._down += 1
             if self._down == 1:
                 self._down_s = s.t
@@ -122,27 +128,27 @@ class StopRule:
             self._airborne_since = None
         return None
 
-
     def _emergent_landing(self, ctx: Context) -> float | None:
         s, m, d = ctx.sensors, ctx.model, ctx.data
         trip, other = self.tripped, OTHER[self.tripped]
-        if self.classified is None:
-            self._down = self._down + 1 if s.foot_on_floor[trip] and s.t > 0.02 else 0
-            if self._down >= TOUCHDOWN_SAMPLES:
-                heel = float(d.site_xpos[[m.site(n).id for n in
-                                          ctx.body.foot_points[trip]], 0].min())
-                self.tripped_down_x = heel
-                self.tripped_down_s = s.t
-                if heel > self.far_x:
-                    self.classified = "elevating"
-                    return s.t
-                self.classified = "lowering"
+        if self.classified is not None:  # lowering: the other leg's recovery step
+            return self._recovery_step(ctx, other, need_left=True)
+        if not (s.foot_on_floor[trip] and s.t > 0.02):
+            self._down = 0
             return None
-        if not s.foot_on_floor[other]:
-            self._other_left = True
-        ahead = (d.xpos[m.body(f"foot_{other}").id, 0] > d.xpos[m.body(f"foot_{trip}").id, 0])
-        if self._other_left and s.foot_on_floor[other] and ahead:
-            return s.t
+        if self._down == 0:  # where and when the contact starts
+            self._down_s = s.t
+            self._down_x = float(d.site_xpos[[m.site(n).id for n in
+                                              ctx.body.foot_points[trip]], 0].min())
+        self._down += 1
+        if self._down < TOUCHDOWN_SAMPLES:
+            return None
+        self.tripped_down_x, self.tripped_down_s = self._down_x, self._down_s
+        if self._down_x > self.far_x:
+            self.classified = "elevating"
+            return self._down_s
+        self.classified = "lowering"
+        self._down, self._airborne_since, self._other_left = 0, None, False
         return None
 
 

@@ -138,7 +138,7 @@ def write_muscle_tensions(out: Path, result: TripResult) -> None:
     ids = [[m.actuator(f"{mus}_{side}").id for mus in MUSCLE_NAMES] for side in legs]
     sel = rec.time_s <= TENSION_WINDOW_S[1]
     f_trip = np.stack([-rec.actuator_force[sel][:, row] for row in ids], axis=1)
-    net = default_network()
+    net = result.network or default_network()
     t_walk = np.arange(TENSION_WINDOW_S[0], TENSION_WINDOW_S[1], 0.002)
     f_walk = np.full((len(t_walk), 2, len(MUSCLE_NAMES)), np.nan)
     if net.walk_rates is not None:

@@ -47,6 +47,7 @@ class TripResult:
     playback: Playback
     scenario: Scenario
     states: list[tuple[str, float]] = field(default_factory=list)
+    network: object = None  # the reflex network that ran (reflex controller only)
 
 
 def _toe_front(body: Body, qpos: np.ndarray, side: str) -> tuple[float, float, float]:
@@ -112,13 +113,24 @@ def _controller(sc: Scenario, strategy: str | None, params: FSMParams | None,
         history = None
         if net.walk_rates is not None:
             history = history_before(net.walk_rates, _phase(pb, t_trip),
-                                     2 * net.topology.max_lag + 2)
+                                     2 * net.topology.max_lag + 2, net.topology.rate_hz)
         balance = None
         if trunk_balance:  # its vestibulospinal latency scales with the nerve delays
-            balance = TrunkBalance(delay_s=TrunkBalance.DELAY_S * sc.delay_scale)
+            balance = TrunkBalance(delay_s=TrunkBalance.DELAY_S * sc.delay_scale,
+                                   rate_hz=net.topology.rate_hz)
         return ReflexController(net, history, balance)
     p = replace(params or FSMParams(), delay_scale=sc.delay_scale)
     return TripFSM(strategy, sc.side, sc.speed_m_per_s, p)
+
+
+def _network_every(net, m: mujoco.MjModel) -> int:
+    """Physics steps per network tick; InputError unless the time step divides a tick
+    (the nerve delays are counted in ticks)."""
+    every = max(1, round(1.0 / (net.topology.rate_hz * m.opt.timestep)))
+    if abs(every * m.opt.timestep * net.topology.rate_hz - 1.0) > 1e-6:
+        raise InputError(f"the reflex network ticks every {1e3 / net.topology.rate_hz:g} ms: "
+                         f"the time step ({1e3 * m.opt.timestep:g} ms) must divide it")
+    return every
 
 
 def _phase(pb: Playback, t: float) -> float:
@@ -175,7 +187,8 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     perturb_initial_state(body, d, sc.seed)
     if sc.contact in ("points", "penalty"):  # SCA 2009 §4.2: support foot on the ground,
         # at the penalty law's static depth under the body's weight on one foot
-        d.qpos[2] -= m.body_mass.sum() * 9.81 / (96 * STIFFNESS_N_PER_M)
+        height = m.jnt_qposadr[m.joint("pelvis_ty").id] if reflex else 2  # planar: z slide
+        d.qpos[height] -= m.body_mass.sum() * 9.81 / (96 * STIFFNESS_N_PER_M)
     _scale_strength(m, sc.strength_scale)
     ctx = Context(m, d, body, Sensors(), t0=0.0)
     controller = _controller(sc, strategy, p, network, pb, t_trip, trunk_balance)
@@ -189,13 +202,13 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
         force_kwargs = {"trip_force": sc.force, "force_body": toe_body,
                         "force_point": lambda dd: dd.site_xpos[tip_sites].mean(axis=0)}
     penalty = PenaltyContact.for_body(body) if sc.contact == "penalty" else None
-    control_every = None
-    if reflex:  # the network ticks at its own rate (1 kHz)
-        control_every = max(1, round(1.0 / (controller.net.topology.rate_hz * m.opt.timestep)))
+    control_every = _network_every(controller.net, m) if reflex else None
     rec = run(ctx, controller, sc.duration_after_trip_s, stop=stop, penalty=penalty,
               control_every=control_every, **force_kwargs)
     strategy = strategy or stop.classified
     summary = _summary(sc, strategy, controller, rec, stop, body, pb, t_trip, reference)
+    if reflex:
+        summary["trunk_balance"] = trunk_balance
     states = list(controller.log)
     if reflex:  # one network, no states: the filmstrip shows the events instead
         states = [("trip", 0.0)]
@@ -206,7 +219,8 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
         summary["obstacle_far_x_m"] = round(far_x - float(qpos[0]), 4)
         summary["tripped_foot_down_x_m"] = (None if stop.tripped_down_x is None else
                                             round(stop.tripped_down_x - float(qpos[0]), 4))
-    return TripResult(summary, rec, body, pb, sc, states)
+    return TripResult(summary, rec, body, pb, sc, states,
+                      controller.net if reflex else None)
 
 
 def _scale_strength(m: mujoco.MjModel, scale: float) -> None:
@@ -321,12 +335,14 @@ def simulate_walking_step(network=None, trunk_balance: bool = True,
     d = mujoco.MjData(m)
     d.qpos[:], d.qvel[:] = pb.state_at(t0)
     d.qpos[1] -= m.body_mass.sum() * 9.81 / (96 * STIFFNESS_N_PER_M)  # as simulate_trip
-    history = history_before(net.walk_rates, _phase(pb, t0), 2 * net.topology.max_lag + 2)
-    ctrl = ReflexController(net, history, TrunkBalance() if trunk_balance else None)
+    history = history_before(net.walk_rates, _phase(pb, t0), 2 * net.topology.max_lag + 2,
+                             net.topology.rate_hz)
+    balance = TrunkBalance(rate_hz=net.topology.rate_hz) if trunk_balance else None
+    ctrl = ReflexController(net, history, balance)
     stop = StopRule("elevating", "l", FALL_PELVIS_FRACTION * _standing_pelvis(body))
     duration = 0.5 * pb.stride_s
     rec = run(Context(m, d, body, Sensors(), t0=0.0), ctrl, duration, stop=stop,
-              control_every=max(1, round(1.0 / (net.topology.rate_hz * m.opt.timestep))))
+              control_every=_network_every(net, m))
     ref = np.array([pb.state_at(t0 + t)[0] for t in rec.time_s])
     names = ["pelvis_tilt", *body.joints]
     adr = [m.jnt_qposadr[m.joint(n).id] for n in names]

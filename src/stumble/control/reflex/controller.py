@@ -93,12 +93,14 @@ class ReflexController:
     # network itself reads the muscles at every tick
     sensor_hz = 200.0
 
-    def __init__(self, network: Network, history: np.ndarray | None = None,
+    def __init__(self, network: Network,
+                 history: tuple[np.ndarray, np.ndarray] | None = None,
                  balance: TrunkBalance | None = None, block: int | None = None):
-        """``history``: (N, 2, n_signals) receptor rates of the walk before the trip,
-        oldest first, sides r and l (from ``identify.history_before``); ``balance``: the
-        stance hips' trunk-lean reflex (None: off); ``block``: ticks evaluated at once
-        (default: as many as the shortest reflex path allows; 1: tick by tick)."""
+        """``history``: the receptor rates (N, 2, n_signals) of the walk before the trip,
+        oldest first, sides r and l, and the tendon-organ filter state before them (from
+        ``identify.history_before``); ``balance``: the stance hips' trunk-lean reflex
+        (None: off); ``block``: ticks evaluated at once (default: as many as the
+        shortest reflex path allows; 1: tick by tick)."""
         self.net = network
         self.history = history
         self.balance = balance
@@ -239,9 +241,9 @@ class ReflexController:
         """Bind to the model, fill the buffers with the walk before the trip."""
         self._bind(ctx)
         if self.history is not None:
-            hist = np.asarray(self.history)
+            hist, gto_state = self.history
             ib = hist[:, :, 2:21:3].reshape(len(hist), -1)  # (N, 14): r muscles, l muscles
-            self.gto.reset(ib[0])
+            self.gto.z[:] = gto_state  # the walk's steady state (the filter is slow, 5 s)
             for k in range(len(hist)):
                 r = hist[k].copy()
                 r[:, 2:21:3] = self.gto.step(ib[k]).reshape(2, -1)

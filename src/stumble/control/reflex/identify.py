@@ -18,9 +18,9 @@ Seed 003 §V.A leaves open what "forgetting rate" means; we read it as Ishikawa'
 learning with forgetting (1996, Neural Networks 9:509): a constant decay η·ε·sign(w)
 per iteration (η the learning rate, ε the forgetting rate) of the input-to-interneuron
 weights ``w`` (not of the motor-path weights ``v`` nor of the biases). Each iteration is
-one batch step of η/100 on the per-sample squared error summed over one pass of the
-data: 1/100 of one pass of on-line back-propagation at rate η, i.e. as far as
-n_samples/100 (about 25) on-line updates; the 1/100 is our choice. η and ε are
+one batch step of η on the per-sample squared error summed over the data: the batch form
+of one pass of on-line back-propagation at rate η, so 1000 iterations are 1000 passes.
+With it the seed's schedule alone reaches the seed's average error (2.0 %). η and ε are
 parameters of ``train``.
 """
 
@@ -128,8 +128,8 @@ def _periodic_activation(u: np.ndarray, dt: float) -> np.ndarray:
     for _ in range(2):  # two passes reach the periodic steady state
         out = np.empty_like(u)
         for k in range(len(u)):
+            out[k] = a  # as MuJoCo: the force of step k uses the activation before it
             a = a + alpha * (u[k] - a)
-            out[k] = a
     return out
 
 
@@ -222,10 +222,8 @@ def train(ident: Identification, topology: Topology | None = None, seed: int = 0
     n_w = int(Network._mask(topology).sum())
     t0 = time.perf_counter()
     # The seed's schedule in batch form: one on-line pass at rate η moves about
-    # η × (gradient summed over the pass); one iteration here moves η/100 × that sum
-    # (= η × n_samples/100 × the mean gradient), as far as n_samples/100 ≈ 25 on-line
-    # updates (our choice; see module).
-    step = learning_rate * n_samples / 100.0
+    # η × (gradient summed over the pass); one iteration here is that step (see module).
+    step = learning_rate * n_samples
     for it in range(iterations):
         net.unpack(theta)
         _loss, grad = _loss_grad(net, xds, targets)
@@ -236,6 +234,7 @@ def train(ident: Identification, topology: Topology | None = None, seed: int = 0
     net.unpack(theta)
     paper = errors(net, ident)
     paper_wall = time.perf_counter() - t0
+    refined = 0
     if refine_iterations > 0:
         counter = {"n": iterations}
 
@@ -253,15 +252,17 @@ def train(ident: Identification, topology: Topology | None = None, seed: int = 0
                        options={"maxiter": refine_iterations, "maxfun": 2 * refine_iterations})
         theta = res.x
         net.unpack(theta)
+        refined = int(res.nit)  # L-BFGS stops early once converged
     final = errors(net, ident)
     report = {
         "avg_error": final["avg_error"], "max_error": final["max_error"],
-        "iterations": iterations + refine_iterations,
+        "iterations": iterations + refined,
         "wall_time_s": round(time.perf_counter() - t0, 2),
         "paper_schedule": {**paper, "iterations": iterations,
                            "learning_rate": learning_rate, "forgetting_rate": forgetting,
                            "wall_time_s": round(paper_wall, 2)},
-        "refinement": {"method": "L-BFGS-B", "iterations": refine_iterations},
+        "refinement": {"method": "L-BFGS-B", "iterations": refined,
+                       "max_iterations": refine_iterations},
         "published": {"avg_error": PUBLISHED_AVG_ERROR, "max_error": PUBLISHED_MAX_ERROR,
                       "source": "Murai & Yamane 2011 §V.A"},
         "error_definition": "|network activity − identified activity|, activity in 0-1",
@@ -312,10 +313,14 @@ def fit_summary() -> dict:
     return dict(net.info) if net.info else {}
 
 
-def history_before(walk_rates: np.ndarray, phase: float, samples: int) -> np.ndarray:
-    """(samples, 2, n_signals) receptor rates (Ib unfiltered) leading up to a gait phase
-    (fraction of the stride from right heel strike), oldest first."""
+def history_before(walk_rates: np.ndarray, phase: float, samples: int,
+                   rate_hz: float = 1000.0) -> tuple[np.ndarray, np.ndarray]:
+    """Receptor rates (samples, 2, n_signals; Ib unfiltered) leading up to a gait phase
+    (fraction of the stride from right heel strike), oldest first, and the tendon-organ
+    filter's steady-state state (2, 14) just before the first of them."""
     T = walk_rates.shape[1]
     end = round(phase * T)
     idx = np.arange(end - samples, end) % T
-    return np.transpose(walk_rates[:, idx], (1, 0, 2))
+    ib = np.concatenate([walk_rates[0, :, 2:21:3], walk_rates[1, :, 2:21:3]], axis=1)
+    state = GTOFilter(1.0 / rate_hz, ib.shape[1]).state_at(ib, int(idx[0]))
+    return np.transpose(walk_rates[:, idx], (1, 0, 2)), state

@@ -83,12 +83,37 @@ class GTOFilter:
         z[1] = b[2] * x - a[2] * y
         return y
 
-    def periodic(self, x: np.ndarray) -> np.ndarray:
-        """Filter a periodic series (T, channels): the steady-state response."""
+    def steady_state(self, x: np.ndarray) -> np.ndarray:
+        """Filter state (2, channels) at the first sample of the periodic steady-state
+        response to a periodic series ``x`` (T, channels), solved exactly.
+
+        The filter is slow (time constants 5 s and 0.5 s), so filtering a few periods
+        from rest is not enough: with zero input the state after one period is Φ·z, so
+        the periodic state z* = Φ·z* + z_T(0) is z* = (I − Φ)⁻¹ z_T(0), z_T(0) being the
+        state after one period from rest.
+        """
         x = np.asarray(x, dtype=float)
-        reps = 4
-        y = signal.lfilter(self.b, self.a, np.tile(x, (reps, 1)), axis=0)
-        return y[-len(x):]
+        _y, z_rest = signal.lfilter(self.b, self.a, x, axis=0, zi=np.zeros((2, x.shape[1])))
+        zero = np.zeros((len(x), 1))
+        phi = np.column_stack([signal.lfilter(self.b, self.a, zero, axis=0, zi=e[:, None])[1][:, 0]
+                               for e in np.eye(2)])  # (2, 2): state after T, no input
+        return np.linalg.solve(np.eye(2) - phi, z_rest)
+
+    def periodic(self, x: np.ndarray) -> np.ndarray:
+        """Filter a periodic series (T, channels): its exact steady-state response."""
+        x = np.asarray(x, dtype=float)
+        y, _z = signal.lfilter(self.b, self.a, x, axis=0, zi=self.steady_state(x))
+        return y
+
+    def state_at(self, x: np.ndarray, index: int) -> np.ndarray:
+        """Steady-state filter state (2, channels) just before sample ``index`` of a
+        periodic series ``x`` (T, channels)."""
+        x = np.asarray(x, dtype=float)
+        z = self.steady_state(x)
+        index %= len(x)
+        if index == 0:
+            return z
+        return signal.lfilter(self.b, self.a, x[:index], axis=0, zi=z)[1]
 
 
 def rates(stretch_m: np.ndarray, velocity_m_s: np.ndarray, force_n: np.ndarray) -> np.ndarray:
