@@ -223,3 +223,27 @@ def test_block_evaluation_equals_tick_by_tick(monkeypatch):
     assert len(runs[1].time_s) == len(runs[None].time_s) > 50
     assert np.abs(runs[1].qpos - runs[None].qpos).max() < 1e-9
     assert np.abs(runs[1].actuator_force - runs[None].actuator_force).max() < 1e-6
+
+
+def test_tendon_organ_steady_state_is_exact():
+    """The slow Ib filter (5 s) starts the walk at its periodic steady state: one more
+    period from that state returns to it."""
+    from scipy import signal
+
+    rng = np.random.default_rng(7)
+    x = np.abs(np.sin(np.linspace(0, 2 * np.pi, 1235, endpoint=False))[:, None]
+               * rng.uniform(50, 200, 4))
+    g = R.GTOFilter(0.001, 4)
+    z0 = g.steady_state(x)
+    _y, z1 = signal.lfilter(g.b, g.a, x, axis=0, zi=z0)
+    assert np.abs(z1 - z0).max() < 1e-9 * max(1.0, np.abs(z0).max())
+    y = g.periodic(x)
+    z = g.state_at(x, 600)
+    assert np.abs(signal.lfilter(g.b, g.a, x[600:], axis=0, zi=z)[0] - y[600:]).max() < 1e-9
+
+
+def test_reflex_time_step_must_divide_a_network_tick():
+    with pytest.raises(InputError, match="must divide"):
+        simulate_trip(Scenario(controller="reflex", mechanism="obstacle",
+                               swing_fraction=0.56, timestep_s=0.0015,
+                               duration_after_trip_s=0.5))
