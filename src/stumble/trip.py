@@ -87,7 +87,7 @@ class Scenario:
     contact: str = "points"
     duration_after_trip_s: float = 3.0
     delay_scale: float = 1.0  # multiplies every response latency
-    strength_scale: float = 1.0  # multiplies every torque limit
+    strength_scale: float = 1.0  # multiplies every servo torque limit and muscle F_max
     timestep_s: float = 0.001  # physics step
     force: TripForce = field(default_factory=TripForce)
 
