@@ -26,11 +26,11 @@ def test_compensation_coefficient_follows_speed():
     from stumble.control.fsm_params import KC_FAST, KC_SLOW
 
     assert (KC_SLOW, KC_FAST) == (50.0, 300.0)  # SCA 2009 §5
-    paper = FSMParams(kc_fast=KC_FAST)
+    paper = FSMParams(kc_slow=KC_SLOW, kc_fast=KC_FAST)
     assert paper.kc(0.8) == pytest.approx(50.0)  # slow walking
     assert paper.kc(1.5) == pytest.approx(300.0)  # fast walking
     assert 50.0 < paper.kc(1.2) < 300.0
-    ours = FSMParams()  # tuned fast value (see fsm_params.py)
+    ours = FSMParams()  # tuned values (see fsm_params.py)
     assert ours.kc(0.8) < ours.kc(1.2) < ours.kc(1.5) == pytest.approx(ours.kc_fast)
 
 
