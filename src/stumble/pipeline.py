@@ -106,21 +106,34 @@ def perturb_initial_state(body: Body, data: mujoco.MjData, seed: int) -> None:
 def _controller(sc: Scenario, strategy: str | None, params: FSMParams | None,
                 network, pb: Playback, t_trip: float, trunk_balance: bool = True):
     if sc.controller == "reflex":
-        from stumble.control.reflex.controller import ReflexController, TrunkBalance
-        from stumble.control.reflex.identify import default_network, history_before
-
-        net = (network or default_network()).with_delay_scale(sc.delay_scale)
-        history = None
-        if net.walk_rates is not None:
-            history = history_before(net.walk_rates, _phase(pb, t_trip),
-                                     2 * net.topology.max_lag + 2, net.topology.rate_hz)
-        balance = None
-        if trunk_balance:  # its vestibulospinal latency scales with the nerve delays
-            balance = TrunkBalance(delay_s=TrunkBalance.DELAY_S * sc.delay_scale,
-                                   rate_hz=net.topology.rate_hz)
-        return ReflexController(net, history, balance)
+        return _reflex_controller(network, pb, t_trip, sc.delay_scale, trunk_balance)
     p = replace(params or FSMParams(), delay_scale=sc.delay_scale)
     return TripFSM(strategy, sc.side, sc.speed_m_per_s, p)
+
+
+def _reflex_controller(network, pb: Playback, t: float, delay_scale: float,
+                       trunk_balance: bool):
+    """The reflex network (given or shipped) taking over from the walk at time ``t``."""
+    from stumble.control.reflex.controller import ReflexController, TrunkBalance
+    from stumble.control.reflex.identify import default_network, history_before
+
+    net = (network or default_network()).with_delay_scale(delay_scale)
+    history = None
+    if net.walk_rates is not None:
+        history = history_before(net.walk_rates, _phase(pb, t),
+                                 2 * net.topology.max_lag + 2, net.topology.rate_hz)
+    balance = None
+    if trunk_balance:  # its vestibulospinal latency scales with the nerve delays
+        balance = TrunkBalance(delay_s=TrunkBalance.DELAY_S * delay_scale,
+                               rate_hz=net.topology.rate_hz)
+    return ReflexController(net, history, balance)
+
+
+def _rest_support_foot(m: mujoco.MjModel, d: mujoco.MjData, planar: bool) -> None:
+    """SCA 2009 §4.2: the support foot on the ground, at the penalty law's static depth
+    under the body's weight on one foot (96 points)."""
+    height = m.jnt_qposadr[m.joint("pelvis_ty").id] if planar else 2  # z of the root
+    d.qpos[height] -= m.body_mass.sum() * 9.81 / (96 * STIFFNESS_N_PER_M)
 
 
 def _network_every(net, m: mujoco.MjModel) -> int:
@@ -185,10 +198,8 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     d = mujoco.MjData(m)
     d.qpos[:], d.qvel[:] = qpos, qvel
     perturb_initial_state(body, d, sc.seed)
-    if sc.contact in ("points", "penalty"):  # SCA 2009 §4.2: support foot on the ground,
-        # at the penalty law's static depth under the body's weight on one foot
-        height = m.jnt_qposadr[m.joint("pelvis_ty").id] if reflex else 2  # planar: z slide
-        d.qpos[height] -= m.body_mass.sum() * 9.81 / (96 * STIFFNESS_N_PER_M)
+    if sc.contact in ("points", "penalty"):
+        _rest_support_foot(m, d, reflex)
     _scale_strength(m, sc.strength_scale)
     ctx = Context(m, d, body, Sensors(), t0=0.0)
     controller = _controller(sc, strategy, p, network, pb, t_trip, trunk_balance)
@@ -207,10 +218,9 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
               control_every=control_every, **force_kwargs)
     strategy = strategy or stop.classified
     summary = _summary(sc, strategy, controller, rec, stop, body, pb, t_trip, reference)
-    if reflex:
-        summary["trunk_balance"] = trunk_balance
     states = list(controller.log)
     if reflex:  # one network, no states: the filmstrip shows the events instead
+        summary["trunk_balance"] = trunk_balance
         states = [("trip", 0.0)]
         if stop.tripped_down_s is not None:
             states.append((f"tripped foot down ({stop.classified})", stop.tripped_down_s))
@@ -324,8 +334,7 @@ def simulate_walking_step(network=None, trunk_balance: bool = True,
                           speed_m_per_s: float | None = None) -> StepResult:
     """One step (half a stride, from right heel strike) of walking under the network,
     from the played-back state, against the recorded walk (seed 003 §V.A, Fig. 3)."""
-    from stumble.control.reflex.controller import ReflexController, TrunkBalance
-    from stumble.control.reflex.identify import default_network, history_before
+    from stumble.control.reflex.identify import default_network
 
     net = network or default_network()
     speed = speed_m_per_s or load_reference().speed_m_per_s
@@ -334,11 +343,8 @@ def simulate_walking_step(network=None, trunk_balance: bool = True,
     t0 = next(t for t in pb.events.heel_strike_s["r"] if t >= WALK_BEFORE_TRIP_S)
     d = mujoco.MjData(m)
     d.qpos[:], d.qvel[:] = pb.state_at(t0)
-    d.qpos[1] -= m.body_mass.sum() * 9.81 / (96 * STIFFNESS_N_PER_M)  # as simulate_trip
-    history = history_before(net.walk_rates, _phase(pb, t0), 2 * net.topology.max_lag + 2,
-                             net.topology.rate_hz)
-    balance = TrunkBalance(rate_hz=net.topology.rate_hz) if trunk_balance else None
-    ctrl = ReflexController(net, history, balance)
+    _rest_support_foot(m, d, planar=True)
+    ctrl = _reflex_controller(net, pb, t0, 1.0, trunk_balance)
     stop = StopRule("elevating", "l", FALL_PELVIS_FRACTION * _standing_pelvis(body))
     duration = 0.5 * pb.stride_s
     rec = run(Context(m, d, body, Sensors(), t0=0.0), ctrl, duration, stop=stop,
