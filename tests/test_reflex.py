@@ -1,6 +1,8 @@
 """The reflex controller of seed 003: receptors, delays (Table I), identification,
 the runtime network, and the emergence of both strategies from one network."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -138,8 +140,129 @@ def test_network_file_round_trip_and_errors(tmp_path):
     with pytest.raises(InputError, match="does not exist"):
         Network.load(tmp_path / "missing.npz")
     (tmp_path / "bad.npz").write_bytes(b"not a numpy file")
-    with pytest.raises(InputError, match="not a stumble reflex network"):
+    with pytest.raises(InputError, match=r"bad\.npz is not a network \.npz"):
         Network.load(tmp_path / "bad.npz")
+
+
+# ---- bad network files: each refused in one line before it is loaded in full --------
+def shipped_arrays() -> dict:
+    from stumble.control.reflex.identify import SHIPPED
+
+    path = Path(__file__).resolve().parents[1] / "src/stumble/control/reflex/data" / SHIPPED
+    with np.load(path) as z:
+        return {k: z[k] for k in z.files}
+
+
+def write_network(path, drop=(), **changes) -> Path:
+    arrays = {**shipped_arrays(), **changes}
+    np.savez_compressed(path, **{k: v for k, v in arrays.items() if k not in drop})
+    return path
+
+
+def _bad(tmp_path, name, make) -> Path:
+    path = tmp_path / name
+    make(path)
+    return path
+
+
+def test_the_shipped_layout_is_accepted_and_checked_against_its_own_muscles(tmp_path):
+    net = Network.load(write_network(tmp_path / "same.npz"))
+    assert net.w.shape == (57, 36) and net.walk_rates.shape[0] == 2
+    # six muscles (no SOL): a consistent file of another layout, refused by the model
+    six = tuple(m for m in MUSCLE_NAMES if m != "SOL")
+    t = Topology(muscles=six)
+    other = Network.initial(t, np.zeros(t.n_signals), np.ones(t.n_signals), seed=0)
+    other.save(tmp_path / "six.npz")
+    with pytest.raises(InputError, match="a network of the muscles HAMS, GLU, TA, GAS, RF, "
+                       "VAS; this model has HAMS, GLU, TA, GAS, RF, VAS, SOL"):
+        Network.load(tmp_path / "six.npz")
+
+
+BAD_NETWORKS = {
+    "b of the wrong shape": (lambda p: write_network(p, b=np.zeros(35)),
+                             r"b has shape \(35,\), expected \(36,\)"),
+    "v of the wrong shape": (lambda p: write_network(p, v=np.zeros((19, 5))),
+                             r"v has shape \(19, 5\), expected \(19, 6\)"),
+    "walk_rates of the wrong shape": (lambda p: write_network(p, walk_rates=np.zeros((2, 9, 5))),
+                                      r"walk_rates has shape \(2, 9, 5\)"),
+    "rate_hz 0": (lambda p: write_network(p, rate_hz=np.array(0.0)), "rate_hz = 0 is outside"),
+    "rate_hz NaN": (lambda p: write_network(p, rate_hz=np.array(np.nan)),
+                    "rate_hz = nan is outside"),
+    "afferent speed 0": (lambda p: write_network(p, afferent_m_per_s=np.array(0.0)),
+                         "afferent_m_per_s = 0 is outside 1-200"),
+    "NaN weights": (lambda p: write_network(p, w=np.where(shipped_arrays()["w"] != 0, np.nan, 0.0)),
+                    "w holds 342 non-finite values"),
+    "zero std": (lambda p: write_network(p, std=np.zeros(21)), "std has 21 values <= 0"),
+    "wrong mean length": (lambda p: write_network(p, mean=np.zeros(20)),
+                          r"mean has shape \(20,\), expected \(21,\)"),
+    "weights outside their blocks": (lambda p: write_network(p, w=np.ones((57, 36))),
+                                     "w has 1710 weights outside their segment blocks"),
+    "a missing array": (lambda p: write_network(p, drop=("std",)),
+                        "not a stumble reflex network \\(no std\\)"),
+    "an unknown entry": (lambda p: write_network(p, extra=np.zeros(3)),
+                         "unexpected entry 'extra.npy'"),
+    "text where numbers belong": (lambda p: write_network(p, c=np.array(["a"] * 7)),
+                                  "c has type <U1, not a number"),
+    "an unknown muscle": (lambda p: write_network(p, muscles=np.array([*MUSCLE_NAMES[:6], "XYZ"])),
+                          "each must be one of"),
+    "info not JSON": (lambda p: write_network(p, info=np.array("{oops")), "info is not a JSON"),
+    "a truncated zip": (lambda p: p.write_bytes(write_network(p).read_bytes()[:60_000]),
+                        "is not a readable network .npz \\(BadZipFile"),
+    "a .npy": (lambda p: np.save(p.with_suffix(".npy"), np.zeros(3))
+               or p.with_suffix(".npy").rename(p), "is a single .npy array, not a network"),
+    "a text file": (lambda p: p.write_text("rate_hz = 1000\n"), "not a zip archive"),
+    "a directory": (lambda p: p.mkdir(), "is a directory, not a network file"),
+    "an empty file": (lambda p: p.write_bytes(b""), "not a zip archive"),
+}
+
+
+@pytest.mark.parametrize("case", BAD_NETWORKS)
+def test_bad_network_files_are_one_line_errors(tmp_path, case):
+    make, words = BAD_NETWORKS[case]
+    path = _bad(tmp_path, "net.npz", make)
+    with pytest.raises(InputError, match=words) as e:
+        Network.load(path)
+    assert "\n" not in str(e.value) and str(path) in str(e.value)
+
+
+def test_python_objects_in_a_network_are_refused_unread(tmp_path):
+    arrays = shipped_arrays()
+    arrays["info"] = np.array([{"a": 1}], dtype=object)
+    np.savez(tmp_path / "obj.npz", **arrays)
+    with pytest.raises(InputError, match=r"entry info\.npy holds Python objects"):
+        Network.load(tmp_path / "obj.npz")
+
+
+def test_a_network_that_inflates_past_the_limit_is_refused_from_its_directory(tmp_path):
+    """64 MB of zeros in 64 KB: refused from the zip directory's sizes, before inflating."""
+    import zipfile
+
+    path = tmp_path / "bomb.npz"
+    write_network(path, drop=("w",))
+    with zipfile.ZipFile(path, "a", zipfile.ZIP_DEFLATED) as zf, zf.open("w.npy", "w") as f:
+        np.lib.format.write_array_header_1_0(f, {"descr": "<f8", "fortran_order": False,
+                                                 "shape": (8 * 2**20,)})
+        zeros = bytes(2**20)
+        for _ in range(64):
+            f.write(zeros)
+    assert path.stat().st_size < 2**20
+    with pytest.raises(InputError, match=r"entry w inflates to 67108\d+ bytes, more than the "
+                       r"33554432 bytes"):
+        Network.load(path)
+
+
+def test_a_header_that_does_not_match_its_data_is_refused(tmp_path):
+    import zipfile
+
+    path = tmp_path / "liar.npz"
+    write_network(path, drop=("b",))
+    with zipfile.ZipFile(path, "a", zipfile.ZIP_DEFLATED) as zf, zf.open("b.npy", "w") as f:
+        np.lib.format.write_array_header_1_0(f, {"descr": "<f8", "fortran_order": False,
+                                                 "shape": (10**9,)})
+        f.write(bytes(36 * 8))
+    with pytest.raises(InputError, match=r"its header \(\(1000000000,\), float64\) does not "
+                       "match"):
+        Network.load(path)
 
 
 # ---- identification ------------------------------------------------------------------

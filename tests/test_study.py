@@ -23,7 +23,7 @@ from stumble.study.runner import StudyInterrupted, flatten, run_study, summary_t
 from stumble.study.store import Store, load_results
 from stumble.trip import Scenario
 
-WALL = {"wall_time_s", "run_wall_time_s"}  # the only columns allowed to differ
+WALL = {"wall_time_s", "run_wall_time_s", "checksum"}  # the only columns allowed to differ
 
 
 def fake_summary(sc: Scenario) -> dict:
@@ -214,7 +214,7 @@ def test_study_rows_table_and_rerun(tmp_path, fake, capsys):
     table = summary_table(rows)
     assert "elevating" in table and "lowering" in table
     last = table.splitlines()[-1].split()
-    assert last == ["all", "8", "4", "2", "2", "0", "0"]  # 4 recovered, 2 fell, 2 diverged
+    assert last == ["all", "8", "4", "2", "2", "0", "0", "0"]  # 4 recovered, 2 fell, 2 diverged
 
 
 def test_resumption_after_an_interruption(tmp_path, monkeypatch, capsys):
@@ -370,12 +370,12 @@ def test_plots_and_fall_rate(tmp_path, fake):
 
 
 def test_maps_pool_only_within_a_panel():
-    from stumble.viz.study_plots import _facets, _pooled
+    from stumble.viz.study_plots import Tally
 
     rows = [{"controller": c, "mechanism": "force", "swing_fraction": 0.2,
              "speed_m_per_s": 1.1} for c in ("fsm", "reflex")]
-    assert not _pooled(_facets(rows))  # two panels of one run each
-    assert _pooled(_facets(rows + rows[:1]))
+    assert not Tally.of(rows).pooled()  # two panels of one run each
+    assert Tally.of(rows + rows[:1]).pooled()
 
 
 def test_dask_cluster_gives_the_same_rows(tmp_path, fake):

@@ -34,6 +34,27 @@ def _positive(kind: str):
     return parse
 
 
+def out_dir_arg(text: str) -> Path:
+    """An output directory (argparse type): not empty (``''`` would be the current one)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("the output directory is empty (give a path; "
+                                         "'.' for the current directory)")
+    return Path(text)
+
+
+def seed_arg(text: str) -> int:
+    """A seed (argparse type): a whole number from 0 to 2^63 - 1."""
+    from stumble.trip import MAX_SEED
+
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if not 0 <= v <= MAX_SEED:
+        raise argparse.ArgumentTypeError(f"must be from 0 to {MAX_SEED} (2^63 - 1), got {v}")
+    return v
+
+
 def _person_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--planar", action="store_true", help="the planar (sagittal) model")
     p.add_argument("--height", type=_positive("height"), default=1.75, metavar="M",
@@ -62,7 +83,8 @@ def _parser() -> argparse.ArgumentParser:
     w = sub.add_parser("walk", help="play walking back on a model and write its files",
                        description="Play walking back kinematically on a model: writes "
                        "motion.csv, events.json, joint_angles.png and walk.mp4 to DIR.")
-    w.add_argument("--out", required=True, type=Path, metavar="DIR", help="output directory")
+    w.add_argument("--out", required=True, type=out_dir_arg, metavar="DIR",
+                   help="output directory")
     w.add_argument("--gait", type=Path, metavar="FILE",
                    help="an OpenSim .mot/.sto or a .bvh motion (default: the embedded "
                    "subject01 reference gait)")
@@ -77,7 +99,8 @@ def _parser() -> argparse.ArgumentParser:
     t = sub.add_parser("trip", help="walk, trip and recover (or fall); write its files",
                        description="Simulate one trip: writes summary.json, timeseries.csv, "
                        "trajectories.png, filmstrip.png and trip.mp4 to DIR.")
-    t.add_argument("--out", required=True, type=Path, metavar="DIR", help="output directory")
+    t.add_argument("--out", required=True, type=out_dir_arg, metavar="DIR",
+                   help="output directory")
     t.add_argument("--controller", choices=("fsm", "reflex"), default="fsm",
                    help="fsm: the state-machine controllers of SCA 2009 on the 3D human; "
                    "reflex: the neuromuscular reflex network of seed 003 on the planar "
@@ -102,7 +125,7 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--leg", choices=("left", "right"), default="left", help="tripped leg")
     t.add_argument("--reference", type=Path, metavar="FILE",
                    help="a recorded trip (.mot, time 0 at the trip) for the joint-pitch RMSE")
-    t.add_argument("--seed", type=int, default=0,
+    t.add_argument("--seed", type=seed_arg, default=0,
                    help="0 (default): the recorded walk as it is; another seed perturbs the "
                    "initial joint angles (SD 0.5 deg) and velocities; deterministic")
     t.add_argument("--duration", type=float, default=3.0, metavar="S",
@@ -124,8 +147,10 @@ def _parser() -> argparse.ArgumentParser:
                         "inverse dynamics, static optimisation, back-propagation. Writes "
                         "network.npz, fit.json, activity_fit.png, walking_moments.csv and "
                         "walking_activity.csv to DIR.")
-    f.add_argument("--out", required=True, type=Path, metavar="DIR", help="output directory")
-    f.add_argument("--seed", type=int, default=0, help="initial weights (default 0)")
+    f.add_argument("--out", required=True, type=out_dir_arg, metavar="DIR",
+                   help="output directory")
+    f.add_argument("--seed", type=seed_arg, default=0,
+                   help="initial weights, 0 to 2^63 - 1 (default 0)")
     f.add_argument("--iterations", type=int, default=None, metavar="N",
                    help="back-propagation iterations of the seed's schedule (default 1000)")
     f.add_argument("--refine", type=int, default=None, metavar="N",
@@ -323,10 +348,11 @@ def cmd_trip(args) -> int:
     reference = _load_reference_trip(args.reference) if args.reference else None
     network = None
     if args.network:
-        from stumble.control.reflex.network import Network
+        from stumble.control.reflex.network import Network, steps_per_tick
 
         network = Network.load(args.network)
-    out = prepare_dir(args.out)
+        steps_per_tick(scenario.timestep_s, network.topology.rate_hz)
+    out = prepare_dir(args.out)  # and writable: checked before the simulation
     result = simulate_trip(scenario, reference=reference, network=network,
                            trunk_balance=not args.no_trunk_balance)
     write_summary(out, result)

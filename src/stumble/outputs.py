@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import csv
-import json
 import sys
 from pathlib import Path
 
 import numpy as np
 
-from stumble.errors import InputError
+from stumble.files import output_dir, write_json
 from stumble.pipeline import TripResult
 
 VIDEO_FPS = 25.0
@@ -18,7 +17,7 @@ WALK_SHOWN_S = 1.0  # walking shown in the video before the trip
 
 def write_summary(out: Path, result: TripResult) -> None:
     """``summary.json``: the outcome and metrics (see ``stumble.pipeline``)."""
-    (out / "summary.json").write_text(json.dumps(result.summary, indent=1) + "\n")
+    write_json(out / "summary.json", result.summary)
 
 
 def write_timeseries(out: Path, result: TripResult) -> None:
@@ -112,13 +111,8 @@ def write_media(out: Path, result: TripResult, video: bool, progress: bool) -> l
 
 
 def prepare_dir(out: Path) -> Path:
-    """Create the output directory or raise a one-line InputError."""
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise InputError(f"cannot create output directory {out}: {e.strerror}") from None
-    return out
-
+    """Create the output directory, writable, or raise a one-line InputError."""
+    return output_dir(out)
 
 
 TENSION_WINDOW_S = (-0.1, 0.6)  # muscle_tensions.png: from before the trip to 0.6 s after
@@ -170,7 +164,7 @@ def write_fit(out: Path, fit, video: bool = True) -> list[str]:
         "rmse_deg": step.rmse_deg, "duration_s": round(step.duration_s, 3),
         "fell": step.fell, "start": "right heel strike, subject's speed",
         "trunk_balance": True}
-    (out / "fit.json").write_text(json.dumps(fit.report, indent=1) + "\n")
+    write_json(out / "fit.json", fit.report)
     ident = fit.ident
     T = len(ident.time_s)
     pct = 100.0 * np.arange(T) / T

@@ -137,13 +137,11 @@ def _rest_support_foot(m: mujoco.MjModel, d: mujoco.MjData, planar: bool) -> Non
 
 
 def _network_every(net, m: mujoco.MjModel) -> int:
-    """Physics steps per network tick; InputError unless the time step divides a tick
-    (the nerve delays are counted in ticks)."""
-    every = max(1, round(1.0 / (net.topology.rate_hz * m.opt.timestep)))
-    if abs(every * m.opt.timestep * net.topology.rate_hz - 1.0) > 1e-6:
-        raise InputError(f"the reflex network ticks every {1e3 / net.topology.rate_hz:g} ms: "
-                         f"the time step ({1e3 * m.opt.timestep:g} ms) must divide it")
-    return every
+    """Physics steps per network tick (``network.steps_per_tick``: the rule is checked
+    with the scenario, ``Scenario.validated``)."""
+    from stumble.control.reflex.network import steps_per_tick
+
+    return steps_per_tick(m.opt.timestep, net.topology.rate_hz)
 
 
 def _phase(pb: Playback, t: float) -> float:

@@ -36,6 +36,7 @@ OBSTACLE_WIDTH_M = 0.14  # across: the tripped foot's lane only, as the pop-up o
 MECHANISMS = ("force", "obstacle")
 LEGS = ("left", "right")
 CONTROLLERS = ("fsm", "reflex")  # SCA 2009 state machines; seed 003 reflex network
+MAX_SEED = 2**63 - 1  # seeds are stored as 64-bit integers (study results)
 
 
 @dataclass(frozen=True)
@@ -118,6 +119,14 @@ class Scenario:
             raise InputError(f"time step {self.timestep_s} s is outside 0.0002-0.005 s")
         if not 0.5 <= self.duration_after_trip_s <= 20.0:
             raise InputError(f"duration {self.duration_after_trip_s} s is outside 0.5-20 s")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or not (
+                0 <= self.seed <= MAX_SEED):
+            raise InputError(f"seed {self.seed!r} is not a whole number from 0 to {MAX_SEED} "
+                             "(2^63 - 1)")
+        if self.controller == "reflex":  # the shipped network's tick (a network file's own
+            from stumble.control.reflex.network import steps_per_tick  # is checked on load)
+
+            steps_per_tick(self.timestep_s)
         return self
 
     @property

@@ -34,13 +34,13 @@ A figure that cannot be computed yet (the reflex controller still missing, say) 
 
 from __future__ import annotations
 
-import json
 import os
 import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 from stumble import __version__
+from stumble.files import write_json
 from stumble.study.grid import run_key, scenario_fields
 from stumble.trip import Scenario
 
@@ -317,7 +317,7 @@ def run_validation(out: Path, workers: int | None = None, progress: bool = True,
     }
     path = Path(out) / "validation.json"
     tmp = path.with_name(".validation.json.tmp")
-    tmp.write_text(json.dumps(report, indent=1) + "\n")
+    write_json(tmp, report)
     os.replace(tmp, path)
     return rows
 
@@ -348,7 +348,9 @@ def add_validate_parser(sub) -> None:
         "recovery durations, both controllers) and print one table: figure | source | "
         "published value | stumble | agreement. Writes DIR/validation.json and the "
         "study's DIR/results.parquet. Exit status 0 whatever agrees.")
-    p.add_argument("--out", type=Path, default=Path("validation"), metavar="DIR",
+    from stumble.cli import out_dir_arg
+
+    p.add_argument("--out", type=out_dir_arg, default=Path("validation"), metavar="DIR",
                    help="directory of the runs and validation.json (default validation/)")
     from stumble.study.cli import workers_arg
 

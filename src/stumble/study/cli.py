@@ -3,16 +3,19 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
 from stumble.study.grid import AXES, Grid, grid_from_args, load_toml
+from stumble.study.runner import RUN_TIMEOUT_S
 
 EPILOG = """\
 grid values: one value (1.1), a list (0.8,1.1,1.4) or a range start:stop:count with
 both ends included (0.05:0.75:15 is 15 values). A TOML FILE takes the same keys
 (swing = "0.05:0.75:15", speed = [0.8, 1.1, 1.4], repeats = 5); options override it.
-Running the same command again runs only what DIR does not hold yet.
+Running the same command again runs only what DIR does not hold yet. A study has at
+most 10,000,000 runs.
 
 example:  stumble study --swing 0.05:0.75:15 --speed 0.8,1.1,1.4 --out s/
 """
@@ -34,8 +37,21 @@ def workers_arg(text: str) -> int:
     return n
 
 
+def timeout_arg(text: str) -> float:
+    """Seconds >= 0 (argparse type; 0: no limit)."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds") from None
+    if not math.isfinite(v) or v < 0:
+        raise argparse.ArgumentTypeError(f"must be a number of seconds >= 0, got {text}")
+    return v
+
+
 def add_study_parser(sub) -> None:
     """Register ``stumble study`` on the ``stumble`` subparsers."""
+    from stumble.cli import out_dir_arg
+
     p = sub.add_parser(
         "study", help="many trips over a grid: results table, strategy and outcome maps",
         description="Run a trip for every point of a grid, on local processes or a Dask "
@@ -44,14 +60,18 @@ def add_study_parser(sub) -> None:
         "when a delay or strength scale varies, DIR/fall_rate.png.",
         epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("file", nargs="?", type=Path, metavar="FILE", help="a TOML study file")
-    p.add_argument("--out", required=True, type=Path, metavar="DIR", help="study directory")
+    p.add_argument("--out", required=True, type=out_dir_arg, metavar="DIR",
+                   help="study directory")
     p.add_argument("--workers", type=workers_arg, metavar="N",
                    help="local worker processes (default: all cores; 1 runs in this process)")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="run on a Dask distributed cluster, e.g. tcp://10.0.0.5:8786 "
                    "(pip install \"stumble[cluster]\")")
     p.add_argument("--retry-errors", action="store_true",
-                   help="run again the runs whose stored row has an error")
+                   help="run again the runs whose stored row has an error (or timed out)")
+    p.add_argument("--run-timeout", type=timeout_arg, default=RUN_TIMEOUT_S, metavar="S",
+                   help=f"wall-time limit of one run in s; a run past it is stopped and "
+                   f"recorded as a timeout row (default {RUN_TIMEOUT_S:g}; 0: no limit)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG maps")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     g = p.add_argument_group("grid axes (default: the `stumble trip` default)")
@@ -71,27 +91,33 @@ def grid_from_namespace(args) -> Grid:
 
 
 def run_study_cli(args) -> int:
-    """``stumble study``: validate the whole grid, run what is missing, report and plot."""
-    from stumble.study.runner import StudyInterrupted, run_study, summary_table
+    """``stumble study``: check the whole grid, run what is missing, report and plot."""
+    from stumble.study.runner import (
+        SUMMARY_COLUMNS,
+        StudyInterrupted,
+        iter_results,
+        run_study,
+        summary_table,
+    )
 
     grid = grid_from_namespace(args)
-    scenarios = grid.scenarios()  # every scenario validated before anything runs
+    grid.checked_count()  # counted before anything is built
     meta = {"grid": grid.to_json(), "varying": grid.varying()}
     try:
-        res = run_study(scenarios, args.out, workers=args.workers, scheduler=args.scheduler,
+        res = run_study(grid, args.out, workers=args.workers, scheduler=args.scheduler,
                         retry_errors=args.retry_errors, progress=not args.quiet,
-                        metadata=meta)
+                        metadata=meta, run_timeout_s=args.run_timeout or None)
     except StudyInterrupted as e:
         print(f"stumble: {e}", file=sys.stderr)
         return 130
-    print(summary_table(res.rows))
+    print(summary_table(iter_results(res.out, SUMMARY_COLUMNS)))
     written = ["results.parquet"]
     if not args.no_plots:
-        from stumble.viz.study_plots import write_study_plots
+        from stumble.viz.study_plots import PLOT_COLUMNS, write_study_plots
 
-        written += write_study_plots(res.out, res.rows)
+        written += write_study_plots(res.out, iter_results(res.out, PLOT_COLUMNS))
     note = (f"; {res.other_rows} other runs in {res.out}/runs are not in this grid"
             if res.other_rows else "")
-    print(f"{len(res.rows)} runs ({res.ran} run now, {res.before} before); wrote "
+    print(f"{res.runs} runs ({res.ran} run now, {res.before} before); wrote "
           f"{', '.join(written)} to {res.out}{note}")
     return 0

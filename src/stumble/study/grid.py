@@ -20,6 +20,7 @@ import itertools
 import json
 import math
 import tomllib
+from collections.abc import Iterator
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
@@ -28,6 +29,7 @@ from stumble.trip import OBSTACLE_HEIGHT_M, Scenario, TripForce
 
 CONTROLLERS = ("fsm", "reflex")
 MAX_REPEATS = 100_000
+MAX_RUNS = 10_000_000  # runs in one study: each is a row, its key is checked up front
 
 
 @dataclass(frozen=True)
@@ -84,19 +86,43 @@ class Grid:
         """Axes with more than one value, in loop order."""
         return [n for n in AXES if len(self.values(n)) > 1]
 
-    def scenarios(self) -> list[Scenario]:
-        """Every scenario of the grid, validated, without duplicates, in loop order.
+    def count(self) -> int:
+        """How many runs the grid has, counted without building it (force trips once
+        whatever the obstacle-height axis says)."""
+        sizes = {n: len(self.values(n)) for n in AXES}
+        rest = math.prod(v for n, v in sizes.items() if n not in ("mechanism",
+                                                                   "obstacle_height"))
+        mechs = self.values("mechanism")
+        per = sum(1 if m == "force" else sizes["obstacle_height"] for m in mechs)
+        return rest * per
+
+    def checked_count(self) -> int:
+        """``count()``, or InputError when it is more than ``MAX_RUNS``."""
+        n = self.count()
+        if n > MAX_RUNS:
+            raise InputError(f"the grid has {n:,} runs, more than the limit of {MAX_RUNS:,} "
+                             "for one study (split it into several --out directories)")
+        return n
+
+    def iter_scenarios(self) -> Iterator[Scenario]:
+        """Every scenario of the grid in loop order, one at a time, without duplicates.
 
         Force trips ignore the obstacle height, so over an obstacle-height axis a force
-        trip is run once (at the default height; its row has no obstacle height).
-        """
+        trip is run once (at the default height; its row has no obstacle height), where
+        the axis' first value stands. Not validated: see ``check_scenario``."""
         names = list(AXES)
-        out: dict[str, Scenario] = {}
+        first_height = self.values("obstacle_height")[0]
         for combo in itertools.product(*(self.values(n) for n in names)):
-            sc = Scenario(**{AXES[n].field: v for n, v in zip(names, combo, strict=True)})
-            sc = normalised(sc)
-            out.setdefault(run_key(sc), sc)
-        scs = list(out.values())
+            values = dict(zip(names, combo, strict=True))
+            if values["mechanism"] == "force" and values["obstacle_height"] != first_height:
+                continue
+            yield normalised(Scenario(**{AXES[n].field: v for n, v in values.items()}))
+
+    def scenarios(self) -> list[Scenario]:
+        """Every scenario of the grid, validated, in loop order (small grids; a study
+        streams them with ``iter_scenarios``)."""
+        self.checked_count()
+        scs = list(self.iter_scenarios())
         for sc in scs:
             check_scenario(sc)
         return scs
@@ -136,8 +162,6 @@ def check_scenario(sc: Scenario) -> None:
     sc.validated()
     check_person(sc.height_m, sc.mass_kg, sc.sex)
     check_mode(sc.contact)
-    if sc.seed < 0:
-        raise InputError(f"seed {sc.seed} is negative")
 
 
 def _canonical(v):

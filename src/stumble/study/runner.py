@@ -1,9 +1,12 @@
 """Running a study: one trip per scenario on local processes or a Dask cluster.
 
-``run_study(scenarios, out)`` runs what ``out`` does not hold yet and returns every row
-of the study. Each run is ``run_one(scenario)``, which never raises an ``Exception``: a
-run that raises (bad conditions for that scenario, a controller that is not there) or
-diverges is a row saying so. Executors:
+``run_study(scenarios, out)`` checks every scenario, runs what ``out`` does not hold yet
+and writes ``out/results.parquet``. Each run is ``run_one(scenario)``, which never raises
+an ``Exception``: a run that raises (bad conditions for that scenario) or diverges is a
+row saying so, and a run longer than its wall-time limit (``run_timeout_s``, default
+``RUN_TIMEOUT_S``) is stopped and becomes a ``timeout`` row. Scenarios are streamed: a
+study of a million runs holds their keys (8 bytes each), never all its scenarios or rows.
+Executors:
 
 - ``workers == 1``: in this process, one run after the other;
 - ``workers > 1`` (default: all cores): a ``ProcessPoolExecutor``; a worker process that
@@ -19,7 +22,9 @@ except the wall times (``wall_time_s``, ``run_wall_time_s``).
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import json
+import math
 import multiprocessing
 import os
 import signal
@@ -27,6 +32,7 @@ import sys
 import threading
 import time
 import traceback
+from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -37,11 +43,24 @@ import numpy as np
 
 from stumble import __version__
 from stumble.errors import SimulationDiverged, StumbleError
-from stumble.study.grid import run_key, scenario_fields
-from stumble.study.store import Store, require_pyarrow, write_parquet
+from stumble.study.grid import Grid, check_scenario, run_key, scenario_fields
+from stumble.study.store import (
+    Store,
+    Warn,
+    iter_parquet_rows,
+    read_parquet_rows,
+    require_pyarrow,
+    write_results,
+)
 from stumble.trip import Scenario
 
 CONNECT_TIMEOUT_S = 20.0  # waiting for a Dask scheduler to answer
+# Per-run wall-time limit (s): a trip takes 1-10 s here (20 s of physics at the smallest
+# time step about 2 min), so a run ten minutes long is stuck, not slow.
+RUN_TIMEOUT_S = 600.0
+# A run past its limit is stopped at its next Python instruction; a worker process whose
+# run is stuck inside C even this long after that exits, and the run becomes a timeout row.
+HARD_KILL_GRACE_S = 30.0
 # Scenario columns whose names clash with a summary field of another meaning.
 RENAMED = {"strategy": "strategy_mode"}  # the mode asked for; ``strategy`` is the one taken
 
@@ -105,33 +124,103 @@ def make_row(sc: Scenario, summary: dict | None, error: str | None,
     row = {"key": run_key(sc), **scenario_columns(sc)}
     for k, v in flatten(summary or {}).items():
         row.setdefault(k, v)  # a scenario field the summary repeats: the scenario's value
+    row["timed_out"] = bool(row.get("timed_out", False))
     row["error"] = error
     row["run_wall_time_s"] = round(run_wall_time_s, 4)
     row["stumble_version"] = __version__
     return row
 
 
-def error_row(sc: Scenario, error: str) -> dict:
+NO_OUTCOME = {"recovered": False, "fell": False, "diverged": False}
+
+
+def error_row(sc: Scenario, error: str, run_wall_time_s: float = 0.0) -> dict:
     """The row of a run that produced no summary."""
-    return make_row(sc, {"recovered": False, "fell": False, "diverged": False}, error, 0.0)
+    return make_row(sc, NO_OUTCOME, error, run_wall_time_s)
 
 
-def run_one(sc: Scenario) -> tuple[dict, str | None]:
-    """Simulate one trip; return (row, traceback text or None). Never raises an Exception."""
+def timeout_row(sc: Scenario, timeout_s: float, run_wall_time_s: float) -> dict:
+    """The row of a run stopped at its wall-time limit."""
+    return make_row(sc, {**NO_OUTCOME, "timed_out": True},
+                    f"RunTimeout: the run took more than {timeout_s:g} s (--run-timeout) "
+                    "and was stopped", run_wall_time_s)
+
+
+class RunTimeout(BaseException):
+    """Raised inside a run that passed its wall-time limit."""
+
+
+_IN_POOL_WORKER = False  # set in local worker processes: a stuck run may end the process
+
+
+class _Watchdog:
+    """Raises RunTimeout in the calling thread ``seconds`` after it starts (at its next
+    Python instruction), and in a pool worker ends the process if the run is still there
+    ``HARD_KILL_GRACE_S`` later. ``stop`` is safe to call twice."""
+
+    def __init__(self, seconds: float | None):
+        self.tid = threading.get_ident()
+        self.lock = threading.Lock()
+        self.done = False
+        self.fired = False
+        self.timers = []
+        if seconds:
+            self.timers.append(threading.Timer(seconds, self._fire))
+            if _IN_POOL_WORKER:
+                self.timers.append(threading.Timer(seconds + HARD_KILL_GRACE_S, self._kill))
+        for t in self.timers:
+            t.daemon = True
+            t.start()
+
+    def _async_raise(self, exc) -> None:
+        ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(self.tid),
+                                                   None if exc is None else ctypes.py_object(exc))
+
+    def _fire(self) -> None:
+        with self.lock:
+            if not self.done:
+                self.fired = True
+                self._async_raise(RunTimeout)
+
+    def _kill(self) -> None:
+        if not self.done:
+            os._exit(124)  # the parent sees a dead worker and records a timeout
+
+    def stop(self) -> None:
+        with self.lock:
+            self.done = True
+            if self.fired:
+                self._async_raise(None)  # a RunTimeout not delivered yet: cancelled
+        for t in self.timers:
+            t.cancel()
+
+
+def run_one(sc: Scenario, timeout_s: float | None = None) -> tuple[dict, str | None]:
+    """Simulate one trip; return (row, traceback text or None). Never raises an Exception.
+
+    ``timeout_s``: wall-time limit (None or 0: none); past it the run is stopped and its
+    row is a timeout row."""
     from stumble import pipeline
 
     t0 = time.perf_counter()
     tb = None
+    guard = _Watchdog(timeout_s)
     try:
-        summary = pipeline.simulate_trip(sc).summary
-        error = None
-    except SimulationDiverged as e:
-        summary = {"recovered": False, "fell": False, "diverged": True}
-        error = one_line(e)
-    except Exception as e:
-        summary = {"recovered": False, "fell": False, "diverged": False}
-        error = one_line(e)
-        tb = traceback.format_exc()
+        try:
+            summary = pipeline.simulate_trip(sc).summary
+            error = None
+        except SimulationDiverged as e:
+            summary = {**NO_OUTCOME, "diverged": True}
+            error = one_line(e)
+        except Exception as e:
+            summary = dict(NO_OUTCOME)
+            error = one_line(e)
+            tb = traceback.format_exc()
+        finally:
+            guard.stop()
+    except RunTimeout:
+        guard.stop()
+        return timeout_row(sc, timeout_s, time.perf_counter() - t0), None
     return make_row(sc, summary, error, time.perf_counter() - t0), tb
 
 
@@ -140,9 +229,9 @@ def run_one(sc: Scenario) -> tuple[dict, str | None]:
 Result = tuple[dict, str | None]
 
 
-def _serial(todo: list[Scenario]) -> Iterator[Result]:
+def _serial(todo: Iterable[Scenario], timeout_s: float | None) -> Iterator[Result]:
     for sc in todo:
-        yield run_one(sc)
+        yield run_one(sc, timeout_s)
 
 
 def _worker_init(parent_pid: int, close_fds: tuple[int, ...] = ()) -> None:
@@ -150,6 +239,8 @@ def _worker_init(parent_pid: int, close_fds: tuple[int, ...] = ()) -> None:
 
     ``close_fds``: descriptors inherited through fork that only the parent may hold (the
     study directory's lock)."""
+    global _IN_POOL_WORKER
+    _IN_POOL_WORKER = True
     for fd in close_fds:
         with contextlib.suppress(OSError):
             os.close(fd)
@@ -216,35 +307,50 @@ def _terminate(ex: ProcessPoolExecutor) -> None:
             p.join(timeout=2.0)
 
 
-def _isolated(sc: Scenario, close_fds: tuple[int, ...]) -> Result:
-    """Run one scenario alone in a fresh worker; a dead worker makes it an error row."""
+def _isolated(sc: Scenario, close_fds: tuple[int, ...], timeout_s: float | None) -> Result:
+    """Run one scenario alone in a fresh worker; a dead worker makes it an error row (a
+    timeout row when it died past the time limit)."""
     ex = _pool(1, close_fds)
+    t0 = time.perf_counter()
     try:
-        return ex.submit(run_one, sc).result()
+        return ex.submit(run_one, sc, timeout_s).result()
     except BrokenProcessPool:
+        took = time.perf_counter() - t0
+        if timeout_s and took >= timeout_s:
+            return timeout_row(sc, timeout_s, took), None
         return error_row(sc, "WorkerDied: the worker process died running this trip "
-                         "(a crash inside the simulation, or out of memory)"), None
+                         "(a crash inside the simulation, or out of memory)", took), None
     finally:
         _stop_pool(ex)
 
 
-def _local(todo: list[Scenario], workers: int,
-           close_fds: tuple[int, ...] = ()) -> Iterator[Result]:
-    queue = list(reversed(todo))
-    while queue:
+def _local(todo: Iterator[Scenario], workers: int, close_fds: tuple[int, ...] = (),
+           timeout_s: float | None = None) -> Iterator[Result]:
+    """A process pool, at most 2 × workers runs queued; a dead worker breaks the pool, the
+    runs it may have held are retried one at a time, and a new pool goes on."""
+    todo = iter(todo)
+    held: deque[Scenario] = deque()  # taken from ``todo`` but not yet submitted
+
+    def take() -> Scenario | None:
+        return held.popleft() if held else next(todo, None)
+
+    while True:
         ex = _pool(workers, close_fds)
         running: dict = {}
         suspects: list[Scenario] = []
         broken = False
         try:
-            while (queue or running) and not broken:
-                while queue and len(running) < 2 * workers:
+            while not broken:
+                while len(running) < 2 * workers:
+                    sc = take()
+                    if sc is None:
+                        break
                     try:
-                        running[ex.submit(run_one, queue[-1])] = queue[-1]
+                        running[ex.submit(run_one, sc, timeout_s)] = sc
                     except BrokenProcessPool:  # a worker died since the last wait
+                        held.appendleft(sc)
                         broken = True
                         break
-                    queue.pop()
                 if not running:
                     break
                 done, _ = wait(running, return_when=FIRST_COMPLETED)
@@ -258,12 +364,14 @@ def _local(todo: list[Scenario], workers: int,
             suspects.extend(running.values())  # they were running when the pool broke
             running.clear()
         finally:
-            if running or broken or queue:
+            if running or broken or held:
                 _stop_pool(ex)
             else:
                 ex.shutdown(wait=True)
         for sc in suspects:  # which of them killed the worker: each alone
-            yield _isolated(sc, close_fds)
+            yield _isolated(sc, close_fds, timeout_s)
+        if not broken:
+            return
 
 
 def _dask_client(address: str):
@@ -278,7 +386,8 @@ def _dask_client(address: str):
                            ) from None
 
 
-def _dask(todo: list[Scenario], client) -> Iterator[Result]:
+def _dask(todo: Iterator[Scenario], client, timeout_s: float | None = None
+          ) -> Iterator[Result]:
     from distributed import as_completed
 
     def window() -> int:
@@ -288,7 +397,7 @@ def _dask(todo: list[Scenario], client) -> Iterator[Result]:
             threads = 1
         return max(64, 4 * threads)
 
-    queue = list(reversed(todo))
+    todo = iter(todo)
     running: dict = {}
     ac = as_completed(loop=client.loop)  # the client is not the default one
     size, sized_at = window(), time.monotonic()
@@ -297,9 +406,12 @@ def _dask(todo: list[Scenario], client) -> Iterator[Result]:
         nonlocal size, sized_at
         if time.monotonic() - sized_at > 10.0:  # the cluster may have grown
             size, sized_at = window(), time.monotonic()
-        while queue and len(running) < size:
-            sc = queue.pop()
-            fut = client.submit(run_one, sc, key=f"stumble-trip-{run_key(sc)}", pure=False)
+        while len(running) < size:
+            sc = next(todo, None)
+            if sc is None:
+                return
+            fut = client.submit(run_one, sc, timeout_s, key=f"stumble-trip-{run_key(sc)}",
+                                pure=False)
             running[fut.key] = (fut, sc)
             ac.add(fut)
 
@@ -385,13 +497,45 @@ class StudyInterrupted(StumbleError):
 
 @dataclass
 class StudyResult:
-    """What a study produced: its rows in grid order and what this session ran."""
+    """What a study produced (its rows are in ``out/results.parquet``, in grid order)."""
 
-    rows: list[dict]
-    ran: int
-    before: int
+    runs: int  # runs of the study (rows of results.parquet)
+    ran: int  # run in this session
+    before: int  # finished before this session
     out: Path
-    other_rows: int  # rows in the directory from scenarios not in this study
+    other_rows: int  # runs in the directory from scenarios not in this study
+
+    @property
+    def results(self) -> Path:
+        """``out/results.parquet``."""
+        return self.out / "results.parquet"
+
+    @property
+    def rows(self) -> list[dict]:
+        """Every row, in grid order (read from results.parquet; for small studies)."""
+        return read_parquet_rows(self.results)
+
+
+class _Scenarios:
+    """The study's scenarios, re-iterable: a Grid is streamed again each time, anything
+    else is held as a list. ``scan`` checks each and returns their keys."""
+
+    def __init__(self, scenarios: Grid | Iterable[Scenario]):
+        self.grid = scenarios if isinstance(scenarios, Grid) else None
+        self.items = None if self.grid is not None else list(scenarios)
+        if self.grid is not None:
+            self.grid.checked_count()
+
+    def __iter__(self) -> Iterator[Scenario]:
+        return self.grid.iter_scenarios() if self.grid is not None else iter(self.items)
+
+    def scan(self) -> np.ndarray:
+        """Every scenario checked (InputError naming the first bad one); keys as uint64."""
+        keys = []
+        for sc in self:
+            check_scenario(sc)
+            keys.append(int(run_key(sc), 16))
+        return np.array(keys, dtype=np.uint64)
 
 
 @contextlib.contextmanager
@@ -411,84 +555,92 @@ def _sigterm_as_interrupt():
         signal.signal(signal.SIGTERM, old)
 
 
-def run_study(scenarios: Iterable[Scenario], out: Path, workers: int | None = None,
+def run_study(scenarios: Grid | Iterable[Scenario], out: Path, workers: int | None = None,
               scheduler: str | None = None, retry_errors: bool = False,
               progress: bool = True, on_start: Callable[[str], None] | None = None,
-              metadata: dict | None = None) -> StudyResult:
-    """Run every scenario that ``out`` does not hold yet; return all rows in order.
+              metadata: dict | None = None, run_timeout_s: float | None = RUN_TIMEOUT_S,
+              warn: Warn | None = None) -> StudyResult:
+    """Check every scenario, run those ``out`` does not hold yet, write results.parquet.
 
-    ``workers``: local processes (default all cores; 1 runs in this process).
-    ``scheduler``: a Dask scheduler address instead. ``retry_errors``: run again the
-    scenarios whose stored row has an error. ``metadata`` goes into ``out/study.json``.
+    ``scenarios``: a Grid (streamed) or scenarios. ``workers``: local processes (default
+    all cores; 1 runs in this process). ``scheduler``: a Dask scheduler address instead.
+    ``retry_errors``: run again the scenarios whose stored row has an error.
+    ``run_timeout_s``: per-run wall-time limit (None or 0: none). ``metadata`` goes into
+    ``out/study.json``; ``warn`` receives one-line warnings (bad journal rows).
     Raises StudyInterrupted (all finished runs stored) on Ctrl-C or SIGTERM.
     """
-    scenarios = list(scenarios)
-    keys = [run_key(sc) for sc in scenarios]
-    unique = dict(zip(keys, scenarios, strict=True))
+    source = _Scenarios(scenarios)
+    keys = source.scan()  # before the directory is touched
+    _, first = np.unique(keys, return_index=True)
+    unique = np.zeros(len(keys), bool)
+    unique[first] = True
     require_pyarrow()
     if scheduler is not None and workers is not None:
         raise StumbleError("--workers is for local processes; a Dask cluster has its own")
     workers = workers or default_workers()
     if workers < 1:
         raise StumbleError(f"--workers {workers}: at least 1")
+    if run_timeout_s is not None and not (math.isfinite(run_timeout_s) and run_timeout_s >= 0):
+        raise StumbleError(f"--run-timeout {run_timeout_s}: a number of seconds >= 0")
     client = _dask_client(scheduler) if scheduler is not None else None
     out = Path(out)
     shield = _Shield()
+    n_runs = int(unique.sum())
     try:
-        with Store(out) as store:
-            _write_study_json(out, unique, metadata)
-
-            def finished(k: str) -> bool:
-                row = store.rows.get(k)
-                return row is not None and not (retry_errors and row.get("error"))
-
-            todo = [sc for k, sc in unique.items() if not finished(k)]
-            before = len(unique) - len(todo)
+        with Store(out, warn) as store:
+            _write_study_json(out, n_runs, metadata)
+            stored_any = np.isin(keys, store.done)
+            finished = np.isin(keys, store.done_ok) if retry_errors else stored_any
+            todo_mask = unique & ~finished
+            n_todo = int(todo_mask.sum())
+            before = n_runs - n_todo
+            stored_before = int((unique & stored_any).sum())
             where = (f"the Dask cluster at {scheduler}" if client is not None else
-                     "this process" if min(workers, len(todo)) == 1 else
-                     f"{min(workers, len(todo))} local processes")
-            msg = (f"study: {len(unique)} runs, {before} done before, {len(todo)} to run"
-                   + (f" on {where}" if todo else "") + f"; results in {out}")
+                     "this process" if min(workers, n_todo) == 1 else
+                     f"{min(workers, n_todo)} local processes")
+            msg = (f"study: {n_runs} runs, {before} done before, {n_todo} to run"
+                   + (f" on {where}" if n_todo else "") + f"; results in {out}")
             (on_start or (lambda m: print(m, file=sys.stderr)))(msg)
-            bar = Progress(len(todo), enabled=progress)
+            bar = Progress(n_todo, enabled=progress)
+            todo = (sc for sc, go in zip(source, todo_mask, strict=True) if go)
             if client is not None:
-                runs = _dask(todo, client)
-            elif workers == 1 or len(todo) <= 1:
-                runs = _serial(todo)
+                runs = _dask(todo, client, run_timeout_s)
+            elif workers == 1 or n_todo <= 1:
+                runs = _serial(todo, run_timeout_s)
             else:
                 import stumble.pipeline  # noqa: F401  (imported once, shared by the forks)
 
-                runs = _local(todo, min(workers, len(todo)), store.inherited_fds())
-            ran = 0
+                runs = _local(todo, min(workers, n_todo), store.inherited_fds(), run_timeout_s)
+            retried = ({int(k) for k in keys[todo_mask & stored_any]} if retry_errors
+                       else set())
+            ran = new = 0
             try:
                 with _sigterm_as_interrupt(), contextlib.closing(runs):
                     for row, tb in runs:
                         store.add(row, tb)
                         ran += 1
+                        new += int(row["key"], 16) not in retried
                         bar.update(row)
             except KeyboardInterrupt:
                 shield.on()  # finish storing, whatever else arrives
                 bar.close()
-                stored = sum(k in store.rows for k in unique)
                 raise StudyInterrupted(
-                    f"interrupted: {stored} of {len(unique)} runs are stored in {out}; run "
-                    "the same command again to do the rest") from None
+                    f"interrupted: {stored_before + new} of {n_runs} runs are stored in {out}; "
+                    "run the same command again to do the rest") from None
             bar.close()
-            rows = [store.rows[k] for k in unique if k in store.rows]
-            other = len(store.rows) - len(rows)
     finally:
         if client is not None:
             with contextlib.suppress(Exception):
                 client.close()
         shield.off()
-    write_parquet(out / "results.parquet", rows)
-    return StudyResult(rows, ran, before, out, other)
+    written, other = write_results(out, keys[unique])
+    return StudyResult(written, ran, before, out, other)
 
 
-def _write_study_json(out: Path, unique: dict, metadata: dict | None) -> None:
-    d = {"stumble_version": __version__, "runs": len(unique), **(metadata or {})}
+def _write_study_json(out: Path, runs: int, metadata: dict | None) -> None:
+    d = {"stumble_version": __version__, "runs": runs, **(metadata or {})}
     tmp = out / ".study.json.tmp"
-    tmp.write_text(json.dumps(d, indent=1) + "\n")
+    tmp.write_text(json.dumps(d, indent=1, allow_nan=False) + "\n")
     os.replace(tmp, out / "study.json")
 
 
@@ -496,7 +648,9 @@ def _write_study_json(out: Path, unique: dict, metadata: dict | None) -> None:
 
 
 def outcome(row: dict) -> str:
-    """error, diverged, recovered, fell or neither (no recovery within the time)."""
+    """timeout, error, diverged, recovered, fell or neither (no recovery within the time)."""
+    if row.get("timed_out"):
+        return "timeout"
     if row.get("error") and not row.get("diverged"):
         return "error"
     if row.get("diverged"):
@@ -508,22 +662,27 @@ def outcome(row: dict) -> str:
     return "neither"
 
 
-OUTCOMES = ("recovered", "fell", "diverged", "neither", "error")
+OUTCOMES = ("recovered", "fell", "diverged", "neither", "timeout", "error")
+SUMMARY_COLUMNS = ("controller", "strategy", "timed_out", "error", "diverged", "recovered",
+                   "fell")  # what summary_table and outcome read
 
 
-def summary_table(rows: list[dict]) -> str:
-    """Runs and outcomes per strategy taken (and per controller when there are several)."""
-    controllers = sorted({str(r.get("controller")) for r in rows})
-    by_ctrl = len(controllers) > 1
+def summary_table(rows: Iterable[dict]) -> str:
+    """Runs and outcomes per strategy taken (and per controller when there are several).
 
-    def label(r: dict) -> str:
-        s = r.get("strategy") or "-"
-        return f"{r.get('controller')} {s}" if by_ctrl else s
-
-    groups: dict[str, dict[str, int]] = {}
+    One pass over ``rows``: an iterator (``iter_results``) keeps memory flat."""
+    counts: dict[tuple[str, str], dict[str, int]] = {}
     for r in rows:
-        g = groups.setdefault(label(r), dict.fromkeys(OUTCOMES, 0))
+        g = counts.setdefault((str(r.get("controller")), r.get("strategy") or "-"),
+                              dict.fromkeys(OUTCOMES, 0))
         g[outcome(r)] += 1
+    by_ctrl = len({c for c, _ in counts}) > 1
+    groups: dict[str, dict[str, int]] = {}
+    for (ctrl, strategy), g in counts.items():
+        name = f"{ctrl} {strategy}" if by_ctrl else strategy
+        tot = groups.setdefault(name, dict.fromkeys(OUTCOMES, 0))
+        for k, v in g.items():
+            tot[k] += v
     total = dict.fromkeys(OUTCOMES, 0)
     for g in groups.values():
         for k, v in g.items():
@@ -539,3 +698,8 @@ def summary_table(rows: list[dict]) -> str:
     lines.insert(len(lines) - 1, lines[1])
     return "\n".join(lines)
 
+
+def iter_results(out: Path, columns: Iterable[str] | None = None) -> Iterator[dict]:
+    """The rows of ``out/results.parquet`` one at a time (``columns``: only these)."""
+    return iter_parquet_rows(Path(out) / "results.parquet",
+                             None if columns is None else list(columns))

@@ -3,12 +3,17 @@
 The maps put the trip instant (fraction of swing) across and the walking speed up, one
 panel per controller and mechanism. Runs that share a cell (seeds, legs, scales, bodies)
 are pooled: a cell then shows a fraction and its count.
+
+The plots draw from a ``Tally`` (counts per cell), filled one row at a time, so a study
+of a million runs is plotted without holding its rows.
 """
 
 from __future__ import annotations
 
 import math
-from collections import defaultdict
+from collections import Counter, defaultdict
+from collections.abc import Iterable
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -30,14 +35,109 @@ PUBLISHED_WINDOWS = (
 ELEVATING_COLOR = "#e08214"
 LOWERING_COLOR = "#2166ac"
 OUTCOME_COLORS = {"recovered": "#1a9850", "fell": "#d73027", "diverged": "#762a83",
-                  "neither": "#fee08b", "error": "#bdbdbd"}
+                  "neither": "#fee08b", "timeout": "#636363", "error": "#bdbdbd"}
 RDYLGN = colormaps["RdYlGn"]
-SHORT = {"fell": "fell", "diverged": "div.", "neither": "not yet", "error": "error"}
+SHORT = {"fell": "fell", "diverged": "div.", "neither": "not yet", "timeout": "timeout",
+         "error": "error"}
 LEGEND = {"neither": "neither (not recovered in time)"}
 FACETS = ("controller", "mechanism")  # one panel per combination present
 POOLED = ("leg", "strategy_mode", "obstacle_height_m", "delay_scale", "strength_scale",
           "height_m", "mass_kg", "sex", "contact", "seed", "duration_after_trip_s",
           "timestep_s")
+SCALES = ("delay_scale", "strength_scale")
+PLOT_COLUMNS = ("swing_fraction", "speed_m_per_s", *FACETS, *POOLED, "strategy", "error",
+                "timed_out", "diverged", "recovered", "fell")  # what the plots read
+
+
+@dataclass
+class Cell:
+    """The runs of one map cell, counted."""
+
+    runs: int = 0
+    raised: int = 0  # rows with an error text (diverged ones too)
+    elevating: int = 0  # strategies taken by runs without an error
+    lowering: int = 0
+    other: int = 0
+    outcomes: Counter = field(default_factory=Counter)
+    first: str = ""  # the outcome of the cell's first run
+
+    def add(self, r: dict) -> None:
+        what = outcome(r)
+        if not self.runs:
+            self.first = what
+        self.runs += 1
+        self.outcomes[what] += 1
+        if r.get("error"):
+            self.raised += 1
+        elif r.get("strategy"):
+            s = r["strategy"]
+            if s == "elevating":
+                self.elevating += 1
+            elif s == "lowering":
+                self.lowering += 1
+            else:
+                self.other += 1
+
+
+@dataclass
+class Tally:
+    """What the study plots need, counted one row at a time."""
+
+    panels: dict = field(default_factory=lambda: defaultdict(dict))  # facet → (v, s) → Cell
+    swings: set = field(default_factory=set)
+    speeds: set = field(default_factory=set)
+    pooled_values: dict = field(default_factory=lambda: defaultdict(set))
+    outcomes: Counter = field(default_factory=Counter)
+    scale_values: dict = field(default_factory=lambda: defaultdict(set))
+    # (scale, controller, mechanism, other scales' values) → value → [falls, runs]
+    fall: dict = field(default_factory=lambda: defaultdict(lambda: defaultdict(lambda: [0, 0])))
+
+    def add(self, r: dict) -> None:
+        if r.get("swing_fraction") is None or r.get("speed_m_per_s") is None:
+            return
+        swing, speed = float(r["swing_fraction"]), float(r["speed_m_per_s"])
+        self.swings.add(swing)
+        self.speeds.add(speed)
+        facet = tuple(r.get(f) for f in FACETS)
+        self.panels[facet].setdefault((speed, swing), Cell()).add(r)
+        for name in POOLED:
+            if r.get(name) is not None and len(self.pooled_values[name]) <= 1000:
+                self.pooled_values[name].add(r.get(name))
+        what = outcome(r)
+        self.outcomes[what] += 1
+        for scale in SCALES:
+            self.scale_values[scale].add(r.get(scale))
+        if what in ("error", "timeout"):
+            return
+        for scale in SCALES:
+            if r.get(scale) is None:
+                continue
+            others = tuple(r.get(o) for o in SCALES if o != scale)
+            entry = self.fall[(scale, *facet, *others)][float(r[scale])]
+            entry[0] += what == "fell"
+            entry[1] += 1
+
+    @classmethod
+    def of(cls, rows: Iterable[dict]) -> Tally:
+        """The tally of some rows (any iterable: one pass)."""
+        t = cls()
+        for r in rows:
+            t.add(r)
+        return t
+
+    def empty(self) -> bool:
+        return not self.panels
+
+    def varying_scales(self) -> list[str]:
+        """The delay and strength scales that take more than one value."""
+        return [s for s in SCALES if len(self.scale_values[s]) > 1]
+
+    def facets(self) -> list[tuple]:
+        return sorted(self.panels, key=lambda k: tuple(str(x) for x in k))
+
+    def pooled(self) -> bool:
+        """Whether any cell of any panel holds more than one run."""
+        return any(c.runs > 1 for cells in self.panels.values() for c in cells.values())
 
 
 def _edges(values: list[float], pad: float) -> np.ndarray:
@@ -48,42 +148,19 @@ def _edges(values: list[float], pad: float) -> np.ndarray:
     return np.concatenate([[v[0] - (mid[0] - v[0])], mid, [v[-1] + (v[-1] - mid[-1])]])
 
 
-def _facets(rows: list[dict]) -> dict[tuple, list[dict]]:
-    groups: dict[tuple, list[dict]] = defaultdict(list)
-    for r in rows:
-        groups[tuple(r.get(f) for f in FACETS)].append(r)
-    return dict(sorted(groups.items(), key=lambda kv: tuple(str(x) for x in kv[0])))
-
-
-def _pooled_note(rows: list[dict]) -> str:
-    parts = []
-    for name in POOLED:
-        vals = {r.get(name) for r in rows} - {None}
-        if len(vals) > 1:
-            parts.append(f"{name} ({len(vals)})")
+def _pooled_note(t: Tally) -> str:
+    parts = [f"{name} ({len(t.pooled_values[name])})" for name in POOLED
+             if len(t.pooled_values[name]) > 1]
     return "pooled over " + ", ".join(parts) if parts else ""
 
 
-def _cells(rows: list[dict]) -> tuple[list[float], list[float], dict]:
-    swings = sorted({float(r["swing_fraction"]) for r in rows})
-    speeds = sorted({float(r["speed_m_per_s"]) for r in rows})
-    cells: dict[tuple[int, int], list[dict]] = defaultdict(list)
-    for r in rows:
-        cells[(speeds.index(float(r["speed_m_per_s"])),
-               swings.index(float(r["swing_fraction"])))].append(r)
-    return swings, speeds, cells
+def _grid_of(cells: dict) -> tuple[list[float], list[float]]:
+    return sorted({s for _, s in cells}), sorted({v for v, _ in cells})
 
 
-def _pooled(facets: dict[tuple, list[dict]]) -> bool:
-    """Whether any cell of any panel holds more than one run."""
-    return any(len(c) > 1 for rs in facets.values() for c in _cells(rs)[2].values())
-
-
-def _figure(n: int, rows_all: list[dict]) -> tuple[Figure, list]:
-    swings = {r["swing_fraction"] for r in rows_all}
-    speeds = {r["speed_m_per_s"] for r in rows_all}
-    w = min(max(4.5, 0.42 * len(swings) + 2.2), 11.0)
-    h = min(max(2.6, 0.45 * len(speeds) + 1.9), 7.0)
+def _figure(n: int, t: Tally) -> tuple[Figure, list]:
+    w = min(max(4.5, 0.42 * len(t.swings) + 2.2), 11.0)
+    h = min(max(2.6, 0.45 * len(t.speeds) + 1.9), 7.0)
     fig = Figure(figsize=(w * n + 1.4, h + 0.5), constrained_layout=True)
     FigureCanvasAgg(fig)
     axes = fig.subplots(1, n, squeeze=False)[0]
@@ -129,34 +206,41 @@ def _annotate(ax, x: float, y: float, text: str, dark: bool, n_cells: int) -> No
                 color="white" if dark else "black")
 
 
-def plot_strategy_map(path, rows: list[dict]) -> Path:
+def _tally(rows) -> Tally:
+    return rows if isinstance(rows, Tally) else Tally.of(rows)
+
+
+def plot_strategy_map(path, rows: Tally | Iterable[dict]) -> Path:
     """Swing fraction × speed → strategy taken (fraction elevating where runs are pooled).
 
     A strip above each panel shows the human windows of SCA 2009 §3. Grey cells: every
     run of the cell raised an error, or took no strategy that could be classified."""
-    facets = _facets(rows)
-    fig, axes = _figure(len(facets), rows)
+    t = _tally(rows)
+    facets = t.facets()
+    fig, axes = _figure(len(facets), t)
     cmap = LinearSegmentedColormap.from_list("strategy", [LOWERING_COLOR, "#f7f7f7",
                                                           ELEVATING_COLOR])
     mesh = None
-    for ax, ((ctrl, mech), rs) in zip(axes, facets.items(), strict=True):
-        swings, speeds, cells = _cells(rs)
+    for ax, facet in zip(axes, facets, strict=True):
+        ctrl, mech = facet
+        cells = t.panels[facet]
+        swings, speeds = _grid_of(cells)
         xe, ye = _panel_axes(ax, swings, speeds, f"{ctrl}, {mech} trips")
         frac = np.full((len(speeds), len(swings)), np.nan)
-        for (i, j), cell in cells.items():
-            taken = [r.get("strategy") for r in cell if r.get("strategy") and not r.get("error")]
+        for (v, sw), c in cells.items():
+            i, j = speeds.index(v), swings.index(sw)
+            taken = c.elevating + c.lowering + c.other
             dark = False
             if taken:
-                k = sum(s == "elevating" for s in taken)
-                frac[i, j] = k / len(taken)
-                n = "" if len(taken) == 1 else f" ({len(taken)})"
-                label = (f"E{n}" if k == len(taken) else f"L{n}"
-                         if k == 0 and all(s == "lowering" for s in taken)
-                         else f"E {k}/{len(taken)}")
+                k = c.elevating
+                frac[i, j] = k / taken
+                n = "" if taken == 1 else f" ({taken})"
+                label = (f"E{n}" if k == taken else f"L{n}" if c.lowering == taken
+                         else f"E {k}/{taken}")
                 dark = _dark(cmap, frac[i, j])
             else:  # every run raised, or none could be classified (an emergent strategy)
-                label = "error" if all(r.get("error") for r in cell) else "unclassified"
-            _annotate(ax, swings[j], speeds[i], label, dark, len(cells))
+                label = "error" if c.raised == c.runs else "unclassified"
+            _annotate(ax, sw, v, label, dark, len(cells))
         ax.pcolormesh(xe, ye, np.zeros_like(frac), cmap=ListedColormap(["#bdbdbd"]))
         mesh = ax.pcolormesh(xe, ye, np.ma.masked_invalid(frac), cmap=cmap, vmin=0, vmax=1,
                              edgecolors="white", linewidth=0.6)
@@ -164,49 +248,53 @@ def plot_strategy_map(path, rows: list[dict]) -> Path:
     cb = fig.colorbar(mesh, ax=axes, shrink=0.9, pad=0.02)
     cb.set_label("fraction elevating")
     cb.set_ticks([0, 0.5, 1], labels=["lowering", "mixed", "elevating"])
-    note = _pooled_note(rows)
+    note = _pooled_note(t)
     fig.suptitle("Strategy taken: E elevating, L lowering" + ("; (n): runs in the cell; "
-                 "E k/n: k of n elevating" if _pooled(facets) else "")
+                 "E k/n: k of n elevating" if t.pooled() else "")
                  + (f"\n{note}" if note else ""), fontsize=10)
     fig.savefig(path, dpi=110)
     return Path(path)
 
 
-def plot_outcome_map(path, rows: list[dict]) -> Path:
-    """Swing fraction × speed → recovered / fell / diverged / neither / error.
+def plot_outcome_map(path, rows: Tally | Iterable[dict]) -> Path:
+    """Swing fraction × speed → recovered / fell / diverged / neither / timeout / error.
 
     One run per cell: its outcome as a colour. Pooled runs: the fraction recovered, with
-    "recovered/runs" written in the cell."""
-    facets = _facets(rows)
-    fig, axes = _figure(len(facets), rows)
-    pooled = _pooled(facets)
+    "recovered/runs" written in the cell (runs that raised or timed out left out)."""
+    t = _tally(rows)
+    facets = t.facets()
+    fig, axes = _figure(len(facets), t)
+    pooled = t.pooled()
     mesh = None
-    for ax, ((ctrl, mech), rs) in zip(axes, facets.items(), strict=True):
-        swings, speeds, cells = _cells(rs)
+    for ax, facet in zip(axes, facets, strict=True):
+        ctrl, mech = facet
+        cells = t.panels[facet]
+        swings, speeds = _grid_of(cells)
         xe, ye = _panel_axes(ax, swings, speeds, f"{ctrl}, {mech} trips")
         if not pooled:
             code = np.full((len(speeds), len(swings)), np.nan)
-            for (i, j), cell in cells.items():
-                what = outcome(cell[0])
-                code[i, j] = list(OUTCOME_COLORS).index(what)
-                if what != "recovered":
-                    _annotate(ax, swings[j], speeds[i], SHORT[what], what in ("fell", "diverged"),
-                              len(cells))
+            for (v, sw), c in cells.items():
+                i, j = speeds.index(v), swings.index(sw)
+                code[i, j] = list(OUTCOME_COLORS).index(c.first)
+                if c.first != "recovered":
+                    _annotate(ax, sw, v, SHORT[c.first],
+                              c.first in ("fell", "diverged", "timeout"), len(cells))
             cmap = ListedColormap(list(OUTCOME_COLORS.values()))
             ax.pcolormesh(xe, ye, np.ma.masked_invalid(code), cmap=cmap, vmin=-0.5,
                           vmax=len(OUTCOME_COLORS) - 0.5, edgecolors="white", linewidth=0.6)
             continue
         frac = np.full((len(speeds), len(swings)), np.nan)
-        for (i, j), cell in cells.items():
-            ok = [r for r in cell if outcome(r) != "error"]
+        for (v, sw), c in cells.items():
+            i, j = speeds.index(v), swings.index(sw)
+            ok = c.runs - c.outcomes["error"] - c.outcomes["timeout"]
             dark = False
             if ok:
-                frac[i, j] = sum(outcome(r) == "recovered" for r in ok) / len(ok)
-                label = f"{sum(outcome(r) == 'recovered' for r in ok)}/{len(ok)}"
+                frac[i, j] = c.outcomes["recovered"] / ok
+                label = f"{c.outcomes['recovered']}/{ok}"
                 dark = _dark(RDYLGN, frac[i, j])
             else:
-                label = "error"
-            _annotate(ax, swings[j], speeds[i], label, dark, len(cells))
+                label = "error" if c.outcomes["error"] else "timeout"
+            _annotate(ax, sw, v, label, dark, len(cells))
         ax.pcolormesh(xe, ye, np.zeros_like(frac), cmap=ListedColormap(["#bdbdbd"]))
         mesh = ax.pcolormesh(xe, ye, np.ma.masked_invalid(frac), cmap=RDYLGN, vmin=0,
                              vmax=1, edgecolors="white", linewidth=0.6)
@@ -214,13 +302,10 @@ def plot_outcome_map(path, rows: list[dict]) -> Path:
         cb = fig.colorbar(mesh, ax=axes, shrink=0.9, pad=0.02)
         cb.set_label("fraction recovered")
     else:
-        counts = defaultdict(int)
-        for r in rows:
-            counts[outcome(r)] += 1
-        handles = [Patch(color=c, label=f"{LEGEND.get(k, k)} ({counts[k]})")
-                   for k, c in OUTCOME_COLORS.items() if counts[k]]
+        handles = [Patch(color=c, label=f"{LEGEND.get(k, k)} ({t.outcomes[k]})")
+                   for k, c in OUTCOME_COLORS.items() if t.outcomes[k]]
         fig.legend(handles=handles, loc="outside right center", fontsize=8, frameon=False)
-    note = _pooled_note(rows)
+    note = _pooled_note(t)
     fig.suptitle("Outcome" + (": recovered / runs without error" if pooled else "")
                  + (f"\n{note}" if note else ""), fontsize=10)
     fig.savefig(path, dpi=110)
@@ -238,34 +323,40 @@ def wilson_interval(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
     return max(0.0, centre - half), min(1.0, centre + half)
 
 
-def plot_fall_rate(path, rows: list[dict], scales: list[str]) -> Path:
+def plot_fall_rate(path, rows: Tally | Iterable[dict], scales: list[str]) -> Path:
     """Fall rate (falls / runs without error, 95 % Wilson interval) against each scale.
 
     ``scales``: ``delay_scale`` and/or ``strength_scale``. One line per controller and
     mechanism (and per value of the other scale when both vary)."""
+    t = _tally(rows)
     fig = Figure(figsize=(5.2 * len(scales) + 0.6, 3.8), constrained_layout=True)
     FigureCanvasAgg(fig)
     axes = fig.subplots(1, len(scales), squeeze=False)[0]
     labels = {"delay_scale": "response delay scale (× every latency)",
               "strength_scale": "strength scale (× every torque limit)"}
     for ax, scale in zip(axes, scales, strict=True):
-        others = [s for s in scales if s != scale]
-        lines: dict[tuple, dict[float, list[dict]]] = defaultdict(lambda: defaultdict(list))
-        for r in rows:
-            if outcome(r) == "error":
+        others = [o for o in SCALES if o != scale]
+        shown = [o for o in others if o in scales]
+        lines: dict[tuple, dict[float, list[int]]] = defaultdict(lambda: defaultdict(
+            lambda: [0, 0]))
+        for (sc, ctrl, mech, *other_vals), by_x in t.fall.items():
+            if sc != scale:
                 continue
-            g = (r.get("controller"), r.get("mechanism"), *(r.get(o) for o in others))
-            lines[g][float(r[scale])].append(r)
+            g = (ctrl, mech, *(v for o, v in zip(others, other_vals, strict=True)
+                               if o in shown))
+            for x, (falls, runs) in by_x.items():
+                lines[g][x][0] += falls
+                lines[g][x][1] += runs
         for g, by_x in sorted(lines.items(), key=lambda kv: tuple(str(x) for x in kv[0])):
             xs = sorted(by_x)
-            k = [sum(outcome(r) == "fell" for r in by_x[x]) for x in xs]
-            n = [len(by_x[x]) for x in xs]
+            k = [by_x[x][0] for x in xs]
+            n = [by_x[x][1] for x in xs]
             p = [a / b for a, b in zip(k, n, strict=True)]
             ci = [wilson_interval(a, b) for a, b in zip(k, n, strict=True)]
             err = np.array([[pi - lo for pi, (lo, _) in zip(p, ci, strict=True)],
                             [hi - pi for pi, (_, hi) in zip(p, ci, strict=True)]])
             label = f"{g[0]}, {g[1]}" + "".join(
-                f", {o.split('_')[0]} ×{v:g}" for o, v in zip(others, g[2:], strict=True))
+                f", {o.split('_')[0]} ×{v:g}" for o, v in zip(shown, g[2:], strict=True))
             ax.errorbar(xs, p, yerr=err, marker="o", capsize=3, label=label)
         ax.axvline(1.0, color="0.6", ls=":", lw=1)
         ax.set_ylim(-0.03, 1.03)
@@ -273,25 +364,24 @@ def plot_fall_rate(path, rows: list[dict], scales: list[str]) -> Path:
         ax.set_ylabel("fall rate (falls / runs)")
         ax.legend(fontsize=8, loc="best")
         ax.grid(alpha=0.3)
-    fig.suptitle("Fall rate, 95 % Wilson intervals (runs that raised are left out)",
-                 fontsize=10)
+    fig.suptitle("Fall rate, 95 % Wilson intervals (runs that raised or timed out are left "
+                 "out)", fontsize=10)
     fig.savefig(path, dpi=110)
     return Path(path)
 
 
-def write_study_plots(out: Path, rows: list[dict]) -> list[str]:
+def write_study_plots(out: Path, rows: Tally | Iterable[dict]) -> list[str]:
     """strategy_map.png and outcome_map.png; fall_rate.png when a delay or strength scale
-    varies. Returns the names written."""
+    varies. ``rows``: a Tally, or rows (any iterable, read once). Returns the names written."""
     out = Path(out)
-    rows = [r for r in rows if r.get("swing_fraction") is not None]
-    if not rows:
+    t = _tally(rows)
+    if t.empty():
         return []
-    plot_strategy_map(out / "strategy_map.png", rows)
-    plot_outcome_map(out / "outcome_map.png", rows)
+    plot_strategy_map(out / "strategy_map.png", t)
+    plot_outcome_map(out / "outcome_map.png", t)
     written = ["strategy_map.png", "outcome_map.png"]
-    scales = [s for s in ("delay_scale", "strength_scale")
-              if len({r.get(s) for r in rows}) > 1]
+    scales = t.varying_scales()
     if scales:
-        plot_fall_rate(out / "fall_rate.png", rows, scales)
+        plot_fall_rate(out / "fall_rate.png", t, scales)
         written.append("fall_rate.png")
     return written

@@ -28,7 +28,9 @@ Delays are whole samples of the network's rate (1 kHz by default, so within 0.5 
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+import math
+import zipfile
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -64,29 +66,30 @@ class Topology:
     contact: bool = False
     afferent_m_per_s: float = AFFERENT_M_PER_S
     efferent_m_per_s: float = EFFERENT_M_PER_S
+    muscles: tuple[str, ...] = MUSCLE_NAMES  # per leg, in the model's order
 
     @property
     def n_signals(self) -> int:
         """Signals per leg: 3 per muscle, plus the foot contact when enabled."""
-        return 3 * len(MUSCLE_NAMES) + (1 if self.contact else 0)
+        return 3 * len(self.muscles) + (1 if self.contact else 0)
 
     def inputs(self) -> list[tuple[int, int, int]]:
         """(segment index, signal index, afferent delay in samples) of every input."""
         out = []
         for s, seg in enumerate(SEGMENTS):
-            for j, mus in enumerate(MUSCLE_NAMES):
+            for j, mus in enumerate(self.muscles):
                 if seg in NERVE_LENGTH_M[mus]:
                     lag = self._samples(NERVE_LENGTH_M[mus][seg] / self.afferent_m_per_s)
                     out += [(s, 3 * j + k, lag) for k in range(len(SIGNALS))]
             if self.contact and seg in CONTACT_NERVE_M:
                 lag = self._samples(CONTACT_NERVE_M[seg] / self.afferent_m_per_s)
-                out.append((s, 3 * len(MUSCLE_NAMES), lag))
+                out.append((s, 3 * len(self.muscles), lag))
         return out
 
     def connections(self) -> list[tuple[int, int, int]]:
         """(segment index, muscle index, efferent delay in samples) of every motor path."""
         out = []
-        for j, mus in enumerate(MUSCLE_NAMES):
+        for j, mus in enumerate(self.muscles):
             for seg, length in NERVE_LENGTH_M[mus].items():
                 out.append((SEGMENTS.index(seg), j,
                             self._samples(length / self.efferent_m_per_s)))
@@ -111,6 +114,16 @@ class Topology:
         """Longest afferent plus efferent delay, in samples."""
         return (max(lag for *_x, lag in self.inputs())
                 + max(lag for *_x, lag in self.connections()))
+
+
+def steps_per_tick(timestep_s: float, rate_hz: float = RATE_HZ) -> int:
+    """Physics steps per network tick; InputError unless the time step divides a tick
+    (the nerve delays are counted in ticks)."""
+    every = max(1, round(1.0 / (rate_hz * timestep_s)))
+    if abs(every * timestep_s * rate_hz - 1.0) > 1e-6:
+        raise InputError(f"the reflex network ticks every {1e3 / rate_hz:g} ms: the time step "
+                         f"({1e3 * timestep_s:g} ms) must divide it")
+    return every
 
 
 @dataclass
@@ -142,7 +155,7 @@ class Network:
         w *= 1.0 / np.sqrt(fan[seg_of_input])[:, None]
         w *= cls._mask(topology)
         v = rng.normal(0.0, 0.3, (len(topology.connections()), H))
-        return cls(topology, w, np.zeros(len(SEGMENTS) * H), v, np.zeros(len(MUSCLE_NAMES)),
+        return cls(topology, w, np.zeros(len(SEGMENTS) * H), v, np.zeros(len(topology.muscles)),
                    np.asarray(mean, float), np.asarray(std, float))
 
     @staticmethod
@@ -157,8 +170,8 @@ class Network:
     def with_delay_scale(self, scale: float) -> Network:
         """A copy whose every nerve delay is ``scale`` times as long (slower nerves)."""
         t = self.topology
-        slower = Topology(t.rate_hz, t.hidden, t.contact, t.afferent_m_per_s / scale,
-                          t.efferent_m_per_s / scale)
+        slower = replace(t, afferent_m_per_s=t.afferent_m_per_s / scale,
+                         efferent_m_per_s=t.efferent_m_per_s / scale)
         return Network(slower, self.w, self.b, self.v, self.c, self.mean, self.std,
                        dict(self.info), self.walk_rates)
 
@@ -238,28 +251,200 @@ class Network:
                  path, w=self.w, b=self.b, v=self.v, c=self.c, mean=self.mean, std=self.std,
                  rate_hz=t.rate_hz, hidden=t.hidden, contact=t.contact,
                  afferent_m_per_s=t.afferent_m_per_s, efferent_m_per_s=t.efferent_m_per_s,
-                 muscles=np.array(MUSCLE_NAMES), segments=np.array(SEGMENTS),
+                 muscles=np.array(t.muscles), segments=np.array(SEGMENTS),
                  info=np.array(json.dumps(self.info)),
                  walk_rates=np.zeros(0) if self.walk_rates is None else self.walk_rates)
 
     @classmethod
     def load(cls, path: str | Path) -> Network:
-        """Read a network written by ``save``; InputError if it is not one."""
+        """Read a network written by ``save``; InputError naming the file and the problem
+        if it is not one (see ``read_network_file``: nothing is loaded in full before its
+        names, shapes, types and sizes are checked)."""
         path = Path(path)
-        if not path.is_file():
-            raise InputError(f"network file {path} does not exist")
-        try:
-            z = np.load(path, allow_pickle=False)
-            t = Topology(float(z["rate_hz"]), int(z["hidden"]), bool(z["contact"]),
-                         float(z["afferent_m_per_s"]), float(z["efferent_m_per_s"]))
-            net = cls(t, z["w"], z["b"], z["v"], z["c"], z["mean"], z["std"],
-                      json.loads(str(z["info"])))
-            if "walk_rates" in z and z["walk_rates"].size:
-                net.walk_rates = z["walk_rates"]
-            muscles = tuple(str(s) for s in z["muscles"])
-        except (OSError, KeyError, ValueError, json.JSONDecodeError) as e:
-            raise InputError(f"{path} is not a stumble reflex network ({e})") from None
-        if muscles != MUSCLE_NAMES or net.w.shape != (len(t.inputs()),
-                                                      len(SEGMENTS) * t.hidden):
-            raise InputError(f"{path} is a network of another layout")
-        return net
+        z = read_network_file(path)
+        t = Topology(float(z["rate_hz"]), int(z["hidden"]), bool(z["contact"]),
+                     float(z["afferent_m_per_s"]), float(z["efferent_m_per_s"]),
+                     tuple(str(s) for s in z["muscles"]))
+        if t.muscles != MUSCLE_NAMES:
+            raise InputError(f"{path}: a network of the muscles {', '.join(t.muscles)}; this "
+                             f"model has {', '.join(MUSCLE_NAMES)}")
+        walk = z.get("walk_rates")
+        return cls(t, z["w"], z["b"], z["v"], z["c"], z["mean"], z["std"], z["info"],
+                   walk if walk is not None and walk.size else None)
+
+
+# ---- the network file: checked before anything is loaded in full ---------------------
+MAX_FILE_BYTES = 64 * 2**20  # a network.npz on disk (the shipped one: about 0.5 MB)
+MAX_ARRAY_BYTES = 32 * 2**20  # one array inflated (walk_rates at 1 kHz: about 0.4 MB)
+RATE_RANGE_HZ = (100.0, 10_000.0)  # network tick rate (ours: 1 kHz)
+SPEED_RANGE_M_PER_S = (1.0, 200.0)  # nerve conduction (human: about 30-120 m/s)
+HIDDEN_RANGE = (1, 64)  # interneurons per segment (ours: 6)
+MAX_WALK_S = 10.0  # walk_rates: at most this long a stride at the network's rate
+SCALARS = ("rate_hz", "hidden", "contact", "afferent_m_per_s", "efferent_m_per_s")
+NAMES = ("muscles", "segments", "info")
+ARRAYS = ("w", "b", "v", "c", "mean", "std")
+OPTIONAL = ("walk_rates",)
+
+
+def _entries(zf: zipfile.ZipFile, where: str) -> dict[str, zipfile.ZipInfo]:
+    """The archive's members by array name, checked against the names and sizes allowed."""
+    known = (*SCALARS, *NAMES, *ARRAYS, *OPTIONAL)
+    out: dict[str, zipfile.ZipInfo] = {}
+    for info in zf.infolist():
+        name = info.filename.removesuffix(".npy")
+        if name not in known or not info.filename.endswith(".npy"):
+            raise InputError(f"{where}: unexpected entry {info.filename!r} (a stumble network "
+                             f"holds {', '.join(known)})")
+        if name in out:
+            raise InputError(f"{where}: entry {info.filename!r} appears twice")
+        if info.file_size > MAX_ARRAY_BYTES:
+            raise InputError(f"{where}: entry {name} inflates to {info.file_size} bytes, more "
+                             f"than the {MAX_ARRAY_BYTES} bytes a network array may have")
+        out[name] = info
+    missing = [n for n in (*SCALARS, *NAMES, *ARRAYS) if n not in out]
+    if missing:
+        raise InputError(f"{where}: not a stumble reflex network (no {', '.join(missing)})")
+    return out
+
+
+def _header(zf: zipfile.ZipFile, info: zipfile.ZipInfo, where: str):
+    """(shape, dtype) from an .npy member's header, without reading its data."""
+    with zf.open(info) as f:
+        version = np.lib.format.read_magic(f)
+        if version == (1, 0):
+            shape, _fortran, dtype = np.lib.format.read_array_header_1_0(f)
+        elif version in ((2, 0), (3, 0)):
+            shape, _fortran, dtype = np.lib.format.read_array_header_2_0(f)
+        else:
+            raise InputError(f"{where}: entry {info.filename}: .npy version {version}")
+        header_bytes = f.tell()
+    if dtype.hasobject:
+        raise InputError(f"{where}: entry {info.filename} holds Python objects (refused: "
+                         "a network holds numbers and names only)")
+    if math.prod(shape) * dtype.itemsize != info.file_size - header_bytes:
+        raise InputError(f"{where}: entry {info.filename}: its header ({shape}, {dtype}) "
+                         f"does not match its {info.file_size} bytes")
+    return tuple(shape), dtype
+
+
+def _read(zf: zipfile.ZipFile, info: zipfile.ZipInfo) -> np.ndarray:
+    with zf.open(info) as f:
+        return np.lib.format.read_array(f, allow_pickle=False)
+
+
+def _expect(name: str, shape, dtype, want_shape, kinds: str, where: str) -> None:
+    if dtype.kind not in kinds:
+        raise InputError(f"{where}: {name} has type {dtype}, not "
+                         f"{'text' if kinds == 'U' else 'a number'}")
+    if want_shape is not None and tuple(shape) != tuple(want_shape):
+        raise InputError(f"{where}: {name} has shape {tuple(shape)}, expected "
+                         f"{tuple(want_shape)} for this network's muscles and layout")
+
+
+def _scalar(z: dict, name: str, lo: float, hi: float, where: str) -> float:
+    v = float(z[name])
+    if not (math.isfinite(v) and lo <= v <= hi):
+        raise InputError(f"{where}: {name} = {v:g} is outside {lo:g}-{hi:g}")
+    return v
+
+
+def read_network_file(path: Path) -> dict:
+    """The arrays of a network ``.npz``, each checked before it is read in full.
+
+    The file must be a regular file of at most ``MAX_FILE_BYTES``, a zip archive whose
+    members are exactly the network's arrays, each inflating to at most
+    ``MAX_ARRAY_BYTES``; each member's ``.npy`` header (shape, type) is read and checked
+    first against the layout the file's own ``muscles``, ``hidden`` and ``contact``
+    imply, then its data: finite numbers, ``std`` > 0, weights only inside their
+    segment blocks, ``rate_hz``, ``hidden`` and the conduction speeds in range.
+    ``info`` comes back as a dict. InputError (one line naming the file) otherwise."""
+    where = str(path)
+    if not path.exists():
+        raise InputError(f"network file {path} does not exist")
+    if path.is_dir():
+        raise InputError(f"{where} is a directory, not a network file (give its network.npz)")
+    if not path.is_file():
+        raise InputError(f"{where} is not a regular file")
+    size = path.stat().st_size
+    if size > MAX_FILE_BYTES:
+        raise InputError(f"{where}: {size} bytes is more than a network file may have "
+                         f"({MAX_FILE_BYTES})")
+    try:
+        with path.open("rb") as f:
+            magic = f.read(6)
+        if magic == b"\x93NUMPY":
+            raise InputError(f"{where} is a single .npy array, not a network .npz (written by "
+                             "`stumble reflex fit`)")
+        if not magic.startswith(b"PK"):
+            raise InputError(f"{where} is not a network .npz (not a zip archive; written by "
+                             "`stumble reflex fit`)")
+        with zipfile.ZipFile(path) as zf:
+            return _checked(zf, _entries(zf, where), where)
+    except InputError:
+        raise
+    except Exception as e:  # zip, zlib, .npy header or data errors: the file is bad
+        text = " ".join(str(e).split())[:200]
+        raise InputError(f"{where} is not a readable network .npz ({type(e).__name__}: "
+                         f"{text})") from None
+
+
+def _checked(zf: zipfile.ZipFile, entries: dict, where: str) -> dict:
+    heads = {n: _header(zf, info, where) for n, info in entries.items()}
+    for n in SCALARS:
+        _expect(n, *heads[n], (), "fiub", where)
+    for n in ("muscles", "segments"):
+        _expect(n, *heads[n], None, "U", where)
+        if len(heads[n][0]) != 1:
+            raise InputError(f"{where}: {n} is not a list of names")
+    _expect("info", *heads["info"], (), "U", where)
+    z = {n: _read(zf, entries[n]) for n in (*SCALARS, *NAMES)}
+    rate = _scalar(z, "rate_hz", *RATE_RANGE_HZ, where)
+    hidden = _scalar(z, "hidden", *HIDDEN_RANGE, where)
+    if not hidden.is_integer():
+        raise InputError(f"{where}: hidden = {hidden:g} is not a whole number")
+    for n in ("afferent_m_per_s", "efferent_m_per_s"):
+        _scalar(z, n, *SPEED_RANGE_M_PER_S, where)
+    if float(z["contact"]) not in (0.0, 1.0):
+        raise InputError(f"{where}: contact = {z['contact']} is not true or false")
+    muscles = tuple(str(s) for s in z["muscles"])
+    unknown = [m for m in muscles if m not in NERVE_LENGTH_M]
+    if not muscles or unknown or len(set(muscles)) != len(muscles):
+        raise InputError(f"{where}: muscles {', '.join(muscles) or '(none)'}: each must be one "
+                         f"of {', '.join(NERVE_LENGTH_M)}, once")
+    if tuple(str(s) for s in z["segments"]) != SEGMENTS:
+        raise InputError(f"{where}: segments are not {', '.join(SEGMENTS)}")
+    try:
+        info = json.loads(str(z["info"]))
+    except json.JSONDecodeError:
+        info = None
+    if not isinstance(info, dict):
+        raise InputError(f"{where}: info is not a JSON object")
+    t = Topology(rate, int(hidden), bool(float(z["contact"])), muscles=muscles)
+    S, H = len(SEGMENTS), t.hidden
+    want = {"w": (len(t.inputs()), S * H), "b": (S * H,), "v": (len(t.connections()), H),
+            "c": (len(muscles),), "mean": (t.n_signals,), "std": (t.n_signals,)}
+    for n, shape in want.items():
+        _expect(n, *heads[n], shape, "fiu", where)
+    if "walk_rates" in heads:
+        shape, dtype = heads["walk_rates"]
+        most = round(MAX_WALK_S * rate)
+        if shape != (0,) and not (len(shape) == 3 and shape[0] == 2 and 1 <= shape[1] <= most
+                                  and shape[2] == t.n_signals):
+            raise InputError(f"{where}: walk_rates has shape {shape}, expected (0,) or (2, T, "
+                             f"{t.n_signals}) with 1 <= T <= {most}")
+        _expect("walk_rates", shape, dtype, None, "fiu", where)
+    for n in (*ARRAYS, *OPTIONAL):
+        if n in entries:
+            a = _read(zf, entries[n]).astype(float)
+            if not np.isfinite(a).all():
+                raise InputError(f"{where}: {n} holds {np.count_nonzero(~np.isfinite(a))} "
+                                 "non-finite values (NaN or infinity)")
+            z[n] = a
+    if (z["std"] <= 0).any():
+        raise InputError(f"{where}: std has {np.count_nonzero(z['std'] <= 0)} values <= 0 "
+                         "(each input is divided by its spread)")
+    outside = np.count_nonzero(z["w"] * (1.0 - Network._mask(t)))
+    if outside:
+        raise InputError(f"{where}: w has {outside} weights outside their segment blocks")
+    z["info"] = info
+    return z
