@@ -2,6 +2,7 @@
 
 import csv
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -119,3 +120,64 @@ def test_corrupt_and_unknown_files_are_one_line_errors(tmp_path):
                     "wing_flap")
     _one_line_error(run("walk", "--out", str(tmp_path / "o"), "--gait", str(bad),
                         "--speed", "1.0"), "--speed")
+
+
+def _main_error(capsys, argv) -> str:
+    """Run ``stumble argv``; assert exit 2 and one line on stderr; return that line."""
+    try:
+        code = main(argv)
+    except SystemExit as e:  # argparse's own checks
+        code = e.code
+    err = capsys.readouterr().err
+    assert code == 2 and err.startswith("stumble: ") and err.count("\n") == 1, err
+    return err
+
+
+@pytest.fixture
+def no_simulation(monkeypatch):
+    """Any trip or fit simulated fails the test: the error must come first."""
+    import stumble.control.reflex.identify as identify
+    import stumble.pipeline as pipeline
+
+    def boom(*a, **k):
+        raise AssertionError("simulated before the error")
+
+    monkeypatch.setattr(pipeline, "simulate_trip", boom)
+    monkeypatch.setattr(identify, "fit", boom)
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["trip", "--seed", "-1"], "argument --seed: must be from 0 to 9223372036854775807"),
+    (["trip", "--seed", str(2**63)], "must be from 0 to"),
+    (["trip", "--seed", "1.5"], "argument --seed: '1.5' is not a whole number"),
+    (["reflex", "fit", "--seed", "-3"], "argument --seed: must be from 0"),
+])
+def test_bad_seeds_are_one_line(tmp_path, capsys, no_simulation, argv, words):
+    assert words in _main_error(capsys, [*argv, "--out", str(tmp_path / "o")])
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("command", [["walk"], ["trip"], ["reflex", "fit"], ["study"],
+                                     ["validate"]])
+def test_an_empty_out_is_one_line(tmp_path, capsys, monkeypatch, no_simulation, command):
+    monkeypatch.chdir(tmp_path)
+    assert "the output directory is empty" in _main_error(capsys, [*command, "--out", ""])
+    assert list(tmp_path.iterdir()) == []  # nothing written into the current directory
+
+
+def _unwritable(tmp_path) -> Path:
+    if os.geteuid() == 0:  # root writes through mode bits: /proc refuses anyone
+        return Path("/proc")
+    d = tmp_path / "ro"
+    d.mkdir()
+    d.chmod(0o555)
+    return d
+
+
+@pytest.mark.parametrize("command", [["walk", "--no-video"], ["trip", "--no-video"],
+                                     ["reflex", "fit"]])
+def test_an_unwritable_out_is_found_before_any_simulation(tmp_path, capsys, no_simulation,
+                                                          command):
+    out = _unwritable(tmp_path)
+    err = _main_error(capsys, [*command, "--out", str(out)])
+    assert f"output directory {out} is not writable" in err

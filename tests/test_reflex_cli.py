@@ -56,3 +56,37 @@ def test_reflex_errors_are_one_line(tmp_path, capsys, argv, message):
     assert main([*argv, "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1
+
+
+@pytest.mark.parametrize("make, words", [
+    (lambda p: p.write_text("w = 1\n"), "not a zip archive"),
+    (lambda p: p.mkdir(), "is a directory, not a network file"),
+    (lambda p: p.write_bytes(b"PK\x03\x04" + bytes(100)), "not a readable network .npz"),
+])
+def test_a_bad_network_file_is_one_line_before_the_trip(tmp_path, capsys, monkeypatch, make,
+                                                        words):
+    import stumble.pipeline as pipeline
+
+    monkeypatch.setattr(pipeline, "simulate_trip", lambda *a, **k: 1 / 0)
+    path = tmp_path / "net.npz"
+    make(path)
+    assert main(["trip", "--controller", "reflex", "--network", str(path), "--out",
+                 str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert words in err and str(path) in err and err.count("\n") == 1
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_network_whose_tick_the_time_step_does_not_divide(tmp_path, capsys):
+    from stumble.control.reflex.identify import default_network
+    from stumble.control.reflex.network import Network, Topology
+
+    t = default_network().topology
+    n = default_network()
+    fast = Network(Topology(3000.0, t.hidden, t.contact), n.w, n.b, n.v, n.c, n.mean, n.std,
+                   n.info, n.walk_rates)
+    fast.save(tmp_path / "fast.npz")
+    assert main(["trip", "--controller", "reflex", "--network", str(tmp_path / "fast.npz"),
+                 "--out", str(tmp_path / "o")]) == 2
+    assert "ticks every 0.333333 ms: the time step (1 ms) must divide it" in \
+        capsys.readouterr().err

@@ -378,14 +378,48 @@ def test_maps_pool_only_within_a_panel():
     assert Tally.of(rows + rows[:1]).pooled()
 
 
-def test_dask_cluster_gives_the_same_rows(tmp_path, fake):
+def test_dask_cluster_gives_the_same_rows_as_local_processes(tmp_path, fake):
+    """An in-process LocalCluster (threads, so the fake trips apply) against two local
+    worker processes; the time limit works on its threads too."""
     distributed = pytest.importorskip("distributed")
-    local = run_study(small_grid(), tmp_path / "a", workers=1, progress=False)
+    local = run_study(small_grid(), tmp_path / "a", workers=2, progress=False)
     with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
                                   dashboard_address=None) as cluster:
         res = run_study(small_grid(), tmp_path / "b", scheduler=cluster.scheduler_address,
                         progress=False)
+    assert strip(res.rows) == strip(local.rows) and len(res.rows) == 8
+
+
+def test_dask_time_limit_on_worker_threads(tmp_path, monkeypatch):
+    distributed = pytest.importorskip("distributed")
+
+    def slow_at_0_6(sc, **kw):
+        if sc.swing_fraction == 0.6:
+            while True:
+                pass
+        return SimpleNamespace(summary=fake_summary(sc))
+
+    monkeypatch.setattr(pipeline, "simulate_trip", slow_at_0_6)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as cluster:
+        res = run_study(small_grid(), tmp_path / "s", scheduler=cluster.scheduler_address,
+                        progress=False, run_timeout_s=0.5)
+    assert {r["swing_fraction"] for r in res.rows if r["timed_out"]} == {0.6}
+
+
+def test_real_trips_on_a_process_cluster_match_local_processes(tmp_path):
+    """Real trips on a LocalCluster of worker processes (as on a cluster: a fresh
+    interpreter that imports stumble) give the rows of two local processes."""
+    distributed = pytest.importorskip("distributed")
+    scs = Grid({"swing": [0.2, 0.65], "duration": [0.6]}).scenarios()
+    local = run_study(scs, tmp_path / "a", workers=2, progress=False)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        res = run_study(scs, tmp_path / "b", scheduler=cluster.scheduler_address,
+                        progress=False)
     assert strip(res.rows) == strip(local.rows)
+    assert [r["strategy"] for r in res.rows] == ["elevating", "lowering"]
+    assert all(r["error"] is None for r in res.rows)
 
 
 def test_unreachable_scheduler_is_one_line(tmp_path, capsys, monkeypatch):
@@ -416,3 +450,161 @@ def test_real_trips_through_the_cli(tmp_path, capsys):
         if k not in WALL:
             assert rows[0][k] == v, k
     assert (out / "strategy_map.png").exists() and (out / "outcome_map.png").exists()
+
+
+# ---------------------------------------------------------------- hardening
+
+
+def test_a_grid_too_big_is_refused_from_its_count(tmp_path, capsys, fake):
+    t0 = time.monotonic()
+    code = main(["study", "--out", str(tmp_path / "s"), "--swing", "0.05:0.9:1000",
+                 "--speed", "0.7:1.6:1000", "--repeats", "1000"])
+    assert code == 2 and time.monotonic() - t0 < 5.0
+    err = capsys.readouterr().err
+    assert "the grid has 1,000,000,000 runs, more than the limit of 10,000,000" in err
+    assert err.count("\n") == 1 and not (tmp_path / "s").exists() and not fake
+    g = Grid({"swing": parse_values("swing", "0.1:0.7:4"), "mechanism": ["force", "obstacle"],
+              "obstacle_height": [0.08, 0.14]})
+    assert g.count() == len(list(g.iter_scenarios())) == 4 * (1 + 2)
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--seed", str(2**63)], f"seed {2**63} is not a whole number from 0 to {2**63 - 1}"),
+    (["--seed", "-1"], "seed -1 is not a whole number from 0"),
+    (["--controller", "reflex", "--mechanism", "obstacle", "--timestep", "0.0003"],
+     "the time step (0.3 ms) must divide it"),
+    (["--out", ""], "the output directory is empty"),
+])
+def test_every_scenario_is_checked_before_anything_runs(tmp_path, capsys, fake, args, words):
+    out = tmp_path / "s"
+    argv = ["study", "--out", str(out), *args]
+    try:
+        code = main(argv)
+    except SystemExit as e:
+        code = e.code
+    err = capsys.readouterr().err
+    assert code == 2 and words in err and err.count("\n") == 1, err
+    assert not out.exists() and not fake
+
+
+def test_an_unwritable_study_directory_is_one_line(tmp_path, capsys, fake):
+    if os.geteuid() == 0:  # root writes through mode bits: /proc refuses anyone
+        out = Path("/proc")
+    else:
+        out = tmp_path / "ro"
+        out.mkdir()
+        out.chmod(0o555)
+    assert main(["study", "--out", str(out), "--workers", "1"]) == 2
+    err = capsys.readouterr().err
+    assert str(out) in err and err.count("\n") == 1 and not fake
+
+
+def _journal_line(row: dict) -> str:
+    return json.dumps(row)
+
+
+def test_bad_journal_rows_are_skipped_with_a_warning_and_run_again(tmp_path, fake, capsys):
+    """A crashed session's journal with a non-UTF-8 line, an edited row, a row of wrong
+    types, a row without a checksum and a seed beyond 64 bits: each skipped with one line
+    naming the file and line; the good row is kept; the rest are run again."""
+    from stumble.study.store import with_checksum
+
+    out = tmp_path / "s"
+    scs = small_grid()
+    run_study(scs[:1], out, workers=1, progress=False)
+    good = rows_of(out / "results.parquet")[0]
+    (out / "results.parquet").unlink()
+    for part in (out / "runs").glob("part-*"):
+        part.unlink()
+    rows = [with_checksum(runner.make_row(sc, fake_summary(sc), None, 0.1)) for sc in scs[1:5]]
+    edited = dict(rows[1], recovered=not rows[1]["recovered"])  # checksum no longer matches
+    typed = with_checksum(dict(rows[2], recovered="yes"))
+    poisoned = with_checksum(dict(rows[3], seed=2**64))
+    no_sum = {k: v for k, v in rows[0].items() if k != "checksum"}
+    journal = out / "runs" / "journal-dead.jsonl"
+    lines = [_journal_line(good).encode(), b"\xff\xfe not utf-8", _journal_line(edited).encode(),
+             _journal_line(typed).encode(), _journal_line(poisoned).encode(),
+             _journal_line(no_sum).encode(), b'{"key": "half-writ']
+    journal.write_bytes(b"\n".join(lines))
+    fake.clear()
+    capsys.readouterr()
+    res = run_study(scs, out, workers=1, progress=False)
+    err = capsys.readouterr().err.splitlines()
+    warnings = [w for w in err if w.startswith("stumble: warning:")]
+    assert len(warnings) == 5, err  # the half-written last line is a killed session's
+    for n, words in [(2, "not UTF-8 text"), (3, "its checksum does not match"),
+                     (4, "recovered = 'yes' is text"), (5, f"seed = {2**64} does not fit"),
+                     (6, "it has no checksum")]:
+        assert any(f"journal-dead.jsonl line {n}" in w and words in w for w in warnings), words
+    assert any(f"(key {rows[1]['key']})" in w for w in warnings)  # the row is named
+    assert res.before == 1 and len(fake) == len(scs) - 1 and res.runs == len(scs)
+    assert (out / "runs" / "corrupt-journal-dead.jsonl").exists()  # kept to look at
+    # the directory is not stuck: the next session has nothing to do and no warning
+    fake.clear()
+    res = run_study(scs, out, workers=1, progress=False)
+    assert res.ran == 0 and "warning" not in capsys.readouterr().err
+
+
+def test_results_come_in_grid_order_from_many_parts_and_chunks(tmp_path, monkeypatch, fake):
+    """Rows written in parts of 3, assembled 2 at a time; an error row retried later wins
+    over nothing but loses to a row without error, whatever the part order."""
+    from stumble.study import store
+
+    monkeypatch.setattr(store, "PART_ROWS", 3)
+    monkeypatch.setattr(store, "RESULT_CHUNK_ROWS", 2)
+    scs = small_grid(seed=[0, 1])
+    a = run_study(scs, tmp_path / "a", workers=2, progress=False)
+    assert [r["key"] for r in a.rows] == [run_key(s) for s in scs]
+    assert len(list((tmp_path / "a" / "runs").glob("part-*"))) >= 6
+    b = run_study(scs, tmp_path / "b", workers=1, progress=False)
+    assert strip(a.rows) == strip(b.rows)
+
+
+def test_a_run_past_its_time_limit_is_a_timeout_row(tmp_path, monkeypatch, capsys):
+    def slow_at_0_6(sc, **kw):
+        if sc.swing_fraction == 0.6:
+            while True:  # stuck in Python
+                pass
+        return SimpleNamespace(summary=fake_summary(sc))
+
+    monkeypatch.setattr(pipeline, "simulate_trip", slow_at_0_6)
+    for workers in (1, 2):
+        out = tmp_path / f"w{workers}"
+        t0 = time.monotonic()
+        res = run_study(small_grid(), out, workers=workers, progress=False, run_timeout_s=0.5)
+        assert time.monotonic() - t0 < 15
+        late = [r for r in res.rows if r["timed_out"]]
+        assert {r["swing_fraction"] for r in late} == {0.6} and len(late) == 2
+        assert all("RunTimeout: the run took more than 0.5 s" in r["error"] for r in late)
+        assert all(0.5 <= r["run_wall_time_s"] < 5 for r in late)
+        assert summary_table(res.rows).splitlines()[-1].split()[-2] == "2"  # timeout column
+
+
+def test_a_run_stuck_in_c_is_killed_with_its_worker(tmp_path, monkeypatch):
+    def stuck_at_0_6(sc, **kw):
+        if sc.swing_fraction == 0.6:
+            time.sleep(60)  # a C call: no Python instruction to stop at
+        return SimpleNamespace(summary=fake_summary(sc))
+
+    monkeypatch.setattr(pipeline, "simulate_trip", stuck_at_0_6)
+    monkeypatch.setattr(runner, "HARD_KILL_GRACE_S", 0.5)
+    t0 = time.monotonic()
+    res = run_study(small_grid(), tmp_path / "s", workers=2, progress=False, run_timeout_s=0.5)
+    assert time.monotonic() - t0 < 30
+    late = {r["swing_fraction"] for r in res.rows if r["timed_out"]}
+    assert late == {0.6} and sum(r["error"] is None for r in res.rows) == 6
+
+
+def test_run_timeout_option(tmp_path, capsys, monkeypatch):
+    def forever(sc, **kw):
+        while True:
+            pass
+
+    monkeypatch.setattr(pipeline, "simulate_trip", forever)
+    assert main(["study", "--out", str(tmp_path / "s"), "--workers", "1", "--run-timeout",
+                 "0.3", "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert "timeout" in text.splitlines()[0] and text.splitlines()[-2].split()[-2] == "1"
+    assert (tmp_path / "s" / "outcome_map.png").exists()
+    with pytest.raises(SystemExit):
+        main(["study", "--out", str(tmp_path / "t"), "--run-timeout", "-1"])
