@@ -47,6 +47,7 @@ from stumble.study.grid import Grid, check_scenario, run_key, scenario_fields
 from stumble.study.store import (
     Store,
     Warn,
+    contains,
     iter_parquet_rows,
     read_parquet_rows,
     require_pyarrow,
@@ -589,8 +590,8 @@ def run_study(scenarios: Grid | Iterable[Scenario], out: Path, workers: int | No
     try:
         with Store(out, warn) as store:
             _write_study_json(out, n_runs, metadata)
-            stored_any = np.isin(keys, store.done)
-            finished = np.isin(keys, store.done_ok) if retry_errors else stored_any
+            stored_any = contains(store.done, keys)
+            finished = contains(store.done_ok, keys) if retry_errors else stored_any
             todo_mask = unique & ~finished
             n_todo = int(todo_mask.sum())
             before = n_runs - n_todo

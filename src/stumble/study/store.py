@@ -290,6 +290,15 @@ def keys_to_ints(keys: Iterable) -> np.ndarray:
     return np.array(out, dtype=np.uint64)
 
 
+def contains(sorted_keys: np.ndarray, keys: np.ndarray) -> np.ndarray:
+    """Which of ``keys`` are in ``sorted_keys`` (both uint64; by binary search, which
+    NumPy 2.0's ``isin`` gets wrong for 64-bit unsigned keys)."""
+    if not len(sorted_keys):
+        return np.zeros(len(keys), bool)
+    idx = np.minimum(np.searchsorted(sorted_keys, keys), len(sorted_keys) - 1)
+    return sorted_keys[idx] == keys
+
+
 # ---------------------------------------------------------------- the store
 
 
@@ -503,9 +512,8 @@ def write_results(out: Path, grid_keys: np.ndarray, path: Path | None = None) ->
         names = pq.read_schema(part).names
         t = pq.read_table(part, columns=["key", "error"] if "error" in names else ["key"])
         keys = keys_to_ints(t.column("key").to_pylist())
-        idx = np.searchsorted(sorted_keys, keys)
-        idx_c = np.minimum(idx, max(len(sorted_keys) - 1, 0))
-        found = (sorted_keys[idx_c] == keys) if len(sorted_keys) else np.zeros(len(keys), bool)
+        idx_c = np.minimum(np.searchsorted(sorted_keys, keys), max(len(sorted_keys) - 1, 0))
+        found = contains(sorted_keys, keys)
         others.append(keys[~found])
         rows = np.flatnonzero(found)
         pos_l.append(order[idx_c[rows]])
