@@ -154,46 +154,77 @@ class RunTimeout(BaseException):
 _IN_POOL_WORKER = False  # set in local worker processes: a stuck run may end the process
 
 
+def _async_raise(tid: int, exc) -> None:
+    """Raise ``exc`` in thread ``tid`` at its next Python instruction (None: cancel)."""
+    ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(tid),
+                                               None if exc is None else ctypes.py_object(exc))
+
+
+class _Deadlines:
+    """One watchdog thread per process for the runs' wall-time limits.
+
+    Past its deadline a run's thread gets RunTimeout; in a pool worker the process ends
+    if the run is still armed ``HARD_KILL_GRACE_S`` later (a run stuck inside C)."""
+
+    def __init__(self):
+        self.pid = None
+        self.thread = None
+        self.cond = threading.Condition()
+        self.armed: dict[int, list] = {}  # token → [thread id, deadline, fired, kill at]
+        self.count = 0
+
+    def _loop(self, cond: threading.Condition, armed: dict) -> None:
+        with cond:
+            while True:
+                now = time.monotonic()
+                soonest = None
+                for e in armed.values():
+                    if not e[2] and now >= e[1]:
+                        e[2] = True
+                        _async_raise(e[0], RunTimeout)
+                    if e[2] and e[3] is not None and now >= e[3]:
+                        os._exit(124)  # the parent sees a dead worker, records a timeout
+                    t = e[3] if e[2] else e[1]
+                    if t is not None:
+                        soonest = t if soonest is None else min(soonest, t)
+                cond.wait(None if soonest is None else max(0.0, soonest - now))
+
+    def arm(self, seconds: float) -> int:
+        """Start the clock of the calling thread's run; returns its token."""
+        if self.pid != os.getpid() or self.thread is None:  # first use, or a forked child
+            self.pid, self.cond, self.armed = os.getpid(), threading.Condition(), {}
+            self.thread = threading.Thread(target=self._loop, args=(self.cond, self.armed),
+                                           daemon=True, name="stumble-run-timeout")
+            self.thread.start()
+        now = time.monotonic()
+        with self.cond:
+            self.count += 1
+            kill = now + seconds + HARD_KILL_GRACE_S if _IN_POOL_WORKER else None
+            self.armed[self.count] = [threading.get_ident(), now + seconds, False, kill]
+            self.cond.notify()
+            return self.count
+
+    def disarm(self, token: int) -> None:
+        """Stop the clock; a RunTimeout fired but not yet delivered is cancelled."""
+        with self.cond:
+            e = self.armed.pop(token, None)
+            if e is not None and e[2]:
+                _async_raise(e[0], None)
+
+
+_DEADLINES = _Deadlines()
+
+
 class _Watchdog:
-    """Raises RunTimeout in the calling thread ``seconds`` after it starts (at its next
-    Python instruction), and in a pool worker ends the process if the run is still there
-    ``HARD_KILL_GRACE_S`` later. ``stop`` is safe to call twice."""
+    """The wall-time limit of one run in the calling thread; ``stop`` may be called twice."""
 
     def __init__(self, seconds: float | None):
-        self.tid = threading.get_ident()
-        self.lock = threading.Lock()
-        self.done = False
-        self.fired = False
-        self.timers = []
-        if seconds:
-            self.timers.append(threading.Timer(seconds, self._fire))
-            if _IN_POOL_WORKER:
-                self.timers.append(threading.Timer(seconds + HARD_KILL_GRACE_S, self._kill))
-        for t in self.timers:
-            t.daemon = True
-            t.start()
-
-    def _async_raise(self, exc) -> None:
-        ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(self.tid),
-                                                   None if exc is None else ctypes.py_object(exc))
-
-    def _fire(self) -> None:
-        with self.lock:
-            if not self.done:
-                self.fired = True
-                self._async_raise(RunTimeout)
-
-    def _kill(self) -> None:
-        if not self.done:
-            os._exit(124)  # the parent sees a dead worker and records a timeout
+        self.token = _DEADLINES.arm(seconds) if seconds else None
 
     def stop(self) -> None:
-        with self.lock:
-            self.done = True
-            if self.fired:
-                self._async_raise(None)  # a RunTimeout not delivered yet: cancelled
-        for t in self.timers:
-            t.cancel()
+        if self.token is not None:
+            _DEADLINES.disarm(self.token)  # a RunTimeout delivered in here: called again
+            self.token = None
 
 
 def run_one(sc: Scenario, timeout_s: float | None = None) -> tuple[dict, str | None]:
