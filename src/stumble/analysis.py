@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from stumble.sim import Context, Recording
+from stumble.sim import Recording, Sensors
 
 FALL_PELVIS_FRACTION = 0.55  # pelvis below 55 % of standing hip height: sitting, kneeling
 RECOVERED_AFTER_S = 1.0  # the issue: no fall for 1 s after the recovery step lands
@@ -40,16 +40,18 @@ def trunk_tilt_deg(model: mujoco.MjModel, xmat: np.ndarray) -> float:
     return float(np.degrees(np.arccos(np.clip(z[2], -1.0, 1.0))))
 
 
-def com_over_base(ctx: Context) -> bool:
-    """COM ground projection inside the feet-on-floor footprint, grown by a margin."""
-    m, d, s = ctx.model, ctx.data, ctx.sensors
-    pts = []
-    for side in SIDES:
-        if s.foot_on_floor[side]:
-            pts.append(d.site_xpos[[m.site(n).id for n in ctx.body.foot_points[side]], :2])
-    if not pts:
+def tilt_of(torso_z: np.ndarray) -> float:
+    """Angle (deg) between the torso's long axis (a world unit vector) and the vertical."""
+    return float(np.degrees(np.arccos(np.clip(torso_z[2], -1.0, 1.0))))
+
+
+def com_over_base(s: Sensors) -> bool:
+    """COM ground projection inside the feet-on-floor footprint (the sole corners'
+    bounding box), grown by a margin."""
+    on = [k for k, side in enumerate(SIDES) if s.foot_on_floor[side]]
+    if not on:
         return False
-    p = np.vstack(pts)
+    p = s.sole[on].reshape(-1, 3)[:, :2]
     lo, hi = p.min(axis=0) - BOS_MARGIN_M, p.max(axis=0) + BOS_MARGIN_M
     return bool(np.all(s.com[:2] >= lo) and np.all(s.com[:2] <= hi))
 
@@ -81,40 +83,37 @@ class StopRule:
     _down_x: float = 0.0
     _airborne_since: float | None = 0.0  # the swing foot is in the air at the trip
 
-    def __call__(self, ctx: Context, rec: Recording, k: int) -> str:
-        s = ctx.sensors
+    def __call__(self, s: Sensors) -> str:
         if s.segment_on_floor or s.pelvis_height < self.fall_height_m:
             self.fell_s = s.t
             return "fell"
         if self.landing_s is None:
-            self.landing_s = self._landing(ctx)
+            self.landing_s = self._landing(s)
         elif s.t - self.landing_s >= RECOVERED_AFTER_S:
-            upright = trunk_tilt_deg(ctx.model, ctx.data.xmat) < UPRIGHT_DEG
-            if upright and com_over_base(ctx):
+            if tilt_of(s.torso_z) < UPRIGHT_DEG and com_over_base(s):
                 self.recovered_s = s.t
                 return "recovered"
         return ""
 
-    def _landing(self, ctx: Context) -> float | None:
+    def _landing(self, s: Sensors) -> float | None:
         """The recovery foot touches the floor in front of the other foot."""
         if self.strategy is None:
-            return self._emergent_landing(ctx)
+            return self._emergent_landing(s)
         rec = self.tripped if self.strategy == "elevating" else OTHER[self.tripped]
-        return self._recovery_step(ctx, rec, need_left=self.strategy != "elevating")
+        return self._recovery_step(s, rec, need_left=self.strategy != "elevating")
 
-    def _recovery_step(self, ctx: Context, rec: str, need_left: bool) -> float | None:
+    def _recovery_step(self, s: Sensors, rec: str, need_left: bool) -> float | None:
         """When ``rec`` lands ahead of the other foot: a touch-down of at least 15 ms
         after at least 0.1 s in the air (and, ``need_left``, after leaving the floor
         since the trip); the time returned is the contact's start."""
-        s, m, d = ctx.sensors, ctx.model, ctx.data
         if not s.foot_on_floor[rec]:
             self._other_left = True
             self._airborne_since = (s.t if self._airborne_since is None
                                     else self._airborne_since)
             self._down = 0
             return None
-        ahead = (d.xpos[m.body(f"foot_{rec}").id, 0]
-                 > d.xpos[m.body(f"foot_{OTHER[rec]}").id, 0])
+        i = SIDES.index(rec)
+        ahead = s.foot_pos[i, 0] > s.foot_pos[1 - i, 0]
         flew = (self._airborne_since is not None
                 and s.t - self._airborne_since >= MIN_AIRBORNE_S)
         if ahead and s.t > 0.02 and flew and (not need_left or self._other_left):
@@ -128,18 +127,16 @@ class StopRule:
             self._airborne_since = None
         return None
 
-    def _emergent_landing(self, ctx: Context) -> float | None:
-        s, m, d = ctx.sensors, ctx.model, ctx.data
+    def _emergent_landing(self, s: Sensors) -> float | None:
         trip, other = self.tripped, OTHER[self.tripped]
         if self.classified is not None:  # lowering: the other leg's recovery step
-            return self._recovery_step(ctx, other, need_left=True)
+            return self._recovery_step(s, other, need_left=True)
         if not (s.foot_on_floor[trip] and s.t > 0.02):
             self._down = 0
             return None
         if self._down == 0:  # where and when the contact starts
             self._down_s = s.t
-            self._down_x = float(d.site_xpos[[m.site(n).id for n in
-                                              ctx.body.foot_points[trip]], 0].min())
+            self._down_x = float(s.sole[SIDES.index(trip), :, 0].min())
         self._down += 1
         if self._down < TOUCHDOWN_SAMPLES:
             return None

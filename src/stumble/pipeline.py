@@ -24,6 +24,7 @@ from stumble.analysis import (
     variant,
 )
 from stumble.body import Body, build
+from stumble.body.contact import DEFAULT_MODE as DEFAULT_CONTACT
 from stumble.body.contact import STIFFNESS_N_PER_M, PenaltyContact
 from stumble.control.fsm import TripFSM
 from stumble.control.fsm_params import FSMParams
@@ -196,7 +197,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     d = mujoco.MjData(m)
     d.qpos[:], d.qvel[:] = qpos, qvel
     perturb_initial_state(body, d, sc.seed)
-    if sc.contact in ("points", "penalty"):
+    if sc.contact in ("lumped", "points", "penalty"):
         _rest_support_foot(m, d, reflex)
     _scale_strength(m, sc.strength_scale)
     ctx = Context(m, d, body, Sensors(), t0=0.0)
@@ -211,9 +212,10 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
         force_kwargs = {"trip_force": sc.force, "force_body": toe_body,
                         "force_point": lambda dd: dd.site_xpos[tip_sites].mean(axis=0)}
     penalty = PenaltyContact.for_body(body) if sc.contact == "penalty" else None
-    control_every = _network_every(controller.net, m) if reflex else None
+    if reflex:
+        _network_every(controller.net, m)
     rec = run(ctx, controller, sc.duration_after_trip_s, stop=stop, penalty=penalty,
-              control_every=control_every, **force_kwargs)
+              **force_kwargs)
     strategy = strategy or stop.classified
     summary = _summary(sc, strategy, controller, rec, stop, body, pb, t_trip, reference)
     states = list(controller.log)
@@ -336,7 +338,7 @@ def simulate_walking_step(network=None, trunk_balance: bool = True,
 
     net = network or default_network()
     speed = speed_m_per_s or load_reference().speed_m_per_s
-    body, pb = _walk(1.75, 70.0, "male", "points", round(speed, 4), 0.001, True)
+    body, pb = _walk(1.75, 70.0, "male", DEFAULT_CONTACT, round(speed, 4), 0.001, True)
     m = body.model
     t0 = next(t for t in pb.events.heel_strike_s["r"] if t >= WALK_BEFORE_TRIP_S)
     d = mujoco.MjData(m)
@@ -345,8 +347,8 @@ def simulate_walking_step(network=None, trunk_balance: bool = True,
     ctrl = _reflex_controller(net, pb, t0, 1.0, trunk_balance)
     stop = StopRule("elevating", "l", FALL_PELVIS_FRACTION * _standing_pelvis(body))
     duration = 0.5 * pb.stride_s
-    rec = run(Context(m, d, body, Sensors(), t0=0.0), ctrl, duration, stop=stop,
-              control_every=_network_every(net, m))
+    _network_every(net, m)
+    rec = run(Context(m, d, body, Sensors(), t0=0.0), ctrl, duration, stop=stop)
     ref = np.array([pb.state_at(t0 + t)[0] for t in rec.time_s])
     names = ["pelvis_tilt", *body.joints]
     adr = [m.jnt_qposadr[m.joint(n).id] for n in names]
