@@ -58,6 +58,7 @@ def main_bench() -> None:
     repeats = max(1, math.ceil(args.runs / (100 * 10 * 10)))
     pipeline.simulate_trip = lambda sc, **kw: SimpleNamespace(summary=fake_summary(sc))
     import pyarrow.parquet as pq
+
     import stumble.viz.study_plots  # noqa: F401  (counted in the baseline)
 
     base = peak_mb()

@@ -608,3 +608,14 @@ def test_run_timeout_option(tmp_path, capsys, monkeypatch):
     assert (tmp_path / "s" / "outcome_map.png").exists()
     with pytest.raises(SystemExit):
         main(["study", "--out", str(tmp_path / "t"), "--run-timeout", "-1"])
+
+
+def test_a_summary_with_nan_is_stored_as_null(tmp_path, monkeypatch):
+    def nan_tilt(sc, **kw):
+        return SimpleNamespace(summary={**fake_summary(sc), "trunk_tilt_at_recovery_contact_deg":
+                                        float("nan"), "states": [{"start_s": float("inf")}]})
+
+    monkeypatch.setattr(pipeline, "simulate_trip", nan_tilt)
+    res = run_study(small_grid()[:2], tmp_path / "s", workers=1, progress=False)
+    assert [r["trunk_tilt_at_recovery_contact_deg"] for r in res.rows] == [None, None]
+    assert json.loads(res.rows[0]["states"]) == [{"start_s": None}]

@@ -32,9 +32,7 @@ def check_writable(directory: Path, what: str = "output directory") -> None:
 
 def output_dir(out: Path, what: str = "output directory") -> Path:
     """Make ``out`` (and its parents) and check that it is writable; InputError if not."""
-    out = Path(out)
-    if str(out).strip() == "":
-        raise InputError(f"the {what} is empty (give a path; '.' for the current directory)")
+    out = Path(out)  # an empty --out is refused by the command line (Path("") is ".")
     try:
         out.mkdir(parents=True, exist_ok=True)
     except FileExistsError:

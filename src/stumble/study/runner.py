@@ -43,6 +43,7 @@ import numpy as np
 
 from stumble import __version__
 from stumble.errors import SimulationDiverged, StumbleError
+from stumble.files import finite_or_none
 from stumble.study.grid import Grid, check_scenario, run_key, scenario_fields
 from stumble.study.store import (
     Store,
@@ -81,8 +82,8 @@ def _plain(v):
     if isinstance(v, np.ndarray):
         v = v.tolist()
     if isinstance(v, (list, tuple)):
-        return json.dumps(v, default=_json_default)
-    return v
+        return json.dumps(finite_or_none(v), default=_json_default, allow_nan=False)
+    return finite_or_none(v)
 
 
 def _json_default(v):
