@@ -2,8 +2,8 @@
 
 Run:  python scripts/kill_test.py [--kills 5] [--seed 13]
 
-A real study (force and obstacle trips at 6 instants, 1 s of physics each, 2 local
-workers) is started with ``stumble study`` and killed with SIGKILL at random moments
+A real study (force and obstacle trips at 6 instants and 3 speeds, 36 trips of 1 s of
+physics each, 2 local workers) is started with ``stumble study`` and killed with SIGKILL at random moments
 (seeded), ``--kills`` times; after each kill the rows stored are counted
 (``load_results``) and the next session must find every one of them done ("N done
 before"). It then runs to the end, and the same study runs uninterrupted in another
@@ -26,7 +26,8 @@ import pyarrow.parquet as pq
 
 from stumble.study.store import load_results
 
-ARGS = ["--swing", "0.1:0.6:6", "--mechanism", "force,obstacle", "--duration", "1",
+ARGS = ["--swing", "0.1:0.6:6", "--speed", "1.0,1.2,1.4", "--mechanism", "force,obstacle",
+        "--duration", "1",
         "--workers", "2", "--quiet", "--no-plots"]
 WALL = {"wall_time_s", "run_wall_time_s", "checksum"}
 
@@ -49,7 +50,7 @@ def main() -> None:
         stored = 0
         for k in range(args.kills):
             p = study(out)
-            time.sleep(float(rng.uniform(3.0, 9.0)))
+            time.sleep(float(rng.uniform(4.0, 8.0)))
             p.kill()
             _, err = p.communicate()
             before = int(re.search(r"(\d+) done before", err).group(1)) if "done before" in \
