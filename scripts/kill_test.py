@@ -3,8 +3,8 @@
 Run:  python scripts/kill_test.py [--kills 5] [--seed 13]
 
 A real study (force and obstacle trips at 6 instants and 3 speeds, 36 trips of 1 s of
-physics each, 2 local workers) is started with ``stumble study`` and killed with SIGKILL at random moments
-(seeded), ``--kills`` times; after each kill the rows stored are counted
+physics each, 2 local workers) is started with ``stumble study`` and killed with SIGKILL
+at random moments (seeded), ``--kills`` times; after each kill the rows stored are counted
 (``load_results``) and the next session must find every one of them done ("N done
 before"). It then runs to the end, and the same study runs uninterrupted in another
 directory: the two results.parquet must hold the same rows, bit for bit, but the wall
