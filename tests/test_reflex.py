@@ -205,6 +205,9 @@ BAD_NETWORKS = {
                                   "c has type <U1, not a number"),
     "an unknown muscle": (lambda p: write_network(p, muscles=np.array([*MUSCLE_NAMES[:6], "XYZ"])),
                           "each must be one of"),
+    "eight muscles, HFL without nerves in Table I": (
+        lambda p: write_network(p, muscles=np.array([*MUSCLE_NAMES, "HFL"])),
+        "muscles HAMS, GLU, TA, GAS, RF, VAS, SOL, HFL: each must be one of"),
     "info not JSON": (lambda p: write_network(p, info=np.array("{oops")), "info is not a JSON"),
     "a truncated zip": (lambda p: p.write_bytes(write_network(p).read_bytes()[:60_000]),
                         "is not a readable network .npz \\(BadZipFile"),

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Protocol
 
 import mujoco
@@ -36,45 +36,90 @@ _STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
 _CTRL = int(mujoco.mjtState.mjSTATE_CTRL)
 
 
-@dataclass
 class Sensors:
-    """What controllers and the outcome read: one sensor row, decoded (SI units)."""
+    """What controllers and the outcome read: one sensor row, decoded on access (SI).
 
-    t: float = 0.0  # s since the trip
-    foot_on_floor: dict[str, bool] = field(default_factory=lambda: {"r": True, "l": True})
-    foot_on_obstacle: dict[str, bool] = field(default_factory=lambda: {"r": False, "l": False})
-    foot_force_n: dict[str, float] = field(default_factory=lambda: {"r": 0.0, "l": 0.0})
-    segment_on_floor: bool = False  # a body other than the feet touches the floor
-    com: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    com_vel: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    pelvis_height: float = 0.0
-    torso_z: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
-    torso_angvel: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    foot_pos: np.ndarray = field(default_factory=lambda: np.zeros((2, 3)))  # r, l ankles
-    sole: np.ndarray = field(default_factory=lambda: np.zeros((2, 4, 3)))  # r, l corners
+    Without a row (``Sensors()``) it reads as a person standing on both feet.
+    ``foot_normal_n`` overrides the feet's loads (the explicit ``penalty`` contact, whose
+    forces MuJoCo does not see).
+    """
+
+    __slots__ = ("_v", "foot_normal_n", "lay", "row", "t")
+
+    def __init__(self, lay: SensorLayout | None = None, row: np.ndarray | None = None,
+                 t: float = 0.0, foot_normal_n: np.ndarray | None = None):
+        self.set(lay, row, t, foot_normal_n)
+
+    def set(self, lay: SensorLayout | None, row: np.ndarray | None, t: float,
+            foot_normal_n: np.ndarray | None = None) -> Sensors:
+        """Point at another row (no copy)."""
+        self.lay, self.row, self.t, self.foot_normal_n = lay, row, t, foot_normal_n
+        self._v = None
+        return self
+
+    @property
+    def _values(self) -> np.ndarray:
+        if self._v is None:
+            self._v = (_STANDING if self.row is None
+                       else self.row[self.lay.decode_index])
+        return self._v
+
+    @property
+    def foot_force_n(self) -> dict[str, float]:
+        """Vertical ground force on each foot (N)."""
+        if self.foot_normal_n is not None:
+            fr, fl = self.foot_normal_n
+        else:
+            v = self._values
+            fr, fl = -v[0], -v[1]
+        return {"r": float(fr), "l": float(fl)}
+
+    @property
+    def foot_on_floor(self) -> dict[str, bool]:
+        """Each foot bears more than ``CONTACT_FORCE_MIN_N``."""
+        f = self.foot_force_n
+        return {"r": f["r"] > CONTACT_FORCE_MIN_N, "l": f["l"] > CONTACT_FORCE_MIN_N}
+
+    @property
+    def foot_on_obstacle(self) -> dict[str, bool]:
+        """Each foot touches the obstacle."""
+        if self.row is None or self.lay.obstacle_found is None:
+            return {"r": False, "l": False}
+        v = self._values
+        return {"r": bool(v[2] > 0), "l": bool(v[3] > 0)}
+
+    @property
+    def segment_on_floor(self) -> bool:
+        """A body other than the feet touches the floor (a fall)."""
+        v = self._values
+        return bool(v[4] - v[5] - v[6] > 0.5)
+
+    com = property(lambda self: self._values[7:10], doc="Whole-body COM (m).")
+    com_vel = property(lambda self: self._values[10:13], doc="COM velocity (m/s).")
+    pelvis_height = property(lambda self: float(self._values[13]), doc="Pelvis height (m).")
+    torso_z = property(lambda self: self._values[14:17], doc="Torso long axis (unit).")
+    torso_angvel = property(lambda self: self._values[17:20], doc="Torso ω (rad/s, world).")
+    foot_pos = property(lambda self: self._values[20:26].reshape(2, 3),
+                        doc="Ankles (foot body origins), r and l (m).")
+    sole = property(lambda self: self._values[26:50].reshape(2, 4, 3),
+                    doc="Sole corners (2, 4, 3), r and l (m).")
+
+
+# a person standing: both feet loaded, upright (what ``Sensors()`` reads without a row)
+_STANDING = np.zeros(50)
+_STANDING[[0, 1]] = -100.0
+_STANDING[16] = 1.0
 
 
 def decode(lay: SensorLayout, row: np.ndarray, t: float, out: Sensors | None = None,
-           foot_normal_n: np.ndarray | None = None, index: np.ndarray | None = None,
-           ) -> Sensors:
-    """``Sensors`` from one sensor row; ``foot_normal_n`` overrides the feet's loads
-    (the explicit ``penalty`` contact, whose forces MuJoCo does not see); ``index``: the
-    layout's ``decode_index`` (pass it when decoding many rows)."""
-    s = out or Sensors()
-    v = row[lay.decode_index if index is None else index]
-    fr, fl = (-v[0], -v[1]) if foot_normal_n is None else foot_normal_n
-    s.t = t
-    s.foot_force_n = {"r": float(fr), "l": float(fl)}
-    s.foot_on_floor = {"r": bool(fr > CONTACT_FORCE_MIN_N), "l": bool(fl > CONTACT_FORCE_MIN_N)}
-    if lay.obstacle_found is not None:
-        s.foot_on_obstacle = {"r": bool(v[2] > 0), "l": bool(v[3] > 0)}
-    s.segment_on_floor = bool(v[4] - v[5] - v[6] > 0.5)
-    s.com, s.com_vel = v[7:10], v[10:13]
-    s.pelvis_height = float(v[13])
-    s.torso_z, s.torso_angvel = v[14:17], v[17:20]
-    s.foot_pos = v[20:26].reshape(2, 3)
-    s.sole = v[26:50].reshape(2, 4, 3)
-    return s
+           foot_normal_n: np.ndarray | None = None) -> Sensors:
+    """``Sensors`` reading one sensor row (``out`` reused if given)."""
+    return (out or Sensors()).set(lay, row, t, foot_normal_n)
+
+
+def recorded(rec: Recording, lay: SensorLayout, k: int) -> Sensors:
+    """The sensors of recorded sample ``k``."""
+    return Sensors(lay, rec.sensordata[k], float(rec.time_s[k]))
 
 
 @dataclass
@@ -127,6 +172,7 @@ class Recording:
     actuator_force: np.ndarray | None = None  # (T, nu) N or N·m (muscles: negative = pull)
     activation: np.ndarray | None = None  # (T, na) muscle activations (MuJoCo act)
     foot_force: np.ndarray | None = None  # (T, 2) N, vertical ground force per foot
+    sensordata: np.ndarray | None = None  # (T, nsensordata) the raw sensor rows
     steps: int = 0
     wall_time_s: float = 0.0
     physics_time_s: float = 0.0  # of which inside MuJoCo
@@ -137,39 +183,43 @@ class Recording:
 
 @dataclass
 class _Buffers:
-    """Pre-allocated recording arrays and the next free row."""
+    """Pre-allocated raw samples (state and sensor rows); decoded in bulk at the end."""
 
     n: int
     model: mujoco.MjModel
+    nstate: int
+    nsens: int
     k: int = 0
 
     def __post_init__(self) -> None:
-        n, m = self.n, self.model
-        self.rec = Recording(np.zeros(n), np.zeros((n, m.nq)), np.zeros((n, m.nv)),
-                             np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 2), bool),
-                             np.zeros((n, 2), bool), np.zeros((n, 3)), [""] * n,
-                             np.zeros(n, bool), np.zeros((n, m.nu)), np.zeros((n, m.na)),
-                             np.zeros((n, 2)))
+        self.time = np.zeros(self.n)
+        self.states = np.zeros((self.n, self.nstate))
+        self.rows = np.zeros((self.n, self.nsens))
+        self.names: list[str] = []
 
-    def add(self, t: float, qpos, qvel, act, s: Sensors, force, state: str, actuator_force):
-        r, k = self.rec, self.k
-        r.time_s[k], r.qpos[k], r.qvel[k], r.com[k], r.com_vel[k] = t, qpos, qvel, s.com, s.com_vel
-        r.foot_on_floor[k] = s.foot_on_floor["r"], s.foot_on_floor["l"]
-        r.foot_on_obstacle[k] = s.foot_on_obstacle["r"], s.foot_on_obstacle["l"]
-        r.foot_force[k] = s.foot_force_n["r"], s.foot_force_n["l"]
-        r.trip_force[k], r.state[k], r.segment_on_floor[k] = force, state, s.segment_on_floor
-        r.actuator_force[k] = actuator_force
-        r.activation[k] = act
+    def add(self, t: float, state: np.ndarray, row: np.ndarray, name: str) -> None:
+        k = self.k
+        self.time[k], self.states[k], self.rows[k] = t, state, row
+        self.names.append(name)
         self.k = k + 1
 
-    def trimmed(self) -> Recording:
-        r, k = self.rec, self.k
-        for name in ("time_s", "qpos", "qvel", "com", "com_vel", "foot_on_floor",
-                     "foot_on_obstacle", "trip_force", "segment_on_floor", "actuator_force",
-                     "activation", "foot_force"):
-            setattr(r, name, getattr(r, name)[:k])
-        r.state = r.state[:k]
-        return r
+    def recording(self, lay: SensorLayout, force: Callable | None, loads) -> Recording:
+        """The samples as a ``Recording`` (vectorised decoding of the sensor rows)."""
+        m, k = self.model, self.k
+        nq, nv, na = m.nq, m.nv, m.na
+        st, rows, t = self.states[:k], self.rows[:k], self.time[:k]
+        fz = -rows[:, lay.foot_force[:, 2]] if loads is None else loads[:k]
+        seg = rows[:, lay.floor_found] - rows[:, lay.foot_found].sum(axis=1) > 0.5
+        ob = (np.zeros((k, 2), bool) if lay.obstacle_found is None
+              else rows[:, lay.obstacle_found] > 0)
+        trip = np.zeros((k, 3)) if force is None else np.array([force(x) for x in t]
+                                                               ).reshape(k, 3)
+        return Recording(t.copy(), st[:, 1:1 + nq].copy(), st[:, 1 + nq:1 + nq + nv].copy(),
+                         rows[:, lay.com].copy(), rows[:, lay.com_vel].copy(),
+                         fz > CONTACT_FORCE_MIN_N, ob, trip, list(self.names), seg,
+                         rows[:, lay.actuator_force].copy(),
+                         st[:, 1 + nq + nv:1 + nq + nv + na].copy(), fz.copy(),
+                         sensordata=rows.copy())
 
 
 class _Stepper:
@@ -245,12 +295,13 @@ def run(ctx: Context, controller: Controller, duration_s: float,
     dt = m.opt.timestep
     n_steps = round(duration_s / dt)
     rec_every = max(1, round(1.0 / (RECORD_HZ * dt)))
-    buf = _Buffers(n_steps // rec_every + 1, m)
     stepper = _Stepper(m, d, penalty)
+    buf = _Buffers(n_steps // rec_every + 1, m, stepper.nstate, m.nsensordata)
     sides = {0: "r", 1: "l"}
     if penalty is not None:
         names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) for b in penalty.body_ids]
         penalty.side_index = np.array([0 if n.endswith("_r") else 1 for n in names])
+    load_log: list[np.ndarray] | None = [] if penalty is not None else None
 
     def loads() -> np.ndarray | None:
         if penalty is None:
@@ -270,7 +321,7 @@ def run(ctx: Context, controller: Controller, duration_s: float,
     no_force = np.zeros(3)
 
     def force_at(t: float) -> np.ndarray:
-        return trip_force(t) if forcing and 0.0 <= t <= force_end_s else no_force
+        return trip_force(t) if trip_force is not None and 0.0 <= t <= force_end_s else no_force
 
     def apply_force(dd: mujoco.MjData) -> None:
         f = force_at(dd.time - ctx.t0)
@@ -283,22 +334,30 @@ def run(ctx: Context, controller: Controller, duration_s: float,
     reason = "time"
     step = 0
     scratch = Sensors()
-    index = lay.decode_index
+    now = np.zeros(stepper.nstate)
 
-    def sample(qpos, qvel, act, row, t) -> str:
-        """Record one sample; the stop rule's verdict."""
-        if not (np.all(np.isfinite(qpos)) and np.all(np.isfinite(qvel))):
+    def sample(state: np.ndarray, row: np.ndarray) -> str:
+        """Record one sample (a full-physics state and its sensor row); the stop rule's
+        verdict on it."""
+        if not np.isfinite(state).all():
             return "diverged"
-        s = decode(lay, row, t, scratch, loads(), index)
-        buf.add(t, qpos, qvel, act, s, force_at(t), controller.state(),
-                row[lay.actuator_force])
-        return stop(s) if stop is not None else ""
+        t = float(state[0]) - ctx.t0
+        buf.add(t, state, row, controller.state())
+        f = loads()
+        if load_log is not None:
+            load_log.append(f)
+        return stop(scratch.set(lay, row, t, f)) if stop is not None else ""
+
+    def state_now() -> np.ndarray:
+        mujoco.mj_getState(m, d, now, _STATE)
+        return now
 
     # the trip instant itself
-    why = sample(d.qpos, d.qvel, d.act, d.sensordata, d.time - ctx.t0)
-    nq, nv, na = m.nq, m.nv, m.na
+    why = sample(state_now(), d.sensordata)
+    uses_sensors = getattr(controller, "uses_sensors", True)
     while not why and step < n_steps:
-        decode(lay, d.sensordata, d.time - ctx.t0, ctx.sensors, loads(), index)
+        if uses_sensors:
+            decode(lay, d.sensordata, d.time - ctx.t0, ctx.sensors, loads())
         plan = controller.update(ctx)
         n_block = min(period, n_steps - step)
         if controls is not None:
@@ -310,7 +369,7 @@ def run(ctx: Context, controller: Controller, duration_s: float,
             forcing = False
         # instants of this block that are recorded
         first_rec = (step // rec_every + 1) * rec_every
-        rec_at = list(range(first_rec - step, n_block + 1, rec_every))
+        rec_at = range(first_rec - step, n_block + 1, rec_every)
         if plan is None and not forcing and observe is None and penalty is None:
             done = 0  # held controls: step natively from one sample to the next
             for k in [*rec_at, n_block]:
@@ -319,7 +378,7 @@ def run(ctx: Context, controller: Controller, duration_s: float,
                 rows, _ = stepper.advance(k - done, None)
                 done = k
                 if k in rec_at:
-                    why = sample(d.qpos, d.qvel, d.act, rows[-1], d.time - ctx.t0)
+                    why = sample(state_now(), rows[-1])
                     if why:
                         break
         else:
@@ -329,16 +388,14 @@ def run(ctx: Context, controller: Controller, duration_s: float,
             if observe is not None:
                 observe(rows)
             for k in rec_at:
-                st = states[k - 1]
-                t = st[0] - ctx.t0
-                why = sample(st[1:1 + nq], st[1 + nq:1 + nq + nv],
-                             st[1 + nq + nv:1 + nq + nv + na], rows[k - 1], t)
+                why = sample(states[k - 1], rows[k - 1])
                 if why:
                     break
         step += n_block
         if not why and d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0:
             why = "diverged"
-    rec = buf.trimmed()
+    rec = buf.recording(lay, force_at if trip_force is not None else None,
+                        None if load_log is None else np.array(load_log))
     rec.wall_time_s = time.perf_counter() - wall0
     rec.physics_time_s = stepper.physics_s
     rec.steps = step

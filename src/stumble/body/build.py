@@ -74,6 +74,7 @@ class Body:
     foot_points: dict[str, list[str]] = field(default_factory=dict)
     muscles: list = field(default_factory=list)  # stumble.body.muscles.MuscleGeometry
     sensors: body_sensors.SensorLayout | None = None  # where each sensor sits in a row
+    muscle_set: str = ""  # the muscle set ("seed", "hfl"), or "" without muscles
 
     @property
     def dof(self) -> int:
@@ -211,9 +212,11 @@ def build(planar: bool = False, height_m: float = 1.75, mass_kg: float = 70.0,
           sex: str = "male", contact: str = foot_contact.DEFAULT_MODE,
           timestep_s: float = 0.001,
           obstacle: tuple[float, float, float, float, float] | None = None,
-          actuation: str = "servos") -> Body:
+          actuation: str = "servos", muscle_set: str = muscles.DEFAULT_MUSCLE_SET) -> Body:
     """Compile the 3D (42 DOF) or planar human for a person of the given size.
 
+    ``muscle_set`` (muscles only): ``"seed"`` (seed 003's seven per leg) or ``"hfl"``
+    (those and an iliopsoas, Geyer & Herr 2010's HFL); see ``stumble.body.muscles``.
     ``actuation``: ``"servos"`` (a PD position servo per DOF) or, planar only,
     ``"muscles"`` (seed 003 §III: 7 Hill-type muscles per leg on hips, knees and ankles,
     ``stumble.body.muscles``; a PD servo on the lumbar joint; weak ankle springs).
@@ -326,7 +329,8 @@ def build(planar: bool = False, height_m: float = 1.75, mass_kg: float = 70.0,
     muscle_geometry = []
     if actuation == "muscles":
         _actuators(s, [h for h in hinges if h.startswith("lumbar")], mass_kg)
-        muscle_geometry = muscles.add_muscles(s, height_m, mass_kg)
+        muscle_geometry = muscles.add_muscles(s, height_m, mass_kg,
+                                              muscles.check_muscle_set(muscle_set))
         for side in ("r", "l"):
             j = s.joint(f"ankle_angle_{side}")
             j.stiffness = [muscles.ANKLE_STIFFNESS_NM_PER_RAD, 0.0, 0.0]
@@ -342,7 +346,8 @@ def build(planar: bool = False, height_m: float = 1.75, mass_kg: float = 70.0,
     masses = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b): float(model.body_mass[b])
               for b in range(1, model.nbody)}
     return Body(model, planar, height_m, mass_kg, sex, contact, internal, masses, foot_points,
-                muscle_geometry, body_sensors.layout(model, [g.name for g in muscle_geometry]))
+                muscle_geometry, body_sensors.layout(model, [g.name for g in muscle_geometry]),
+                muscle_set if actuation == "muscles" else "")
 
 
 def _Layout_spec(planar: bool, timestep_s: float) -> mujoco.MjSpec:

@@ -12,6 +12,7 @@ is a sensor, so no Python runs per step:
   feet's: a fall);
 - the whole-body centre of mass and its velocity; the pelvis position; the torso's long
   axis and angular velocity (trunk lean and its rate);
+- the hip, knee and ankle flexion angles and velocities of both legs;
 - per actuator its force; per muscle also its length and velocity (the receptors'
   inputs).
 
@@ -27,6 +28,7 @@ import mujoco
 import numpy as np
 
 SIDES = ("r", "l")
+LEG_JOINTS = ("hip_flexion", "knee_angle", "ankle_angle")
 # sole corners among the 96 reference sites (16 along × 6 across, heel first)
 CORNER_SITES = (0, 5, 90, 95)
 
@@ -47,6 +49,8 @@ class SensorLayout:
     torso_angvel: np.ndarray  # (3,) rad/s, world frame
     foot_pos: np.ndarray  # (2, 3) foot body origins (the ankles)
     sole: np.ndarray  # (2, 4, 3) sole corners
+    joint_angle: np.ndarray  # (2, 3) rad, hip, knee, ankle of each leg (OpenSim signs)
+    joint_velocity: np.ndarray  # (2, 3) rad/s
     actuator_force: np.ndarray  # (nu,) N or N·m, MuJoCo sign (muscles: negative = pull)
     muscle_length: np.ndarray  # (n_muscles,) m, actuator (tendon) lengths
     muscle_velocity: np.ndarray  # (n_muscles,) m/s
@@ -110,6 +114,10 @@ def add_sensors(spec: mujoco.MjSpec, foot_points: dict[str, list[str]],
         add(f"foot_{side}", S.mjSENS_FRAMEPOS, Ob.mjOBJ_XBODY, f"foot_{side}")
         for k in CORNER_SITES:
             add(f"corner_{side}_{k}", S.mjSENS_FRAMEPOS, Ob.mjOBJ_SITE, foot_points[side][k])
+    for side in SIDES:
+        for j in LEG_JOINTS:
+            add(f"{j}_{side}_angle", S.mjSENS_JOINTPOS, Ob.mjOBJ_JOINT, f"{j}_{side}")
+            add(f"{j}_{side}_velocity", S.mjSENS_JOINTVEL, Ob.mjOBJ_JOINT, f"{j}_{side}")
     for name in actuators:
         add(f"{name}_force", S.mjSENS_ACTUATORFRC, Ob.mjOBJ_ACTUATOR, name)
     for name in muscles:
@@ -139,6 +147,9 @@ def layout(model: mujoco.MjModel, muscles: list[str]) -> SensorLayout:
         torso_angvel=at("torso_angvel"),
         foot_pos=np.array([at(f"foot_{s}") for s in SIDES]),
         sole=np.array([[at(f"corner_{s}_{k}") for k in CORNER_SITES] for s in SIDES]),
+        joint_angle=np.array([[at(f"{j}_{s}_angle")[0] for j in LEG_JOINTS] for s in SIDES]),
+        joint_velocity=np.array([[at(f"{j}_{s}_velocity")[0] for j in LEG_JOINTS]
+                                 for s in SIDES]),
         actuator_force=np.array([at(f"{model.actuator(i).name}_force")[0]
                                  for i in range(model.nu)], dtype=int),
         muscle_length=np.array([at(f"{n}_length")[0] for n in muscles], dtype=int),

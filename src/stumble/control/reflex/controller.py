@@ -90,6 +90,7 @@ class ReflexController:
     """Seed 003's neuromuscular network driving the 14 muscles of the planar body."""
 
     name = "reflex"
+    uses_sensors = False  # reads the sensor rows of each block (``observe``) instead
 
     def __init__(self, network: Network,
                  history: tuple[np.ndarray, np.ndarray] | None = None,

@@ -256,18 +256,19 @@ class Network:
                  walk_rates=np.zeros(0) if self.walk_rates is None else self.walk_rates)
 
     @classmethod
-    def load(cls, path: str | Path) -> Network:
-        """Read a network written by ``save``; InputError naming the file and the problem
-        if it is not one (see ``read_network_file``: nothing is loaded in full before its
-        names, shapes, types and sizes are checked)."""
+    def load(cls, path: str | Path, muscles: tuple[str, ...] = MUSCLE_NAMES) -> Network:
+        """Read a network written by ``save`` for a model of ``muscles`` (per leg, in
+        order); InputError naming the file and the problem if it is not one (see
+        ``read_network_file``: nothing is loaded in full before its names, shapes, types
+        and sizes are checked against the layout its own muscle list implies)."""
         path = Path(path)
         z = read_network_file(path)
         t = Topology(float(z["rate_hz"]), int(z["hidden"]), bool(z["contact"]),
                      float(z["afferent_m_per_s"]), float(z["efferent_m_per_s"]),
                      tuple(str(s) for s in z["muscles"]))
-        if t.muscles != MUSCLE_NAMES:
+        if t.muscles != tuple(muscles):
             raise InputError(f"{path}: a network of the muscles {', '.join(t.muscles)}; this "
-                             f"model has {', '.join(MUSCLE_NAMES)}")
+                             f"model has {', '.join(muscles)}")
         walk = z.get("walk_rates")
         return cls(t, z["w"], z["b"], z["v"], z["c"], z["mean"], z["std"], z["info"],
                    walk if walk is not None and walk.size else None)
