@@ -54,8 +54,24 @@ def test_nerve_delays_follow_table_one():
     assert d[("SOL", "S1", "SOL")] == pytest.approx(1.28 / 57.6 + 1.28 / 52.4)
     assert d[("RF", "L2", "VAS")] == pytest.approx(0.57 / 57.6 + 0.68 / 52.4)
     assert ("HAMS", "L2", "RF") not in d  # no HAMS fibre in L2 (Table I: —)
-    assert len(t.connections()) == sum(len(v) for v in NERVE_LENGTH_M.values()) == 19
+    seven = [v for k, v in NERVE_LENGTH_M.items() if k != "HFL"]
+    assert len(t.connections()) == sum(len(v) for v in seven) == 19
     assert len(t.inputs()) == 3 * 19
+    assert t.segments == ("L2", "L3", "L4", "L5", "S1", "S2")
+
+
+def test_the_iliopsoas_enters_the_network_through_l1_to_l3():
+    """HFL (optional) is bound to L1-L3 by its documented nerve lengths; L1 joins the
+    segments only with it."""
+    from stumble.body.muscles import MUSCLE_SETS
+
+    t = Topology(muscles=MUSCLE_SETS["hfl"])
+    assert t.segments == ("L1", "L2", "L3", "L4", "L5", "S1", "S2")
+    assert len(t.connections()) == 19 + 3 and len(t.inputs()) == 3 * 22
+    d = t.path_delays_s()
+    assert d[("HFL", "L2", "HFL")] == pytest.approx(0.24 / 57.6 + 0.24 / 52.4)
+    assert d[("RF", "L3", "HFL")] == pytest.approx(0.55 / 57.6 + 0.22 / 52.4)
+    assert ("HAMS", "L5", "HFL") not in d
 
 
 def test_contact_afferent_nerves_are_soleus_plus_seven_cm():

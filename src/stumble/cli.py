@@ -78,10 +78,13 @@ def _parser() -> argparse.ArgumentParser:
                        description="Simulate one trip: writes summary.json, timeseries.csv, "
                        "trajectories.png, filmstrip.png and trip.mp4 to DIR.")
     t.add_argument("--out", required=True, type=Path, metavar="DIR", help="output directory")
-    t.add_argument("--controller", choices=("fsm", "reflex"), default="fsm",
+    t.add_argument("--controller", choices=("fsm", "reflex", "gh2010"), default="fsm",
                    help="fsm: the state-machine controllers of SCA 2009 on the 3D human; "
                    "reflex: the neuromuscular reflex network of seed 003 on the planar "
-                   "musculoskeletal human (its strategy emerges)")
+                   "musculoskeletal human; gh2010: Geyer & Herr 2010's reflexes on that "
+                   "body (the reflex controllers' strategy emerges)")
+    t.add_argument("--params", type=Path, metavar="FILE",
+                   help="gh2010 controller: a gh2010.json (default: the shipped parameters)")
     t.add_argument("--network", type=Path, metavar="FILE",
                    help="reflex controller: a network.npz from `stumble reflex fit` "
                    "(default: the network shipped with stumble)")
@@ -333,9 +336,11 @@ def cmd_trip(args) -> int:
                          "uses the planar one (--controller reflex)")
     if (args.network or args.no_trunk_balance) and args.controller != "reflex":
         raise InputError("--network and --no-trunk-balance are for --controller reflex")
+    if args.params and args.controller != "gh2010":
+        raise InputError("--params is for --controller gh2010")
     scenario = Scenario(swing_fraction=args.swing, speed_m_per_s=args.speed,
                         leg=args.leg, mechanism=args.mechanism or (
-                            "obstacle" if args.controller == "reflex" else "force"),
+                            "force" if args.controller == "fsm" else "obstacle"),
                         obstacle_height_m=args.obstacle_height, controller=args.controller,
                         strategy=args.strategy, seed=args.seed, height_m=args.height,
                         mass_kg=args.mass, sex=args.sex, contact=args.contact,
@@ -346,9 +351,14 @@ def cmd_trip(args) -> int:
         from stumble.control.reflex.network import Network
 
         network = Network.load(args.network)
+    gh2010 = None
+    if args.params:
+        from stumble.control.reflex.gh2010 import load_params
+
+        gh2010 = load_params(args.params)
     out = prepare_dir(args.out)
     result = simulate_trip(scenario, reference=reference, network=network,
-                           trunk_balance=not args.no_trunk_balance)
+                           trunk_balance=not args.no_trunk_balance, gh2010=gh2010)
     write_summary(out, result)
     write_timeseries(out, result)
     written = ["summary.json", "timeseries.csv",

@@ -48,7 +48,7 @@ def frames_at_states(result: TripResult, most: int = 7) -> tuple[list[np.ndarray
     rec = result.recording
     qs, labels, seen = [], [], set()
     states = list(result.states)
-    if result.scenario.controller == "reflex" and len(rec.time_s):
+    if result.scenario.controller in ("reflex", "gh2010") and len(rec.time_s):
         # one network state: show its events and the motion every 0.15 s between them
         marks = {round(t, 2) for _n, t in states}
         states += [(f"@{t:.2f}", t) for t in np.arange(0.15, rec.time_s[-1] - 0.05, 0.15)
@@ -80,7 +80,7 @@ def write_media(out: Path, result: TripResult, video: bool, progress: bool) -> l
     plot_trajectories(out / "trajectories.png", result.body.model, rec.time_s, rec.qpos,
                       result.scenario.side, s["strategy"], result.states, title)
     written = ["trajectories.png"]
-    if result.scenario.controller == "reflex":
+    if result.scenario.controller in ("reflex", "gh2010"):
         write_muscle_tensions(out, result)
         written.append("muscle_tensions.png")
     if not video:
@@ -126,8 +126,7 @@ TENSION_WINDOW_S = (-0.1, 0.6)  # muscle_tensions.png: from before the trip to 0
 
 def write_muscle_tensions(out: Path, result: TripResult) -> None:
     """``muscle_tensions.png`` (seed 003 Fig. 5): tensions of a reflex trip vs walking."""
-    from stumble.body.muscles import MUSCLE_NAMES
-    from stumble.control.reflex.identify import default_network
+    from stumble.control.reflex.identify import default_network, leg_muscles
     from stumble.control.reflex.receptors import IB_FORCE_N, IB_GAIN
     from stumble.pipeline import _phase
     from stumble.viz.reflex_plots import plot_muscle_tensions
@@ -135,35 +134,36 @@ def write_muscle_tensions(out: Path, result: TripResult) -> None:
     rec, m, s = result.recording, result.body.model, result.summary
     tripped = result.scenario.side
     legs = (tripped, {"r": "l", "l": "r"}[tripped])
-    ids = [[m.actuator(f"{mus}_{side}").id for mus in MUSCLE_NAMES] for side in legs]
+    muscles = leg_muscles(result.body)
+    ids = [[m.actuator(f"{mus}_{side}").id for mus in muscles] for side in legs]
     sel = rec.time_s <= TENSION_WINDOW_S[1]
     f_trip = np.stack([-rec.actuator_force[sel][:, row] for row in ids], axis=1)
     net = result.network or default_network()
     t_walk = np.arange(TENSION_WINDOW_S[0], TENSION_WINDOW_S[1], 0.002)
-    f_walk = np.full((len(t_walk), 2, len(MUSCLE_NAMES)), np.nan)
-    if net.walk_rates is not None:
+    f_walk = np.full((len(t_walk), 2, len(muscles)), np.nan)
+    if net.walk_rates is not None and net.topology.muscles == muscles:
         T = net.walk_rates.shape[1]
         phase = _phase(result.playback, s["trip_time_s"]) + t_walk / result.playback.stride_s
         k = np.round(phase * T).astype(int) % T
         for col, side in enumerate(legs):
-            ib = net.walk_rates["rl".index(side)][k][:, 2:21:3]
+            ib = net.walk_rates["rl".index(side)][k][:, 2:3 * len(muscles):3]
             f_walk[:, col] = IB_FORCE_N * (np.exp(ib / IB_GAIN) - 1.0)  # invert Ib's law
     names = {"r": "right", "l": "left"}
     plot_muscle_tensions(
         out / "muscle_tensions.png", rec.time_s[sel], f_trip, t_walk, f_walk,
         (f"{names[legs[0]]} leg (tripped)", f"{names[legs[1]]} leg (support)"),
         f"muscle tension (N): trip at {s['swing_fraction']:.2f} of swing "
-        f"({s['strategy'] or 'no strategy'}) vs walking")
+        f"({s['strategy'] or 'no strategy'}) vs walking", muscles)
 
 
 def write_fit(out: Path, fit, video: bool = True) -> list[str]:
     """The files of ``stumble reflex fit``: network, figures of the fit, walking data, and
     one walking step under the network (seed 003 Fig. 3) in fit.json and walking_step.png."""
-    from stumble.body.muscles import MUSCLE_NAMES
     from stumble.control.reflex.walking import write_moments_csv
     from stumble.pipeline import simulate_walking_step
     from stumble.viz.reflex_plots import plot_activity_fit
 
+    muscles = fit.network.topology.muscles
     fit.network.save(out / "network.npz")
     step = simulate_walking_step(fit.network)
     fit.report["walking_step"] = {
@@ -184,16 +184,17 @@ def write_fit(out: Path, fit, video: bool = True) -> list[str]:
     plot_activity_fit(
         out / "activity_fit.png", pct, ident.activity[0], fit.activity_net[0], events,
         f"right-leg muscle activity: identified vs network (average error "
-        f"{100 * r['avg_error']:.1f} %, max {100 * r['max_error']:.0f} %; seed 003: 2.0 %, 36 %)")
+        f"{100 * r['avg_error']:.1f} %, max {100 * r['max_error']:.0f} %; seed 003: 2.0 %, 36 %)",
+        muscles)
     write_moments_csv(walk, out / "walking_moments.csv")
     grid = np.linspace(0.0, 100.0, 51)
     ext = np.append(pct, 100.0)
     with (out / "walking_activity.csv").open("w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["percent", *[f"{mus}_{kind}" for mus in MUSCLE_NAMES
+        w.writerow(["percent", *[f"{mus}_{kind}" for mus in muscles
                                  for kind in ("target", "network")]])
         cols = []
-        for j in range(len(MUSCLE_NAMES)):
+        for j in range(len(muscles)):
             for series in (ident.activity[0, :, j], fit.activity_net[0, :, j]):
                 cols.append(np.interp(grid, ext, np.append(series, series[0])))
         for i, p in enumerate(grid):
