@@ -81,6 +81,7 @@ class Recording:
     state: list[str]
     segment_on_floor: np.ndarray  # (T,)
     actuator_force: np.ndarray | None = None  # (T, nu) N or N·m (muscles: negative = pull)
+    activation: np.ndarray | None = None  # (T, na) MuJoCo activation states (muscles: 0-1)
     steps: int = 0
     wall_time_s: float = 0.0
     physics_time_s: float = 0.0  # of which inside MuJoCo's step
@@ -161,7 +162,7 @@ def run(ctx: Context, controller: Controller, duration_s: float,
     rec = Recording(np.zeros(n_rec), np.zeros((n_rec, m.nq)), np.zeros((n_rec, m.nv)),
                     np.zeros((n_rec, 3)), np.zeros((n_rec, 3)), np.zeros((n_rec, 2), bool),
                     np.zeros((n_rec, 2), bool), np.zeros((n_rec, 3)), [""] * n_rec,
-                    np.zeros(n_rec, bool), np.zeros((n_rec, m.nu)))
+                    np.zeros(n_rec, bool), np.zeros((n_rec, m.nu)), np.zeros((n_rec, m.na)))
     geo = Geometry(ctx.body)
     ctx.penalty = penalty
     if penalty is not None:
@@ -211,6 +212,7 @@ def run(ctx: Context, controller: Controller, duration_s: float,
             rec.state[k_rec] = controller.state()
             rec.segment_on_floor[k_rec] = ctx.sensors.segment_on_floor
             rec.actuator_force[k_rec] = d.actuator_force
+            rec.activation[k_rec] = d.act
             k_rec += 1
             if stop is not None:
                 why = stop(ctx, rec, k_rec)
@@ -234,7 +236,8 @@ def run(ctx: Context, controller: Controller, duration_s: float,
     rec.steps = step
     rec.stop_reason = reason
     for name in ("time_s", "qpos", "qvel", "com", "com_vel", "foot_on_floor",
-                 "foot_on_obstacle", "trip_force", "segment_on_floor", "actuator_force"):
+                 "foot_on_obstacle", "trip_force", "segment_on_floor", "actuator_force",
+                 "activation"):
         setattr(rec, name, getattr(rec, name)[:k_rec])
     rec.state = rec.state[:k_rec]
     return rec
