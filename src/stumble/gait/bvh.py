@@ -756,6 +756,9 @@ _PARENT_SEGMENT = {"torso": "pelvis", "head": "torso", "upper_arm": "torso",
 _CHAIN = {"torso": "spine", "head": "spine", "upper_arm": "arm", "forearm": "arm",
           "hand": "arm", "thigh": "leg", "shank": "leg", "foot": "leg", "toes": "leg"}
 UPRIGHT_TOLERANCE_DEG = 60.0  # rest-pose legs and spine this close to vertical: upright
+# At a neutral ankle our foot's bone (ankle to MTP joint) slopes down this much from the
+# sole's forward axis (stumble.body.build, de Leva proportions: 0.135 m ahead, 0.044 m down)
+FOOT_BONE_SLOPE_DEG = 18.2
 
 
 def _split(seg: str) -> tuple[str, str]:
@@ -812,11 +815,14 @@ def detect_axes(bvh: Bvh, segs: dict[str, int], pos: np.ndarray,
     """BVH ``up`` and ``forward`` axes read from the motion: ``(up, forward, how)``.
 
     Up: the mean direction from the feet (toes, feet or shanks) to the head (or torso,
-    or pelvis) over all frames, snapped to the nearest signed axis. Forward: the body's
-    facing, left × up with left the mean vector from the right to the left hip (or
-    shoulder, or foot), snapped to the nearest axis across ``up``; without sided joints,
-    the root's path. What cannot be read falls back to Y up and +Z forward (the common
-    BVH convention), which ``how`` says. A given ``up`` is kept and only forward read.
+    or pelvis) over all frames of ``pos`` (F, J, 3), snapped to the nearest signed axis.
+    Forward: the body's facing, left × up with left the mean vector from the right to the
+    left hip (or shoulder, or foot), snapped to the nearest axis across ``up``; without
+    sided joints, the root's path. ``bvh_to_coordinates`` reads forward from the rest
+    pose when that is upright (the alignment is relative to it; a walk along -x is then a
+    heading of the pelvis), else from the motion. What cannot be read falls back to Y up
+    and +Z forward (the common BVH convention), which ``how`` says. A given ``up`` is
+    kept and only forward read.
     """
     def mean_pos(names: list[str]) -> np.ndarray | None:
         ks = [segs[n] for n in names if n in segs]
@@ -885,9 +891,10 @@ def _alignments_from_motion(bvh: Bvh, segs: dict[str, int], rot: np.ndarray,
     both averaged over the motion. Every other segment is aligned at one reference frame
     of its chain (leg, arm, spine: the frame where that chain's bones are closest to
     vertical): there its frame is its parent's, turned by the least rotation onto its
-    bone, so its joint has no axial twist at that instant (our choice); hand, foot and
-    toes are neutral on their parent there. After that the BVH rotations carry every
-    change, twists included.
+    bone, so its joint has no axial twist at that instant (our choice). The foot's bone
+    (ankle to toe joint) is taken to slope down ``FOOT_BONE_SLOPE_DEG`` at a neutral
+    ankle, as ours does. After that the BVH rotations carry every change, twists
+    included.
     """
     cc = c.T
     out: dict[str, np.ndarray] = {}
@@ -899,9 +906,13 @@ def _alignments_from_motion(bvh: Bvh, segs: dict[str, int], rot: np.ndarray,
             w = pos[:, segs[f"{a}_l"]] - pos[:, segs[f"{a}_r"]]
             left = c @ np.einsum("fji,fj->i", rp, w) / len(w)
             break
-    if "torso" in segs:
+    if "torso" in segs:  # the pelvis's own child on the way to the torso: a fixed OFFSET
+        k = segs["torso"]
+        while bvh.joints[k].parent not in (k0, -1):
+            k = bvh.joints[k].parent
         w = pos[:, segs["torso"]] - pos[:, k0]
-        upv = c @ np.einsum("fji,fj->i", rp, w) / len(w)
+        upv = c @ bvh.joints[k].offset if np.linalg.norm(bvh.joints[k].offset) > 1e-9 else (
+            c @ np.einsum("fji,fj->i", rp, w) / len(w))
     else:
         upv = c @ np.einsum("fji,j->i", rp, cc @ np.array([0.0, 0.0, 1.0])) / len(rp)
     if left is None or np.linalg.norm(left) < 1e-9:
@@ -941,12 +952,15 @@ def _alignments_from_motion(bvh: Bvh, segs: dict[str, int], rot: np.ndarray,
                 parent = _parent_seg(parent)
             f = ref.get((_CHAIN[base], side), 0)
             s_parent = world[parent][f] @ out[parent]
-            if base in _NEUTRAL_ON or seg not in bones:
+            if seg not in bones:
                 target = s_parent
             else:
                 b = bones[seg][f] / np.linalg.norm(bones[seg][f])
-                d = s_parent @ np.asarray(SEGMENT_DIRECTION[base], dtype=float)
-                target = _shortest_arc(d, b) @ s_parent
+                neutral = np.asarray(SEGMENT_DIRECTION[base], dtype=float)
+                if base == "foot":
+                    a = math.radians(FOOT_BONE_SLOPE_DEG)
+                    neutral = np.array([math.cos(a), 0.0, -math.sin(a)])
+                target = _shortest_arc(s_parent @ neutral, b) @ s_parent
             out[seg] = world[seg][f].T @ target
     return out
 
@@ -978,18 +992,22 @@ def bvh_to_coordinates(bvh: Bvh, name_map: Mapping[str, str] | None = None, up: 
                          "or pass name_map")
     notes = list(bvh.notes)
     rot_b, pos_b = joint_world_frames(bvh)
-    if up == "auto" or forward == "auto":
-        up_d, forward_d, how = detect_axes(bvh, segs, pos_b, None if up == "auto" else up)
-        up = up_d
-        if forward == "auto":
-            forward = forward_d
-        if (up, forward) != ("y", "z"):
-            notes.append(f"{bvh.source}: axes read from the motion: {up} up, {forward} forward"
-                         + (f" ({how})" if how else ""))
-        elif how:
-            notes.append(f"{bvh.source}: {how}")
-    c = basis_matrix(up, forward)
     rest = _rest_positions(bvh)
+    given = (up, forward)
+    how = ""
+    if up == "auto":
+        up, _, how = detect_axes(bvh, segs, pos_b)
+    side = {"x": "y", "y": "z", "z": "x"}[up.strip().lstrip("+-").lower()[-1:] or "y"]
+    upright = _rest_is_upright(bvh, segs, rest, basis_matrix(up, side))
+    if forward == "auto":  # the facing of the rest pose the alignment reads, else the motion's
+        _, forward, how_f = detect_axes(bvh, segs, rest[None] if upright else pos_b, up)
+        how = "; ".join(h for h in (how, how_f) if h)
+    if given != (up, forward) and (up, forward) != ("y", "z"):
+        notes.append(f"{bvh.source}: axes read from the skeleton: {up} up, {forward} forward"
+                     + (f" ({how})" if how else ""))
+    elif how:
+        notes.append(f"{bvh.source}: {how}")
+    c = basis_matrix(up, forward)
     unit = _guess_unit(bvh, segs, rest, c) if length_unit_m is None else float(length_unit_m)
 
     if _rest_is_upright(bvh, segs, rest, c):
