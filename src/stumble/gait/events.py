@@ -51,17 +51,17 @@ class GaitEvents:
 
         The mean complete stride (heel strike to heel strike of one foot) of both sides;
         without one, twice the mean step (a heel strike to the next one of the other
-        foot); without a step, None.
+        foot, else a toe-off to the next of the other foot); without a step, None.
         """
         mean = self.mean_stride_s()
         if np.isfinite(mean):
             return mean, "complete strides"
-        marks = sorted([(t, "r") for t in self.heel_strike_s["r"]]
-                       + [(t, "l") for t in self.heel_strike_s["l"]])
-        steps = [b[0] - a[0] for a, b in itertools.pairwise(marks) if a[1] != b[1]]
-        if steps:
-            return 2.0 * float(np.mean(steps)), "twice the step (no complete stride)"
-        return None, "fewer than two heel strikes"
+        for events, what in ((self.heel_strike_s, "heel strikes"), (self.toe_off_s, "toe-offs")):
+            marks = sorted([(t, "r") for t in events["r"]] + [(t, "l") for t in events["l"]])
+            steps = [b[0] - a[0] for a, b in itertools.pairwise(marks) if a[1] != b[1]]
+            if steps:
+                return 2.0 * float(np.mean(steps)), f"twice the step between {what}"
+        return None, "no step"
 
     def stance_fraction(self) -> float:
         """Mean share of a stride spent in stance, over complete strides of both sides."""
