@@ -98,8 +98,9 @@ def opensim_coordinates(body: Body, qpos: np.ndarray) -> dict[str, np.ndarray]:
     if body.planar:
         tilt = q[:, _adr(body, "pelvis_tilt")]
         rot = rotation_matrix(PELVIS_ROTATIONS[0].axis, tilt)
-        origin = np.stack([q[:, _adr(body, "pelvis_tx")], np.zeros(len(q)),
-                           q[:, _adr(body, "pelvis_ty")]], axis=1) + rot @ offset
+        home = m.body("pelvis").pos  # the slide joints move the pelvis from here
+        origin = np.stack([home[0] + q[:, _adr(body, "pelvis_tx")], np.zeros(len(q)),
+                           home[2] + q[:, _adr(body, "pelvis_ty")]], axis=1) + rot @ offset
         out["pelvis_tilt"] = tilt
         out["pelvis_tx"], out["pelvis_ty"] = origin[:, 0], origin[:, 2]
         names = GAIT10DOF_COORDINATES
