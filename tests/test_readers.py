@@ -454,3 +454,11 @@ def test_only_regular_files_of_bounded_size_are_read(tmp_path, monkeypatch):
     (tmp_path / "d.mot").mkdir()
     with pytest.raises(InputError, match=r"^d\.mot: is a directory"):
         read_mot(tmp_path / "d.mot")
+
+
+def test_a_gap_in_the_time_column_is_refused():
+    t = np.concatenate([np.arange(0.0, 1.0, 0.01), [79.6, 79.61]])
+    with pytest.raises(InputError) as info:
+        check_time("gap.sto", t)
+    assert str(info.value) == ("gap.sto: a gap of 78.61 s between the samples at 0.99 and "
+                               "79.6 s (more than 1 s)")

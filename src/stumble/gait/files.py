@@ -18,7 +18,13 @@ from stumble.body import Body
 from stumble.body.joints import PELVIS_ROTATIONS, hinge_names, rotation_matrix
 from stumble.errors import InputError
 from stumble.gait.playback import SAMPLE_HZ, Playback, play
-from stumble.gait.readers import PELVIS_TRANSLATIONS, Motion, map_coordinates, read_mot
+from stumble.gait.readers import (
+    PELVIS_TRANSLATIONS,
+    Motion,
+    check_file,
+    map_coordinates,
+    read_mot,
+)
 
 FORMATS = {".mot": "OpenSim", ".sto": "OpenSim", ".bvh": "BVH", ".c3d": "C3D"}
 MAX_PLAY_S = 600.0  # longest motion played (s), as for the reference gait
@@ -44,6 +50,7 @@ def read_motion(path: str | Path, planar: bool = False, model: str = "auto",
     ``forward`` the axes of a ``.bvh`` (``auto`` reads them from the motion).
     """
     path = Path(path)
+    check_file(path)  # a pipe or device is refused whatever its name
     suffix = path.suffix.lower()
     names = model_coordinates(planar)
     if suffix in (".mot", ".sto"):

@@ -279,9 +279,10 @@ def numeric_table(source: str, rows: list[list[str]], row_lines: list[int],
 def check_time(source: str, time_s: np.ndarray) -> tuple[np.ndarray, list[str]]:
     """Sample times (s) checked for motion capture: (times, notes).
 
-    At least 2 samples, strictly increasing, and a median step of ``MIN_STEP_S`` to
-    ``MAX_STEP_S`` (10 kHz to 1 Hz). Steps of 1 to 100 are milliseconds (a 10 Hz to
-    1 kHz recording whose time column is in ms): converted to s with a note. Anything
+    At least 2 samples, strictly increasing, a median step of ``MIN_STEP_S`` to
+    ``MAX_STEP_S`` (10 kHz to 1 Hz) and no gap longer than ``MAX_STEP_S``. Steps of 1 to
+    100 are milliseconds (a 10 Hz to 1 kHz recording whose time column is in ms):
+    converted to s with a note. Anything
     else (1e-300 s steps, 1e300 s) is a one-line :class:`InputError`.
     """
     t = np.asarray(time_s, dtype=float)
@@ -302,6 +303,11 @@ def check_time(source: str, time_s: np.ndarray) -> tuple[np.ndarray, list[str]]:
     if not MIN_STEP_S <= step <= MAX_STEP_S:
         raise InputError(f"{source}: a time step of {step:g} s is not a motion-capture rate "
                          f"({MIN_STEP_S:g} to {MAX_STEP_S:g} s per sample)")
+    gaps = np.diff(t)
+    if gaps.max() > MAX_STEP_S:
+        r = int(np.argmax(gaps))
+        raise InputError(f"{source}: a gap of {gaps[r]:.4g} s between the samples at "
+                         f"{t[r]:g} and {t[r + 1]:g} s (more than {MAX_STEP_S:g} s)")
     return t, notes
 
 
