@@ -1,11 +1,20 @@
-"""Foot contact: 96 points per foot with the SCA 2009 §4.2 penalty law."""
+"""Foot contact: the SCA 2009 §4.2 penalty law, as 96 points per foot (the reference)
+and lumped (the default)."""
 
 import mujoco
 import numpy as np
 import pytest
 
+from stumble.body import anthropometry as anth
 from stumble.body import build
-from stumble.body.contact import STIFFNESS_N_PER_M, PenaltyContact
+from stumble.body.contact import (
+    POINTS_ACROSS,
+    STIFFNESS_N_PER_M,
+    PenaltyContact,
+    grid,
+    lump_axis,
+    lumped_grid,
+)
 
 
 def _statue(planar: bool, mass_kg: float, contact: str):
@@ -53,7 +62,7 @@ def _normal_force(m, d, i):
 
 
 def test_each_foot_has_96_points_on_foot_and_toes():
-    body = build()
+    body = build(contact="points")
     assert {k: len(v) for k, v in body.foot_points.items()} == {"r": 96, "l": 96}
     m = body.model
     on_toes = sum(m.site_bodyid[m.site(n).id] == m.body("toes_r").id for n in body.foot_points["r"])
@@ -61,7 +70,47 @@ def test_each_foot_has_96_points_on_foot_and_toes():
     assert m.npair == 192  # one floor pair per point sphere
 
 
-@pytest.mark.parametrize("contact", ["points", "penalty"])
+def test_lumped_is_the_default_and_has_few_pairs():
+    assert build().contact == "lumped"
+    assert build().model.npair == 24  # 3D: 2 × 3 along × 2 across per foot segment
+    assert build(planar=True).model.npair == 32  # planar: one row of 16 per foot
+
+
+def _moments(x: np.ndarray, w: np.ndarray) -> tuple[float, float, float]:
+    total = w.sum()
+    mid = (w * x).sum() / total
+    return float(total), float(mid), float((w * (x - mid) ** 2).sum())
+
+
+def test_lump_axis_keeps_total_centroid_and_second_moment():
+    ref = np.linspace(0.0, 0.19, 12)
+    for n in (2, 3, 5):  # (one point keeps the total and centroid only)
+        x, w = lump_axis(ref, n)
+        assert _moments(x, w) == pytest.approx(_moments(ref, np.ones(12)), rel=1e-12)
+        assert np.all(w > 0)
+    x, _ = lump_axis(ref, 3)
+    assert x[0] == ref[0] and x[-1] == ref[-1]  # the edges stay where the sole ends
+
+
+def test_lumped_sole_keeps_each_segments_stiffness_and_moments():
+    """Per segment (hind foot, toes): total stiffness, centroid and the pitch and roll
+    second moments of the 96-point grid (SCA 2009 §4.1), hence its force and moment."""
+    length = anth.segment_length("foot", 1.75, "male")
+    heel, width = -anth.HEEL_BEHIND_ANKLE_FOOT * length, anth.FOOT_WIDTH_H * 1.75
+    mtp = heel + anth.MTP_FROM_HEEL_FOOT * length
+    ref = grid(heel, length, width)
+    pts, w = lumped_grid(heel, length, width, mtp)
+    assert w.sum() == pytest.approx(96.0)
+    for part_ref, part in ((ref[:, 0] <= mtp, pts[:, 0] <= mtp), (ref[:, 0] > mtp,
+                                                                  pts[:, 0] > mtp)):
+        for axis in (0, 1):
+            assert _moments(pts[part, axis], w[part]) == pytest.approx(
+                _moments(ref[part_ref, axis], np.ones(part_ref.sum())), rel=1e-9, abs=1e-12)
+    row, w_row = lumped_grid(heel, length, width, None)  # planar: one row, exact columns
+    assert np.allclose(row[:, 0], np.unique(ref[:, 0])) and np.all(w_row == POINTS_ACROSS)
+
+
+@pytest.mark.parametrize("contact", ["lumped", "points", "penalty"])
 @pytest.mark.parametrize(("planar", "mass"), [(False, 70.0), (True, 70.0), (False, 100.0)])
 def test_standing_body_settles_at_the_papers_static_penetration(contact, planar, mass):
     body, m, d, sites = _statue(planar, mass, contact)
@@ -91,8 +140,9 @@ def _bounce(contact: str):
     return z, np.fft.rfftfreq(len(z), m.opt.timestep)[1 + np.argmax(spectrum[1:])]
 
 
-def test_mujoco_points_behave_like_the_explicit_penalty_law():
-    z_pts, f_pts = _bounce("points")
+@pytest.mark.parametrize("contact", ["lumped", "points"])
+def test_mujoco_contacts_bounce_like_the_explicit_penalty_law(contact):
+    z_pts, f_pts = _bounce(contact)
     z_pen, f_pen = _bounce("penalty")
     # k = 3000 N/m on 192 points under 70 kg: sqrt(576000/70)/2π = 14.4 Hz (joints add some give)
     assert f_pts == pytest.approx(f_pen, rel=0.1)
@@ -112,8 +162,9 @@ def test_penalty_contact_never_pulls_and_friction_is_bounded():
         assert np.all(np.linalg.norm(f[:, :2], axis=1) <= contact.mu * f[:, 2] + 1e-9)
 
 
-def test_points_hold_the_feet_under_a_push():
-    body, m, d, sites = _statue(False, 70.0, "points")
+@pytest.mark.parametrize("contact", ["lumped", "points"])
+def test_points_hold_the_feet_under_a_push(contact):
+    body, m, d, sites = _statue(False, 70.0, contact)
     _run(body, m, d, 200)
     heel = d.site_xpos[sites[0], :2].copy()
     d.qvel[0] = 0.3  # the body rocks forward; stuck feet do not slide

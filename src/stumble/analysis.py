@@ -17,12 +17,13 @@ and the joint-pitch RMSE against a reference motion (Table 2's joints).
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
-from stumble.sim import Context, Recording
+from stumble.sim import Recording, Sensors
 
 FALL_PELVIS_FRACTION = 0.55  # pelvis below 55 % of standing hip height: sitting, kneeling
 RECOVERED_AFTER_S = 1.0  # the issue: no fall for 1 s after the recovery step lands
@@ -40,16 +41,18 @@ def trunk_tilt_deg(model: mujoco.MjModel, xmat: np.ndarray) -> float:
     return float(np.degrees(np.arccos(np.clip(z[2], -1.0, 1.0))))
 
 
-def com_over_base(ctx: Context) -> bool:
-    """COM ground projection inside the feet-on-floor footprint, grown by a margin."""
-    m, d, s = ctx.model, ctx.data, ctx.sensors
-    pts = []
-    for side in SIDES:
-        if s.foot_on_floor[side]:
-            pts.append(d.site_xpos[[m.site(n).id for n in ctx.body.foot_points[side]], :2])
-    if not pts:
+def tilt_of(torso_z: np.ndarray) -> float:
+    """Angle (deg) between the torso's long axis (a world unit vector) and the vertical."""
+    return float(np.degrees(np.arccos(np.clip(torso_z[2], -1.0, 1.0))))
+
+
+def com_over_base(s: Sensors) -> bool:
+    """COM ground projection inside the feet-on-floor footprint (the sole corners'
+    bounding box), grown by a margin."""
+    on = [k for k, side in enumerate(SIDES) if s.foot_on_floor[side]]
+    if not on:
         return False
-    p = np.vstack(pts)
+    p = s.sole[on].reshape(-1, 3)[:, :2]
     lo, hi = p.min(axis=0) - BOS_MARGIN_M, p.max(axis=0) + BOS_MARGIN_M
     return bool(np.all(s.com[:2] >= lo) and np.all(s.com[:2] <= hi))
 
@@ -81,40 +84,37 @@ class StopRule:
     _down_x: float = 0.0
     _airborne_since: float | None = 0.0  # the swing foot is in the air at the trip
 
-    def __call__(self, ctx: Context, rec: Recording, k: int) -> str:
-        s = ctx.sensors
+    def __call__(self, s: Sensors) -> str:
         if s.segment_on_floor or s.pelvis_height < self.fall_height_m:
             self.fell_s = s.t
             return "fell"
         if self.landing_s is None:
-            self.landing_s = self._landing(ctx)
+            self.landing_s = self._landing(s)
         elif s.t - self.landing_s >= RECOVERED_AFTER_S:
-            upright = trunk_tilt_deg(ctx.model, ctx.data.xmat) < UPRIGHT_DEG
-            if upright and com_over_base(ctx):
+            if tilt_of(s.torso_z) < UPRIGHT_DEG and com_over_base(s):
                 self.recovered_s = s.t
                 return "recovered"
         return ""
 
-    def _landing(self, ctx: Context) -> float | None:
+    def _landing(self, s: Sensors) -> float | None:
         """The recovery foot touches the floor in front of the other foot."""
         if self.strategy is None:
-            return self._emergent_landing(ctx)
+            return self._emergent_landing(s)
         rec = self.tripped if self.strategy == "elevating" else OTHER[self.tripped]
-        return self._recovery_step(ctx, rec, need_left=self.strategy != "elevating")
+        return self._recovery_step(s, rec, need_left=self.strategy != "elevating")
 
-    def _recovery_step(self, ctx: Context, rec: str, need_left: bool) -> float | None:
+    def _recovery_step(self, s: Sensors, rec: str, need_left: bool) -> float | None:
         """When ``rec`` lands ahead of the other foot: a touch-down of at least 15 ms
         after at least 0.1 s in the air (and, ``need_left``, after leaving the floor
         since the trip); the time returned is the contact's start."""
-        s, m, d = ctx.sensors, ctx.model, ctx.data
         if not s.foot_on_floor[rec]:
             self._other_left = True
             self._airborne_since = (s.t if self._airborne_since is None
                                     else self._airborne_since)
             self._down = 0
             return None
-        ahead = (d.xpos[m.body(f"foot_{rec}").id, 0]
-                 > d.xpos[m.body(f"foot_{OTHER[rec]}").id, 0])
+        i = SIDES.index(rec)
+        ahead = s.foot_pos[i, 0] > s.foot_pos[1 - i, 0]
         flew = (self._airborne_since is not None
                 and s.t - self._airborne_since >= MIN_AIRBORNE_S)
         if ahead and s.t > 0.02 and flew and (not need_left or self._other_left):
@@ -128,18 +128,16 @@ class StopRule:
             self._airborne_since = None
         return None
 
-    def _emergent_landing(self, ctx: Context) -> float | None:
-        s, m, d = ctx.sensors, ctx.model, ctx.data
+    def _emergent_landing(self, s: Sensors) -> float | None:
         trip, other = self.tripped, OTHER[self.tripped]
         if self.classified is not None:  # lowering: the other leg's recovery step
-            return self._recovery_step(ctx, other, need_left=True)
+            return self._recovery_step(s, other, need_left=True)
         if not (s.foot_on_floor[trip] and s.t > 0.02):
             self._down = 0
             return None
         if self._down == 0:  # where and when the contact starts
             self._down_s = s.t
-            self._down_x = float(d.site_xpos[[m.site(n).id for n in
-                                              ctx.body.foot_points[trip]], 0].min())
+            self._down_x = float(s.sole[SIDES.index(trip), :, 0].min())
         self._down += 1
         if self._down < TOUCHDOWN_SAMPLES:
             return None
@@ -211,3 +209,116 @@ def rmse_deg(sim: dict[str, np.ndarray], sim_t: np.ndarray, ref: dict[str, np.nd
             r = np.interp(sim_t[sel], ref_t, ref[k])
             out[k] = float(np.sqrt(np.mean((v[sel] - r) ** 2)))
     return out
+
+
+# ---- walking under a controller ------------------------------------------------------
+
+WALK_JOINTS = ("hip_flexion", "knee_angle", "ankle_angle")
+CYCLE_POINTS = 101  # a stride resampled to 0, 1, … 100 % (from heel strike)
+
+
+@dataclass
+class WalkStop:
+    """Stops a walk at a fall (a segment on the floor, or the pelvis below
+    ``fall_height_m``)."""
+
+    fall_height_m: float
+    fell_s: float | None = None
+
+    def __call__(self, s: Sensors) -> str:
+        if s.segment_on_floor or s.pelvis_height < self.fall_height_m:
+            self.fell_s = s.t
+            return "fell"
+        return ""
+
+
+def contact_events(time_s: np.ndarray, on_floor: np.ndarray) -> dict[str, dict[str, list]]:
+    """Heel strikes and toe-offs (s) per side from the feet's floor contact (T, 2): a
+    touch-down lasting ``TOUCHDOWN_SAMPLES`` after at least ``MIN_AIRBORNE_S`` in the air,
+    as the force plates would see them (the first contact of a run is not a strike)."""
+    out = {}
+    for k, side in enumerate(SIDES):
+        c = on_floor[:, k].astype(bool)
+        hs, to = [], []
+        airborne_since = None if c[0] else time_s[0]
+        i, n = 1, len(c)
+        while i < n:
+            if c[i] and not c[i - 1]:
+                j = i
+                while j < n and c[j]:
+                    j += 1
+                lasting = j - i >= TOUCHDOWN_SAMPLES
+                if lasting and airborne_since is not None and (
+                        time_s[i] - airborne_since >= MIN_AIRBORNE_S):
+                    hs.append(float(time_s[i]))
+                if lasting:
+                    airborne_since = None
+                i = j
+                continue
+            if not c[i] and c[i - 1]:
+                if airborne_since is None:
+                    to.append(float(time_s[i]))
+                airborne_since = time_s[i] if airborne_since is None else airborne_since
+            i += 1
+        out[side] = {"heel_strike_s": hs, "toe_off_s": to}
+    return out
+
+
+def stride_curves(time_s: np.ndarray, angles: dict[str, np.ndarray],
+                  strikes: list[float]) -> dict[str, np.ndarray]:
+    """Each series resampled over every stride between consecutive ``strikes``:
+    (n_strides, 101) per name."""
+    pct = np.linspace(0.0, 1.0, CYCLE_POINTS)
+    out = {}
+    for name, series in angles.items():
+        rows = [np.interp(a + pct * (b - a), time_s, series)
+                for a, b in itertools.pairwise(strikes)]
+        out[name] = np.array(rows).reshape(len(rows), CYCLE_POINTS)
+    return out
+
+
+def walk_metrics(rec: Recording, model: mujoco.MjModel, reference: dict[str, np.ndarray],
+                 duration_s: float) -> dict:
+    """The figures of a walk: time walked, fall, strides, speed, stance fraction and the
+    joint-angle RMSE (deg) of every complete right stride against ``reference`` (the
+    recorded stride, 101 points per ``<joint>_<side>``, rad), averaged over strides."""
+    t = rec.time_s
+    ev = contact_events(t, rec.foot_on_floor)
+    hs = ev["r"]["heel_strike_s"]
+    strides = max(0, len(hs) - 1)
+    x = rec.qpos[:, 0]
+    if strides >= 1:
+        span = hs[-1] - hs[0]
+        speed = (np.interp(hs[-1], t, x) - np.interp(hs[0], t, x)) / span
+    else:
+        speed = (x[-1] - x[0]) / max(t[-1] - t[0], 1e-9) if len(t) > 1 else 0.0
+    stance = []
+    for k, side in enumerate(SIDES):
+        s_hs = ev[side]["heel_strike_s"]
+        for a, b in itertools.pairwise(s_hs):
+            sel = (t >= a) & (t < b)
+            if sel.any():
+                stance.append(float(rec.foot_on_floor[sel, k].mean()))
+    angles = {f"{j}_{s}": rec.qpos[:, model.jnt_qposadr[model.joint(f"{j}_{s}").id]]
+              for j in WALK_JOINTS for s in SIDES}
+    curves = stride_curves(t, angles, hs)
+    rmse = {}
+    if strides:
+        for name, rows in curves.items():
+            err = rows - reference[name][None]
+            rmse[name] = float(np.degrees(np.sqrt((err ** 2).mean(axis=1))).mean())
+    per_joint = {j: float(np.mean([rmse[f"{j}_{s}"] for s in SIDES])) for j in WALK_JOINTS
+                 } if rmse else {}
+    walked = float(t[-1]) if len(t) else 0.0
+    return {
+        "walked_s": round(walked, 4),
+        "fell": rec.stop_reason == "fell",
+        "diverged": rec.diverged,
+        "duration_s": duration_s,
+        "strides": strides,
+        "speed_m_per_s": round(float(speed), 4),
+        "stance_fraction": None if not stance else round(float(np.mean(stance)), 4),
+        "rmse_deg": {k: round(v, 3) for k, v in per_joint.items()},
+        "rmse_deg_by_side": {k: round(v, 3) for k, v in rmse.items()},
+        "events": ev,
+    }

@@ -156,6 +156,27 @@ def _parser() -> argparse.ArgumentParser:
                    help="add foot-contact afferents (the seed's proposed extension)")
     f.add_argument("--no-video", action="store_true",
                    help="skip walking_step.png (the rendered walking step)")
+
+    rw = rsub.add_parser("walk", help="walk under a reflex controller",
+                         description="Walk under a reflex controller from the played-back "
+                         "walk at right heel strike: writes motion.csv, motion.mot, "
+                         "motion.bvh, muscles.sto, events.json, summary.json, "
+                         "joint_angles.png and walk.mp4 to DIR.")
+    rw.add_argument("--out", required=True, type=Path, metavar="DIR", help="output directory")
+    rw.add_argument("--controller", choices=("network", "gh2010"), default="network",
+                    help="network: seed 003's reflex network (default); gh2010: Geyer & "
+                    "Herr 2010's reflexes")
+    rw.add_argument("--network", type=Path, metavar="FILE",
+                    help="network controller: a network.npz (default: the shipped one)")
+    rw.add_argument("--params", type=Path, metavar="FILE",
+                    help="gh2010 controller: a gh2010.json from `stumble reflex fit "
+                    "--controller gh2010` (default: the shipped parameters)")
+    rw.add_argument("--duration", type=_positive("duration"), default=20.0, metavar="S",
+                    help="seconds to walk at most (default 20)")
+    rw.add_argument("--speed", type=float, default=None, metavar="V",
+                    help="speed of the walk played back before (0.7-1.6 m/s; default the "
+                    "subject's 1.10); the controller then walks at its own speed")
+    rw.add_argument("--no-video", action="store_true", help="skip walk.mp4")
     return p
 
 
@@ -331,6 +352,7 @@ def cmd_trip(args) -> int:
     """``stumble trip``: one trip, its summary, time series, plots and video."""
     from stumble.outputs import (
         prepare_dir,
+        trip_motion,
         write_media,
         write_motion_files,
         write_summary,
@@ -365,7 +387,9 @@ def cmd_trip(args) -> int:
                            trunk_balance=not args.no_trunk_balance)
     write_summary(out, result)
     write_timeseries(out, result)
-    written = ["summary.json", "timeseries.csv", *write_motion_files(out, result),
+    time_s, qpos = trip_motion(result)
+    written = ["summary.json", "timeseries.csv",
+               *write_motion_files(out, result.body, time_s, qpos, result.recording),
                *write_media(out, result, not args.no_video, sys.stderr.isatty())]
     s = result.summary
     outcome = ("diverged" if s["diverged"] else "recovered" if s["recovered"]
@@ -377,8 +401,43 @@ def cmd_trip(args) -> int:
     return 0
 
 
+def cmd_reflex_walk(args) -> int:
+    """``stumble reflex walk``: walk under a reflex controller and write its files."""
+    from stumble.outputs import prepare_dir, write_reflex_walk
+    from stumble.pipeline import simulate_walk
+
+    if args.network and args.controller != "network":
+        raise InputError("--network is for --controller network")
+    if args.params and args.controller != "gh2010":
+        raise InputError("--params is for --controller gh2010")
+    network = params = None
+    if args.network:
+        from stumble.control.reflex.network import Network
+
+        network = Network.load(args.network)
+    if args.params:
+        from stumble.control.reflex.gh2010 import load_params
+
+        params = load_params(args.params)
+    out = prepare_dir(args.out)
+    result = simulate_walk(args.controller, args.duration, args.speed, params=params,
+                           network=network)
+    written = write_reflex_walk(out, result, not args.no_video, sys.stderr.isatty())
+    s = result.summary
+    rm = s["rmse_deg"]
+    what = f"fell after {s['walked_s']:.2f} s" if s["fell"] else f"walked {s['walked_s']:.1f} s"
+    errors = ("/".join(f"{rm[j]:.1f}" for j in ("hip_flexion", "knee_angle", "ankle_angle"))
+              if rm else "n/a")
+    print(f"{args.controller}: {what}, {s['strides']} strides at {s['speed_m_per_s']:.2f} m/s, "
+          f"stance {s['stance_fraction']}, RMSE hip/knee/ankle {errors} deg; wrote "
+          f"{', '.join(written)} to {out}")
+    return 0
+
+
 def cmd_reflex(args) -> int:
     """``stumble reflex fit``: identify the network and write its files."""
+    if args.reflex_command == "walk":
+        return cmd_reflex_walk(args)
     from stumble.control.reflex.identify import ITERATIONS, REFINE_ITERATIONS, fit
     from stumble.outputs import prepare_dir, write_fit
 

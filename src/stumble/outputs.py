@@ -59,21 +59,23 @@ def trip_motion(result: TripResult, before_s: float = WALK_SHOWN_S) -> tuple[np.
     return np.concatenate([t_walk, rec.time_s]), qpos
 
 
-def write_motion_files(out: Path, result: TripResult) -> list[str]:
-    """``motion.mot`` and ``motion.bvh`` of a trip (1 s of walk, then the physics; time 0
-    the trip), and for muscle-driven runs ``muscles.sto``; returns the names written."""
-    from stumble.gait.writers import opensim_muscle_name, write_bvh, write_mot, write_muscles_sto
-
-    time_s, qpos = trip_motion(result)
-    write_mot(out / "motion.mot", result.body, time_s, qpos)
-    write_bvh(out / "motion.bvh", result.body, time_s, qpos)
-    written = ["motion.mot", "motion.bvh"]
-    m = result.body.model
+def write_motion_files(out: Path, body, time_s: np.ndarray, qpos: np.ndarray,
+                       recording=None) -> list[str]:
+    """``motion.mot`` and ``motion.bvh`` of a motion (``qpos`` (T, nq) at ``time_s`` (s),
+    uniformly sampled) and, when ``recording`` has muscle activations, ``muscles.sto``
+    (its activation and force per muscle); returns the names written."""
     import mujoco
 
+    from stumble.gait.writers import opensim_muscle_name, write_bvh, write_mot, write_muscles_sto
+
+    write_mot(out / "motion.mot", body, time_s, qpos)
+    write_bvh(out / "motion.bvh", body, time_s, qpos)
+    written = ["motion.mot", "motion.bvh"]
+    m = body.model
     muscles = np.flatnonzero(m.actuator_gaintype == mujoco.mjtGain.mjGAIN_MUSCLE)
-    rec = result.recording
-    if len(muscles) and rec.activation is not None and len(rec.time_s) > 1:
+    rec = recording
+    if (rec is not None and len(muscles) and rec.activation is not None
+            and rec.activation.size and len(rec.time_s) > 1):
         names = [opensim_muscle_name(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, i))
                  for i in muscles]
         act = rec.activation[:, m.actuator_actadr[muscles]]
@@ -260,3 +262,70 @@ def _walking_step_strip(path: Path, step) -> bool:
               + [f"network {rec.time_s[k]:.2f} s" for k in ks])
     save_filmstrip(path, frames, labels, columns=len(ks))
     return True
+
+
+def walk_playback(result):
+    """A reflex walk (``pipeline.WalkResult``) as a ``Playback``, so that the writers of
+    ``stumble walk`` (motion.csv, events.json, joint_angles.png, video) serve it too."""
+    from stumble.gait.events import GaitEvents
+    from stumble.gait.playback import Playback
+
+    rec, body, s = result.recording, result.body, result.summary
+    m = body.model
+    coords = {j: rec.qpos[:, m.jnt_qposadr[m.joint(j).id]] for j in body.joints}
+    ev = s["events"]
+    events = GaitEvents({k: list(v["heel_strike_s"]) for k, v in ev.items()},
+                        {k: list(v["toe_off_s"]) for k, v in ev.items()})
+    stride = events.mean_stride_s()
+    return Playback(body, rec.time_s, rec.qpos, rec.qvel, coords, events,
+                    float(s["speed_m_per_s"]), stride if np.isfinite(stride) else 0.0,
+                    f"reflex walk ({s['controller']})")
+
+
+def write_reflex_walk(out: Path, result, video: bool, progress: bool) -> list[str]:
+    """The files of ``stumble reflex walk``: motion.csv and events.json (as ``stumble
+    walk`` writes them), summary.json, joint_angles.png (the simulated strides, mean ±
+    SD, over the recorded stride) and walk.mp4."""
+    from stumble.analysis import CYCLE_POINTS, SIDES, WALK_JOINTS, stride_curves
+    from stumble.cli import write_motion_csv
+    from stumble.viz.plots import plot_joint_angles
+
+    pb = walk_playback(result)
+    s = result.summary
+    write_motion_csv(out / "motion.csv", pb)
+    events = {**pb.events.to_json(), "speed_m_per_s": s["speed_m_per_s"],
+              "stride_s": None if not pb.stride_s else round(pb.stride_s, 4),
+              "stance_fraction": s["stance_fraction"], "source": pb.source,
+              "model": "planar", "retarget": {}}
+    write_json(out / "events.json", events)
+    write_json(out / "summary.json", {k: v for k, v in s.items() if k != "events"})
+    rec, m = result.recording, result.body.model
+    names = [f"{j}_{side}" for j in WALK_JOINTS for side in SIDES]
+    angles = {n: rec.qpos[:, m.jnt_qposadr[m.joint(n).id]] for n in names}
+    curves = stride_curves(rec.time_s, angles, pb.events.heel_strike_s["r"])
+    pct = np.linspace(0.0, 100.0, CYCLE_POINTS)
+    have = s["strides"] > 0
+    mean = {n: np.degrees(c.mean(axis=0)) for n, c in curves.items()} if have else {}
+    sd = {n: np.degrees(c.std(axis=0)) for n, c in curves.items()} if have else {}
+    ref = {n: np.degrees(v) for n, v in result.reference.items()}
+    rm = s["rmse_deg"]
+    title = (f"{s['controller']}: {s['strides']} strides, {s['speed_m_per_s']:.2f} m/s, "
+             f"stance {s['stance_fraction'] or 0:.2f}; RMSE hip {rm.get('hip_flexion', 0):.1f}°"
+             f" knee {rm.get('knee_angle', 0):.1f}° ankle {rm.get('ankle_angle', 0):.1f}°")
+    plot_joint_angles(out / "joint_angles.png", pct, mean, title=title, spread_deg=sd,
+                      reference_deg=ref)
+    written = ["motion.csv", "events.json", "summary.json", "joint_angles.png",
+               *write_motion_files(out, result.body, rec.time_s, rec.qpos, rec)]
+    if video:
+        from stumble.viz.render import render_video, video_available
+
+        ok, why = video_available()
+        if ok:
+            step = max(1, round(1.0 / (VIDEO_FPS * float(np.mean(np.diff(rec.time_s))))))
+            overlay = [f"t = {t:5.2f} s  {s['controller']}" for t in rec.time_s[::step]]
+            render_video(out / "walk.mp4", m, rec.qpos[::step], VIDEO_FPS, overlay=overlay,
+                         progress=progress)
+            written.append("walk.mp4")
+        else:
+            print(f"stumble: {why}", file=sys.stderr)
+    return written

@@ -24,7 +24,9 @@ from stumble.analysis import (
     variant,
 )
 from stumble.body import Body, build
+from stumble.body.contact import DEFAULT_MODE as DEFAULT_CONTACT
 from stumble.body.contact import STIFFNESS_N_PER_M, PenaltyContact
+from stumble.body.muscles import DEFAULT_MUSCLE_SET
 from stumble.control.fsm import TripFSM
 from stumble.control.fsm_params import FSMParams
 from stumble.errors import InputError
@@ -198,7 +200,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     d = mujoco.MjData(m)
     d.qpos[:], d.qvel[:] = qpos, qvel
     perturb_initial_state(body, d, sc.seed)
-    if sc.contact in ("points", "penalty"):
+    if sc.contact in ("lumped", "points", "penalty"):
         _rest_support_foot(m, d, reflex)
     _scale_strength(m, sc.strength_scale)
     ctx = Context(m, d, body, Sensors(), t0=0.0)
@@ -213,9 +215,10 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
         force_kwargs = {"trip_force": sc.force, "force_body": toe_body,
                         "force_point": lambda dd: dd.site_xpos[tip_sites].mean(axis=0)}
     penalty = PenaltyContact.for_body(body) if sc.contact == "penalty" else None
-    control_every = _network_every(controller.net, m) if reflex else None
+    if reflex:
+        _network_every(controller.net, m)
     rec = run(ctx, controller, sc.duration_after_trip_s, stop=stop, penalty=penalty,
-              control_every=control_every, **force_kwargs)
+              **force_kwargs)
     strategy = strategy or stop.classified
     summary = _summary(sc, strategy, controller, rec, stop, body, pb, t_trip, reference)
     states = list(controller.log)
@@ -243,10 +246,12 @@ def _scale_strength(m: mujoco.MjModel, scale: float) -> None:
 
 @lru_cache(maxsize=16)
 def _walk(height_m: float, mass_kg: float, sex: str, contact: str, speed_m_per_s: float,
-          timestep_s: float, planar: bool = False) -> tuple[Body, Playback]:
+          timestep_s: float, planar: bool = False, muscle_set: str = DEFAULT_MUSCLE_SET,
+          ) -> tuple[Body, Playback]:
     """The body and its walk before the trip; deterministic, so cached per process."""
     base = build(planar=planar, height_m=height_m, mass_kg=mass_kg, sex=sex, contact=contact,
-                 timestep_s=timestep_s, actuation="muscles" if planar else "servos")
+                 timestep_s=timestep_s, actuation="muscles" if planar else "servos",
+                 muscle_set=muscle_set)
     return base, walk(base, speed_m_per_s, duration_s=WALK_BEFORE_TRIP_S + 2.5 * 1.6)
 
 
@@ -338,7 +343,7 @@ def simulate_walking_step(network=None, trunk_balance: bool = True,
 
     net = network or default_network()
     speed = speed_m_per_s or load_reference().speed_m_per_s
-    body, pb = _walk(1.75, 70.0, "male", "points", round(speed, 4), 0.001, True)
+    body, pb = _walk(1.75, 70.0, "male", DEFAULT_CONTACT, round(speed, 4), 0.001, True)
     m = body.model
     t0 = next(t for t in pb.events.heel_strike_s["r"] if t >= WALK_BEFORE_TRIP_S)
     d = mujoco.MjData(m)
@@ -347,11 +352,89 @@ def simulate_walking_step(network=None, trunk_balance: bool = True,
     ctrl = _reflex_controller(net, pb, t0, 1.0, trunk_balance)
     stop = StopRule("elevating", "l", FALL_PELVIS_FRACTION * _standing_pelvis(body))
     duration = 0.5 * pb.stride_s
-    rec = run(Context(m, d, body, Sensors(), t0=0.0), ctrl, duration, stop=stop,
-              control_every=_network_every(net, m))
+    _network_every(net, m)
+    rec = run(Context(m, d, body, Sensors(), t0=0.0), ctrl, duration, stop=stop)
     ref = np.array([pb.state_at(t0 + t)[0] for t in rec.time_s])
     names = ["pelvis_tilt", *body.joints]
     adr = [m.jnt_qposadr[m.joint(n).id] for n in names]
     rmse = {n: round(float(np.degrees(np.sqrt(np.mean((rec.qpos[:, a] - ref[:, a]) ** 2)))), 2)
             for n, a in zip(names, adr, strict=True)}
     return StepResult(rmse, float(rec.time_s[-1]), stop.fell_s is not None, rec, body, ref)
+
+
+@dataclass
+class WalkResult:
+    """A walk under a reflex controller from the played-back state at right heel strike."""
+
+    summary: dict  # JSON-ready: analysis.walk_metrics plus the run's settings
+    recording: Recording
+    body: Body
+    playback: Playback
+    reference: dict  # the recorded stride: 101 points per <joint>_<side> (rad)
+    controller: object = None
+
+
+def reference_stride(pb: Playback) -> dict[str, np.ndarray]:
+    """The played-back walk's mean right stride, 101 points per leg joint (rad)."""
+    from stumble.analysis import SIDES, WALK_JOINTS, stride_curves
+
+    names = [f"{j}_{s}" for j in WALK_JOINTS for s in SIDES]
+    curves = stride_curves(pb.time_s, {n: pb.coordinates[n] for n in names},
+                           list(pb.events.heel_strike_s["r"]))
+    return {n: c.mean(axis=0) for n, c in curves.items()}
+
+
+def walk_controller(kind: str, pb: Playback, t: float, params=None, network=None,
+                    delay_scale: float = 1.0, trunk_balance: bool = True):
+    """The reflex controller ``kind`` (``network``: seed 003's; ``gh2010``) taking over
+    from the walk at time ``t``."""
+    from dataclasses import replace as _replace
+
+    if kind == "gh2010":
+        from stumble.control.reflex.gh2010 import GH2010Controller, shipped_params
+
+        return GH2010Controller(_replace(params or shipped_params(), delay_scale=delay_scale))
+    if kind == "network":
+        return _reflex_controller(network, pb, t, delay_scale, trunk_balance)
+    raise InputError(f"reflex controller {kind!r} is not 'network' or 'gh2010'")
+
+
+def muscle_set_of(kind: str, network=None) -> str:
+    """The body's muscle set a reflex controller drives."""
+    if kind == "gh2010":
+        return "hfl"
+    return DEFAULT_MUSCLE_SET
+
+
+def simulate_walk(controller: str = "gh2010", duration_s: float = 20.0,
+                  speed_m_per_s: float | None = None, params=None, network=None,
+                  delay_scale: float = 1.0, trunk_balance: bool = True,
+                  timestep_s: float = 0.001) -> WalkResult:
+    """Walk under a reflex controller (``gh2010`` or ``network``) from the played-back
+    walk at right heel strike, for ``duration_s`` or until a fall; the summary gives time
+    walked, strides, speed, stance fraction and joint RMSE against the recorded stride."""
+    from stumble.analysis import WalkStop, walk_metrics
+    from stumble.gait.reference import check_speed
+
+    speed = load_reference().speed_m_per_s if speed_m_per_s is None else speed_m_per_s
+    check_speed(speed)
+    if not 0.5 <= duration_s <= 600.0:
+        raise InputError(f"duration {duration_s} s is outside 0.5-600 s")
+    body, pb = _walk(1.75, 70.0, "male", DEFAULT_CONTACT, round(float(speed), 4),
+                     timestep_s, True, muscle_set_of(controller, network))
+    m = body.model
+    t0 = next(t for t in pb.events.heel_strike_s["r"] if t >= WALK_BEFORE_TRIP_S)
+    d = mujoco.MjData(m)
+    d.qpos[:], d.qvel[:] = pb.state_at(t0)
+    _rest_support_foot(m, d, planar=True)
+    ctrl = walk_controller(controller, pb, t0, params, network, delay_scale, trunk_balance)
+    if controller == "network":
+        _network_every(ctrl.net, m)
+    stop = WalkStop(FALL_PELVIS_FRACTION * _standing_pelvis(body))
+    rec = run(Context(m, d, body, Sensors(), t0=0.0), ctrl, duration_s, stop=stop)
+    ref = reference_stride(pb)
+    summary = {"controller": controller, **walk_metrics(rec, m, ref, duration_s),
+               "start_speed_m_per_s": speed, "delay_scale": delay_scale,
+               "wall_time_s": round(rec.wall_time_s, 4), "steps": rec.steps,
+               "recorded_stance_fraction": round(pb.events.stance_fraction(), 4)}
+    return WalkResult(summary, rec, body, pb, ref, ctrl)

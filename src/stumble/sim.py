@@ -1,43 +1,125 @@
 """The one loop that steps physics, its sensors and its recording.
 
-Controllers see a ``Context`` (model, data, sensors, time since the trip) and write
-actuator commands; they never step. The loop runs the controller every
-``control_every`` physics steps (MuJoCo's PD servos run at every step in C), applies
-the tripping force of a ``force`` scenario at every step while it lasts, records at
-``RECORD_HZ`` and stops at the first outcome the ``stop`` callback reports, at the end
-of the time budget, or when the physics diverges.
+Controllers see a ``Context`` (model, data, sensors, time since the trip) and act once
+per *block* of ``period_steps`` physics steps; they never step. ``update`` either writes
+``data.ctrl`` (and servo gains), held over the block, or returns the block's per-step
+controls as an array. Between updates MuJoCo advances natively: ``mj_step`` with
+``nstep`` for held controls, ``mujoco.rollout`` for per-step ones. Everything read while
+a block runs is a MuJoCo sensor (``stumble.body.sensors``): a controller that asks for
+them (``observe``) gets the block's per-step sensor rows, and the recording takes its
+samples (``RECORD_HZ``) from the same rows. The only per-step Python is the tripping
+force of a ``force`` scenario while it lasts, and the explicit ``penalty`` contact.
+
+The run stops at the first outcome the ``stop`` rule reports (it sees every sample), at
+the end of the time budget, or when the physics diverges (NaN, or MuJoCo's
+bad-acceleration warning).
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Protocol
 
 import mujoco
 import numpy as np
+from mujoco import rollout as mj_rollout
 
 from stumble.body import Body
+from stumble.body.sensors import SensorLayout
 
-_NO_FORCE = np.zeros(3)
 RECORD_HZ = 200.0
-CONTROL_HZ = 500.0  # controller updates; the servos themselves run at every 1 ms step
+CONTROL_HZ = 500.0  # default controller rate; the servos themselves run at every step
 CONTACT_FORCE_MIN_N = 1.0  # a foot with less total normal force is not "on the floor"
+_STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
+_CTRL = int(mujoco.mjtState.mjSTATE_CTRL)
 
 
-@dataclass
 class Sensors:
-    """What the controllers may read, refreshed before every controller update."""
+    """What controllers and the outcome read: one sensor row, decoded on access (SI).
 
-    t: float = 0.0  # s since the trip
-    foot_on_floor: dict[str, bool] = field(default_factory=lambda: {"r": True, "l": True})
-    foot_on_obstacle: dict[str, bool] = field(default_factory=lambda: {"r": False, "l": False})
-    foot_force_n: dict[str, float] = field(default_factory=lambda: {"r": 0.0, "l": 0.0})
-    segment_on_floor: bool = False  # a body other than the feet touches the floor
-    com: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    com_vel: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    pelvis_height: float = 0.0
+    Without a row (``Sensors()``) it reads as a person standing on both feet.
+    ``foot_normal_n`` overrides the feet's loads (the explicit ``penalty`` contact, whose
+    forces MuJoCo does not see).
+    """
+
+    __slots__ = ("_v", "foot_normal_n", "lay", "row", "t")
+
+    def __init__(self, lay: SensorLayout | None = None, row: np.ndarray | None = None,
+                 t: float = 0.0, foot_normal_n: np.ndarray | None = None):
+        self.set(lay, row, t, foot_normal_n)
+
+    def set(self, lay: SensorLayout | None, row: np.ndarray | None, t: float,
+            foot_normal_n: np.ndarray | None = None) -> Sensors:
+        """Point at another row (no copy)."""
+        self.lay, self.row, self.t, self.foot_normal_n = lay, row, t, foot_normal_n
+        self._v = None
+        return self
+
+    @property
+    def _values(self) -> np.ndarray:
+        if self._v is None:
+            self._v = (_STANDING if self.row is None
+                       else self.row[self.lay.decode_index])
+        return self._v
+
+    @property
+    def foot_force_n(self) -> dict[str, float]:
+        """Vertical ground force on each foot (N)."""
+        if self.foot_normal_n is not None:
+            fr, fl = self.foot_normal_n
+        else:
+            v = self._values
+            fr, fl = -v[0], -v[1]
+        return {"r": float(fr), "l": float(fl)}
+
+    @property
+    def foot_on_floor(self) -> dict[str, bool]:
+        """Each foot bears more than ``CONTACT_FORCE_MIN_N``."""
+        f = self.foot_force_n
+        return {"r": f["r"] > CONTACT_FORCE_MIN_N, "l": f["l"] > CONTACT_FORCE_MIN_N}
+
+    @property
+    def foot_on_obstacle(self) -> dict[str, bool]:
+        """Each foot touches the obstacle."""
+        if self.row is None or self.lay.obstacle_found is None:
+            return {"r": False, "l": False}
+        v = self._values
+        return {"r": bool(v[2] > 0), "l": bool(v[3] > 0)}
+
+    @property
+    def segment_on_floor(self) -> bool:
+        """A body other than the feet touches the floor (a fall)."""
+        v = self._values
+        return bool(v[4] - v[5] - v[6] > 0.5)
+
+    com = property(lambda self: self._values[7:10], doc="Whole-body COM (m).")
+    com_vel = property(lambda self: self._values[10:13], doc="COM velocity (m/s).")
+    pelvis_height = property(lambda self: float(self._values[13]), doc="Pelvis height (m).")
+    torso_z = property(lambda self: self._values[14:17], doc="Torso long axis (unit).")
+    torso_angvel = property(lambda self: self._values[17:20], doc="Torso ω (rad/s, world).")
+    foot_pos = property(lambda self: self._values[20:26].reshape(2, 3),
+                        doc="Ankles (foot body origins), r and l (m).")
+    sole = property(lambda self: self._values[26:50].reshape(2, 4, 3),
+                    doc="Sole corners (2, 4, 3), r and l (m).")
+
+
+# a person standing: both feet loaded, upright (what ``Sensors()`` reads without a row)
+_STANDING = np.zeros(50)
+_STANDING[[0, 1]] = -100.0
+_STANDING[16] = 1.0
+
+
+def decode(lay: SensorLayout, row: np.ndarray, t: float, out: Sensors | None = None,
+           foot_normal_n: np.ndarray | None = None) -> Sensors:
+    """``Sensors`` reading one sensor row (``out`` reused if given)."""
+    return (out or Sensors()).set(lay, row, t, foot_normal_n)
+
+
+def recorded(rec: Recording, lay: SensorLayout, k: int) -> Sensors:
+    """The sensors of recorded sample ``k``."""
+    return Sensors(lay, rec.sensordata[k], float(rec.time_s[k]))
 
 
 @dataclass
@@ -52,15 +134,22 @@ class Context:
 
 
 class Controller(Protocol):
-    """A trip controller: ``start`` once at the trip, ``update`` at the control rate."""
+    """A trip controller: ``start`` once at the trip, ``update`` once per block.
+
+    ``period_steps``: physics steps per block (read after ``start``). ``update`` writes
+    ``ctx.data.ctrl`` (held over the block) and returns None, or returns the block's
+    controls, (period_steps, nu). An optional ``observe(rows)`` receives the sensor rows
+    (period_steps, nsensordata) of each block once it has been stepped.
+    """
 
     name: str
+    period_steps: int
 
     def start(self, ctx: Context) -> None:
         """Take over at the trip instant."""
 
-    def update(self, ctx: Context) -> None:
-        """Read ``ctx.sensors``/``ctx.data``; write ``ctx.data.ctrl`` or servo gains."""
+    def update(self, ctx: Context) -> np.ndarray | None:
+        """Read ``ctx.sensors``/``ctx.data``; write ``ctx.data.ctrl`` or return controls."""
 
     def state(self) -> str:
         """Name of the current state (for the recording)."""
@@ -81,163 +170,236 @@ class Recording:
     state: list[str]
     segment_on_floor: np.ndarray  # (T,)
     actuator_force: np.ndarray | None = None  # (T, nu) N or N·m (muscles: negative = pull)
-    activation: np.ndarray | None = None  # (T, na) MuJoCo activation states (muscles: 0-1)
+    activation: np.ndarray | None = None  # (T, na) muscle activations (MuJoCo act)
+    foot_force: np.ndarray | None = None  # (T, 2) N, vertical ground force per foot
+    sensordata: np.ndarray | None = None  # (T, nsensordata) the raw sensor rows
     steps: int = 0
     wall_time_s: float = 0.0
-    physics_time_s: float = 0.0  # of which inside MuJoCo's step
+    physics_time_s: float = 0.0  # of which inside MuJoCo
     diverged: bool = False
     stop_reason: str = ""
+    controls: list | None = None  # (first step, ctrl rows, gains) per block, if logged
 
 
-class Geometry:
-    """Which geoms belong to which foot, and which are the floor and obstacle."""
+@dataclass
+class _Buffers:
+    """Pre-allocated raw samples (state and sensor rows); decoded in bulk at the end."""
 
-    def __init__(self, body: Body):
-        m = body.model
-        self.floor = m.geom("floor").id
-        obst = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "obstacle")
-        self.obstacle = obst
-        self.side_of = np.full(m.ngeom, -1, dtype=int)  # 0 right foot, 1 left foot
-        for g in range(m.ngeom):
-            name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, m.geom_bodyid[g]) or ""
-            if name.startswith(("foot_", "toes_")):
-                self.side_of[g] = 0 if name.endswith("_r") else 1
-        self.is_segment = (self.side_of < 0) & (m.geom_bodyid > 0)
+    n: int
+    model: mujoco.MjModel
+    nstate: int
+    nsens: int
+    k: int = 0
+
+    def __post_init__(self) -> None:
+        self.time = np.zeros(self.n)
+        self.states = np.zeros((self.n, self.nstate))
+        self.rows = np.zeros((self.n, self.nsens))
+        self.names: list[str] = []
+
+    def add(self, t: float, state: np.ndarray, row: np.ndarray, name: str) -> None:
+        k = self.k
+        self.time[k], self.states[k], self.rows[k] = t, state, row
+        self.names.append(name)
+        self.k = k + 1
+
+    def recording(self, lay: SensorLayout, force: Callable | None, loads) -> Recording:
+        """The samples as a ``Recording`` (vectorised decoding of the sensor rows)."""
+        m, k = self.model, self.k
+        nq, nv, na = m.nq, m.nv, m.na
+        st, rows, t = self.states[:k], self.rows[:k], self.time[:k]
+        fz = -rows[:, lay.foot_force[:, 2]] if loads is None else loads[:k]
+        seg = rows[:, lay.floor_found] - rows[:, lay.foot_found].sum(axis=1) > 0.5
+        ob = (np.zeros((k, 2), bool) if lay.obstacle_found is None
+              else rows[:, lay.obstacle_found] > 0)
+        trip = np.zeros((k, 3)) if force is None else np.array([force(x) for x in t]
+                                                               ).reshape(k, 3)
+        return Recording(t.copy(), st[:, 1:1 + nq].copy(), st[:, 1 + nq:1 + nq + nv].copy(),
+                         rows[:, lay.com].copy(), rows[:, lay.com_vel].copy(),
+                         fz > CONTACT_FORCE_MIN_N, ob, trip, list(self.names), seg,
+                         rows[:, lay.actuator_force].copy(),
+                         st[:, 1 + nq + nv:1 + nq + nv + na].copy(), fz.copy(),
+                         sensordata=rows.copy())
 
 
-def read_sensors(ctx: Context, geo: Geometry) -> None:
-    """Refresh ``ctx.sensors`` from the current data (contacts, COM, pelvis)."""
-    m, d, s = ctx.model, ctx.data, ctx.sensors
-    s.t = d.time - ctx.t0
-    n = d.ncon
-    force = np.zeros(2)
-    on_obst = [False, False]
-    seg_floor = False
-    if n:
-        g1 = d.contact.geom1[:n]
-        g2 = d.contact.geom2[:n]
-        other = np.where(g1 == geo.floor, g2, np.where(g2 == geo.floor, g1, -1))
-        rows = np.flatnonzero(other >= 0)
-        if rows.size:
-            g = other[rows]
-            side = geo.side_of[g]
-            feet = side >= 0
-            normal = d.efc_force[d.contact.efc_address[rows[feet]]]
-            force = np.bincount(side[feet], weights=normal, minlength=2)[:2]
-            seg_floor = bool(geo.is_segment[g[~feet]].any())
-        if geo.obstacle >= 0:
-            ob = np.where(g1 == geo.obstacle, g2, np.where(g2 == geo.obstacle, g1, -1))
-            sides = geo.side_of[ob[ob >= 0]]
-            on_obst = [bool((sides == 0).any()), bool((sides == 1).any())]
-    penalty = getattr(ctx, "penalty", None)
-    if penalty is not None:  # explicit penalty mode: the forces are ours, not MuJoCo's
-        for k in range(2):  # 0 right, 1 left
-            force[k] = penalty.force[penalty.side_index == k, 2].sum()
-    s.foot_on_floor = {"r": bool(force[0] > CONTACT_FORCE_MIN_N),
-                       "l": bool(force[1] > CONTACT_FORCE_MIN_N)}
-    s.foot_on_obstacle = {"r": on_obst[0], "l": on_obst[1]}
-    s.foot_force_n = {"r": float(force[0]), "l": float(force[1])}
-    s.segment_on_floor = seg_floor
-    mujoco.mj_subtreeVel(m, d)
-    s.com = d.subtree_com[1].copy()
-    s.com_vel = d.subtree_linvel[1].copy()
-    s.pelvis_height = float(d.xpos[1, 2])
+class _Stepper:
+    """Advances MuJoCo by held or per-step controls; returns the sensor rows it saw."""
+
+    def __init__(self, m: mujoco.MjModel, d: mujoco.MjData, penalty=None):
+        self.m, self.d, self.penalty = m, d, penalty
+        self.nstate = mujoco.mj_stateSize(m, _STATE)
+        self.state0 = np.zeros((1, self.nstate))
+        self._pool = mj_rollout.Rollout(nthread=0)
+        self.physics_s = 0.0
+
+    def _single(self, ctrl: np.ndarray | None, force=None) -> np.ndarray:
+        m, d = self.m, self.d
+        if ctrl is not None:
+            d.ctrl[:] = ctrl
+        if force is not None:
+            force(d)
+        if self.penalty is not None:
+            mujoco.mj_step1(m, d)
+            self.penalty.apply(d)
+            mujoco.mj_step2(m, d)
+        else:
+            mujoco.mj_step(m, d)
+        return d.sensordata
+
+    def advance(self, n: int, ctrl: np.ndarray | None, force=None,
+                want_rows: bool = False, want_states: bool = False):
+        """Step ``n`` times; ``ctrl`` None: hold ``data.ctrl``; else (n, nu) per step.
+        ``force(data)``: called before every step (then steps are taken one by one).
+        Returns (sensor rows (n, ns) or only the last (1, ns), states (n, nstate) or None).
+        """
+        m, d = self.m, self.d
+        tic = time.perf_counter()
+        rows = states = None
+        if force is not None or self.penalty is not None:
+            rows = np.empty((n, m.nsensordata))
+            states = np.empty((n, self.nstate))
+            for i in range(n):
+                rows[i] = self._single(None if ctrl is None else ctrl[i], force)
+                mujoco.mj_getState(m, d, states[i], _STATE)
+        elif ctrl is None and not want_rows and not want_states:
+            mujoco.mj_step(m, d, n)
+            rows = d.sensordata[None].copy()
+        else:
+            if ctrl is None:
+                ctrl = np.repeat(d.ctrl[None], n, axis=0)
+            ctrl = np.ascontiguousarray(ctrl, dtype=float).reshape(1, n, m.nu)
+            mujoco.mj_getState(m, d, self.state0[0], _STATE)
+            states = np.empty((1, n, self.nstate))
+            rows = np.empty((1, n, m.nsensordata))
+            self._pool.rollout_.rollout([m], [d], n, _CTRL, self.state0,
+                                        d.qacc_warmstart[None].copy(), ctrl, states, rows,
+                                        None)
+            states, rows = states[0], rows[0]
+        self.physics_s += time.perf_counter() - tic
+        return rows, states
 
 
 def run(ctx: Context, controller: Controller, duration_s: float,
         trip_force: Callable[[float], np.ndarray] | None = None, force_body: int = -1,
         force_point: Callable[[mujoco.MjData], np.ndarray] | None = None,
-        stop: Callable[[Context, Recording, int], str] | None = None,
-        control_every: int | None = None, penalty=None) -> Recording:
-    """Step physics from the trip for up to ``duration_s``; returns the recording."""
-    m, d = ctx.model, ctx.data
+        stop: Callable[[Sensors], str] | None = None, penalty=None,
+        log_controls: bool = False) -> Recording:
+    """Step physics from the trip for up to ``duration_s``; returns the recording.
+
+    ``stop(sensors)`` sees every sample and returns a non-empty reason to stop.
+    ``log_controls``: keep every block's controls and servo gains (for benchmarks that
+    replay them on a bare loop).
+    """
+    m, d, body = ctx.model, ctx.data, ctx.body
+    lay = body.sensors
     dt = m.opt.timestep
     n_steps = round(duration_s / dt)
     rec_every = max(1, round(1.0 / (RECORD_HZ * dt)))
-    control_every = control_every or max(1, round(1.0 / (CONTROL_HZ * dt)))
-    # contacts, COM and pelvis: at every control update, or as often as the controller
-    # asks (``sensor_hz``); the recording and the stop rule read them at RECORD_HZ
-    sensor_every = max(control_every, round(1.0 / (getattr(controller, "sensor_hz", 1e9) * dt)))
-    n_rec = n_steps // rec_every + 1
-    rec = Recording(np.zeros(n_rec), np.zeros((n_rec, m.nq)), np.zeros((n_rec, m.nv)),
-                    np.zeros((n_rec, 3)), np.zeros((n_rec, 3)), np.zeros((n_rec, 2), bool),
-                    np.zeros((n_rec, 2), bool), np.zeros((n_rec, 3)), [""] * n_rec,
-                    np.zeros(n_rec, bool), np.zeros((n_rec, m.nu)), np.zeros((n_rec, m.na)))
-    geo = Geometry(ctx.body)
-    ctx.penalty = penalty
+    stepper = _Stepper(m, d, penalty)
+    buf = _Buffers(n_steps // rec_every + 1, m, stepper.nstate, m.nsensordata)
+    sides = {0: "r", 1: "l"}
     if penalty is not None:
         names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) for b in penalty.body_ids]
         penalty.side_index = np.array([0 if n.endswith("_r") else 1 for n in names])
+    load_log: list[np.ndarray] | None = [] if penalty is not None else None
+
+    def loads() -> np.ndarray | None:
+        if penalty is None:
+            return None
+        return np.array([penalty.force[penalty.side_index == k, 2].sum() for k in sides])
+
     mujoco.mj_forward(m, d)
     if penalty is not None:
         penalty.apply(d)
-    read_sensors(ctx, geo)
+    decode(lay, d.sensordata, d.time - ctx.t0, ctx.sensors, loads())
     controller.start(ctx)
+    period = max(1, int(getattr(controller, "period_steps", 0)
+                        or round(1.0 / (CONTROL_HZ * dt))))
+    observe = getattr(controller, "observe", None)
     forcing = trip_force is not None and force_body >= 0
     force_end_s = getattr(trip_force, "t_trip_s", duration_s)
-    k_rec = 0
+    no_force = np.zeros(3)
+
+    def force_at(t: float) -> np.ndarray:
+        return trip_force(t) if trip_force is not None and 0.0 <= t <= force_end_s else no_force
+
+    def apply_force(dd: mujoco.MjData) -> None:
+        f = force_at(dd.time - ctx.t0)
+        p = force_point(dd)
+        dd.xfrc_applied[force_body, :3] = f
+        dd.xfrc_applied[force_body, 3:] = np.cross(p - dd.xipos[force_body], f)
+
+    controls = [] if log_controls else None
     wall0 = time.perf_counter()
-    step = 0
     reason = "time"
-    for step in range(n_steps + 1):
-        t = d.time - ctx.t0
-        if step % control_every == 0:
-            if step % sensor_every == 0:
-                read_sensors(ctx, geo)
-            controller.update(ctx)
-        f = _NO_FORCE
-        if forcing:  # only while the collision lasts: nothing per step afterwards
-            f = trip_force(t)
-            if t > force_end_s:
-                d.xfrc_applied[force_body] = 0.0
-                forcing = False
-            else:
-                p = force_point(d)
-                d.xfrc_applied[force_body, :3] = f
-                d.xfrc_applied[force_body, 3:] = np.cross(p - d.xipos[force_body], f)
-        if step % rec_every == 0 and k_rec < n_rec:
-            if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
-                rec.diverged, reason = True, "diverged"
-                break
-            rec.time_s[k_rec] = t
-            rec.qpos[k_rec] = d.qpos
-            rec.qvel[k_rec] = d.qvel
-            rec.com[k_rec] = ctx.sensors.com
-            rec.com_vel[k_rec] = ctx.sensors.com_vel
-            rec.foot_on_floor[k_rec] = (ctx.sensors.foot_on_floor["r"],
-                                        ctx.sensors.foot_on_floor["l"])
-            rec.foot_on_obstacle[k_rec] = (ctx.sensors.foot_on_obstacle["r"],
-                                           ctx.sensors.foot_on_obstacle["l"])
-            rec.trip_force[k_rec] = f
-            rec.state[k_rec] = controller.state()
-            rec.segment_on_floor[k_rec] = ctx.sensors.segment_on_floor
-            rec.actuator_force[k_rec] = d.actuator_force
-            rec.activation[k_rec] = d.act
-            k_rec += 1
-            if stop is not None:
-                why = stop(ctx, rec, k_rec)
-                if why:
-                    reason = why
-                    break
-        if step == n_steps:
-            break
-        tic = time.perf_counter()
-        if penalty is not None:
-            mujoco.mj_step1(m, d)
-            penalty.apply(d)
-            mujoco.mj_step2(m, d)
+    step = 0
+    scratch = Sensors()
+    now = np.zeros(stepper.nstate)
+
+    def sample(state: np.ndarray, row: np.ndarray) -> str:
+        """Record one sample (a full-physics state and its sensor row); the stop rule's
+        verdict on it."""
+        if not np.isfinite(state).all():
+            return "diverged"
+        t = float(state[0]) - ctx.t0
+        buf.add(t, state, row, controller.state())
+        f = loads()
+        if load_log is not None:
+            load_log.append(f)
+        return stop(scratch.set(lay, row, t, f)) if stop is not None else ""
+
+    def state_now() -> np.ndarray:
+        mujoco.mj_getState(m, d, now, _STATE)
+        return now
+
+    # the trip instant itself
+    why = sample(state_now(), d.sensordata)
+    uses_sensors = getattr(controller, "uses_sensors", True)
+    while not why and step < n_steps:
+        if uses_sensors:
+            decode(lay, d.sensordata, d.time - ctx.t0, ctx.sensors, loads())
+        plan = controller.update(ctx)
+        n_block = min(period, n_steps - step)
+        if controls is not None:
+            gains = (m.actuator_gainprm[:, 0].copy(), m.actuator_biasprm[:, :3].copy())
+            controls.append((step, d.ctrl.copy() if plan is None else plan[:n_block].copy(),
+                             gains))
+        if forcing and d.time - ctx.t0 > force_end_s:
+            d.xfrc_applied[force_body] = 0.0
+            forcing = False
+        # instants of this block that are recorded
+        first_rec = (step // rec_every + 1) * rec_every
+        rec_at = range(first_rec - step, n_block + 1, rec_every)
+        if plan is None and not forcing and observe is None and penalty is None:
+            done = 0  # held controls: step natively from one sample to the next
+            for k in [*rec_at, n_block]:
+                if k <= done:
+                    continue
+                rows, _ = stepper.advance(k - done, None)
+                done = k
+                if k in rec_at:
+                    why = sample(state_now(), rows[-1])
+                    if why:
+                        break
         else:
-            mujoco.mj_step(m, d)
-        rec.physics_time_s += time.perf_counter() - tic
-        if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0:
-            rec.diverged, reason = True, "diverged"
-            break
+            ctrl = None if plan is None else plan[:n_block]
+            rows, states = stepper.advance(n_block, ctrl, apply_force if forcing else None,
+                                           want_rows=True, want_states=True)
+            if observe is not None:
+                observe(rows)
+            for k in rec_at:
+                why = sample(states[k - 1], rows[k - 1])
+                if why:
+                    break
+        step += n_block
+        if not why and d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0:
+            why = "diverged"
+    rec = buf.recording(lay, force_at if trip_force is not None else None,
+                        None if load_log is None else np.array(load_log))
     rec.wall_time_s = time.perf_counter() - wall0
+    rec.physics_time_s = stepper.physics_s
     rec.steps = step
-    rec.stop_reason = reason
-    for name in ("time_s", "qpos", "qvel", "com", "com_vel", "foot_on_floor",
-                 "foot_on_obstacle", "trip_force", "segment_on_floor", "actuator_force",
-                 "activation"):
-        setattr(rec, name, getattr(rec, name)[:k_rec])
-    rec.state = rec.state[:k_rec]
+    rec.stop_reason = why or reason
+    rec.diverged = rec.stop_reason == "diverged"
+    rec.controls = controls
     return rec

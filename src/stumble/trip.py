@@ -84,7 +84,7 @@ class Scenario:
     height_m: float = 1.75
     mass_kg: float = 70.0
     sex: str = "male"
-    contact: str = "points"
+    contact: str = "lumped"
     duration_after_trip_s: float = 3.0
     delay_scale: float = 1.0  # multiplies every response latency
     strength_scale: float = 1.0  # multiplies every servo torque limit and muscle F_max

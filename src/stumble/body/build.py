@@ -10,6 +10,7 @@ import numpy as np
 from stumble.body import anthropometry as anth
 from stumble.body import contact as foot_contact
 from stumble.body import muscles
+from stumble.body import sensors as body_sensors
 from stumble.body.joints import JOINTS_3D, JOINTS_PLANAR, PELVIS_ROTATIONS, expand
 from stumble.errors import InputError
 
@@ -72,6 +73,8 @@ class Body:
     segments: dict[str, float]
     foot_points: dict[str, list[str]] = field(default_factory=dict)
     muscles: list = field(default_factory=list)  # stumble.body.muscles.MuscleGeometry
+    sensors: body_sensors.SensorLayout | None = None  # where each sensor sits in a row
+    muscle_set: str = ""  # the muscle set ("seed", "hfl"), or "" without muscles
 
     @property
     def dof(self) -> int:
@@ -206,11 +209,14 @@ def _hinges(body, side: str, joint_names: list[str], axes: dict, ranges: dict):
 
 
 def build(planar: bool = False, height_m: float = 1.75, mass_kg: float = 70.0,
-          sex: str = "male", contact: str = "points", timestep_s: float = 0.001,
+          sex: str = "male", contact: str = foot_contact.DEFAULT_MODE,
+          timestep_s: float = 0.001,
           obstacle: tuple[float, float, float, float, float] | None = None,
-          actuation: str = "servos") -> Body:
+          actuation: str = "servos", muscle_set: str = muscles.DEFAULT_MUSCLE_SET) -> Body:
     """Compile the 3D (42 DOF) or planar human for a person of the given size.
 
+    ``muscle_set`` (muscles only): ``"seed"`` (seed 003's seven per leg) or ``"hfl"``
+    (those and an iliopsoas, Geyer & Herr 2010's HFL); see ``stumble.body.muscles``.
     ``actuation``: ``"servos"`` (a PD position servo per DOF) or, planar only,
     ``"muscles"`` (seed 003 §III: 7 Hill-type muscles per leg on hips, knees and ankles,
     ``stumble.body.muscles``; a PD servo on the lumbar joint; weak ankle springs).
@@ -298,6 +304,7 @@ def build(planar: bool = False, height_m: float = 1.75, mass_kg: float = 70.0,
                      0.035)
 
     foot_points: dict[str, list[str]] = {}
+    pair_weights: list[float] = []
     for side, sign in (("r", -1.0), ("l", 1.0)):
         th = _add_body(pelvis, f"thigh_{side}", (0, sign * lay.hip_y, 0), segs["thigh"])
         _hinges(th, side, by_child[f"thigh_{side}"], axes, ranges)
@@ -313,29 +320,34 @@ def build(planar: bool = False, height_m: float = 1.75, mass_kg: float = 70.0,
         if not planar:
             toes = _add_body(ft, f"toes_{side}", lay.mtp, segs["toes"])
             _hinges(toes, side, by_child[f"toes_{side}"], axes, ranges)
-        foot_points[side] = foot_contact.add_foot(
+        foot_points[side], w = foot_contact.add_foot(
             s, ft, toes, side, contact, lay.heel_x, lay.mtp, lay.foot_len, lay.foot_w,
             lay.ankle_h)
+        pair_weights += w
 
     hinges = [h[0] for h in flat]
     muscle_geometry = []
     if actuation == "muscles":
         _actuators(s, [h for h in hinges if h.startswith("lumbar")], mass_kg)
-        muscle_geometry = muscles.add_muscles(s, height_m, mass_kg)
+        muscle_geometry = muscles.add_muscles(s, height_m, mass_kg,
+                                              muscles.check_muscle_set(muscle_set))
         for side in ("r", "l"):
             j = s.joint(f"ankle_angle_{side}")
             j.stiffness = [muscles.ANKLE_STIFFNESS_NM_PER_RAD, 0.0, 0.0]
             j.damping = [muscles.ANKLE_DAMPING_NMS_PER_RAD, 0.0, 0.0]
     else:
         _actuators(s, hinges, mass_kg)
+    body_sensors.add_sensors(s, foot_points, [a.name for a in s.actuators],
+                             [g.name for g in muscle_geometry], obstacle is not None)
     model = s.compile()
-    foot_contact.configure(model)
+    foot_contact.configure(model, np.array(pair_weights))
     names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(model.njnt)]
     internal = [n for n in names if n in axes]
     masses = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b): float(model.body_mass[b])
               for b in range(1, model.nbody)}
     return Body(model, planar, height_m, mass_kg, sex, contact, internal, masses, foot_points,
-                muscle_geometry)
+                muscle_geometry, body_sensors.layout(model, [g.name for g in muscle_geometry]),
+                muscle_set if actuation == "muscles" else "")
 
 
 def _Layout_spec(planar: bool, timestep_s: float) -> mujoco.MjSpec:

@@ -41,10 +41,14 @@ import numpy as np
 
 from stumble.errors import InputError
 
-MODES = ("points", "penalty", "soft")
+MODES = ("lumped", "points", "penalty", "soft")
+DEFAULT_MODE = "lumped"
 STIFFNESS_N_PER_M = 3000.0  # SCA 2009 §4.2, per contact point
 DAMPING_NS_PER_M = 10.0  # SCA 2009 §4.2, per contact point
 POINTS_ALONG, POINTS_ACROSS = 16, 6  # 96 points per foot, SCA 2009 §4.1
+# ``lumped`` (3D): points per foot segment along the sole (hind foot, toes) and across it
+LUMPED_ALONG_3D = (3, 3)
+LUMPED_ACROSS_3D = 2
 FRICTION = 0.8  # shoe sole on a dry floor; our choice (reported 0.6-1.0)
 IMPEDANCE = 0.02  # solimp d of the point contacts: small, so MuJoCo acts as a penalty law
 IMPRATIO = 1000.0  # friction rows 1000x less compliant than the normal: near-hard stick
@@ -59,21 +63,83 @@ def check_mode(mode: str) -> None:
         raise InputError(f"contact {mode!r} is not one of {', '.join(MODES)}")
 
 
-def grid(heel_x: float, foot_len: float, foot_w: float) -> np.ndarray:
-    """(96, 2) sole points (x, y) in the foot frame, heel to toe tip, inset by a margin."""
+def _axes(heel_x: float, foot_len: float, foot_w: float) -> tuple[np.ndarray, np.ndarray]:
+    """The reference grid's 16 column x and 6 row y positions (m, foot frame)."""
     xs = np.linspace(heel_x + GRID_MARGIN_M, heel_x + foot_len - GRID_MARGIN_M, POINTS_ALONG)
     ys = np.linspace(-0.5 * foot_w + GRID_MARGIN_M, 0.5 * foot_w - GRID_MARGIN_M,
                      POINTS_ACROSS)
+    return xs, ys
+
+
+def grid(heel_x: float, foot_len: float, foot_w: float) -> np.ndarray:
+    """(96, 2) sole points (x, y) in the foot frame, heel to toe tip, inset by a margin."""
+    xs, ys = _axes(heel_x, foot_len, foot_w)
     return np.array([(x, y) for x in xs for y in ys])
 
 
-def add_foot(spec: mujoco.MjSpec, foot, toes, side: str, mode: str, heel_x: float,
-             mtp: np.ndarray, foot_len: float, foot_w: float, ankle_h: float) -> list[str]:
-    """Add the sole of one foot: two boxes, 96 sites and, in ``points`` mode, 96 spheres.
+def lump_axis(ref: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``n`` positions and weights (in reference points) standing for the equally
+    weighted positions ``ref``: same total, centroid and second moment about it.
 
-    Returns the names of the 96 sole sites; sphere ``sole_r_07`` has geom name
-    ``sole_r_07_geom`` and a contact pair with the floor. ``toes`` is None for the
-    planar model (toes lumped into the foot).
+    n = 1: the centroid (no second moment). n = 2: centroid ± the spread (a weight of
+    half each). n ≥ 3: equally spaced from the first to the last reference position (the
+    sole's edges stay where they are), with the symmetric weights closest to equal that
+    match the second moment.
+    """
+    ref = np.asarray(ref, dtype=float)
+    mid, total = float(ref.mean()), float(len(ref))
+    m2 = float(np.sum((ref - mid) ** 2))
+    if n == 1:
+        return np.array([mid]), np.array([total])
+    if n == 2:
+        s = np.sqrt(m2 / total)
+        return np.array([mid - s, mid + s]), np.array([0.5 * total, 0.5 * total])
+    x = np.linspace(ref[0], ref[-1], n)
+    a = np.vstack([np.ones(n), (x - mid) ** 2])
+    w0 = np.full(n, total / n)
+    w = w0 + a.T @ np.linalg.solve(a @ a.T, np.array([total, m2]) - a @ w0)
+    if np.any(w <= 0.0):
+        raise ValueError(f"no positive weights for {n} points over {len(ref)}")
+    return x, w
+
+
+def lumped_grid(heel_x: float, foot_len: float, foot_w: float, mtp_x: float | None,
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """(n, 2) sole points (x, y) in the foot frame and the reference points each stands
+    for (n,): the ``lumped`` contact.
+
+    ``mtp_x`` None (planar model, toes lumped into the foot): one row along the sole,
+    each point carrying its six-point column. In the sagittal plane this *is* the
+    96-point law. Otherwise the hind foot's and the toes' columns are lumped separately
+    (``LUMPED_ALONG_3D``), and so are the rows (``LUMPED_ACROSS_3D``): each segment keeps
+    its total stiffness and damping, its centroid, and its pitch and roll stiffness about
+    it (the second moments), so the force and moment of a flat-loaded sole are the
+    reference's.
+    """
+    xs, ys = _axes(heel_x, foot_len, foot_w)
+    if mtp_x is None:
+        return np.column_stack([xs, np.zeros_like(xs)]), np.full(len(xs), float(len(ys)))
+    ly, wy = lump_axis(ys, LUMPED_ACROSS_3D)
+    pts, weights = [], []
+    for part, n in zip((xs[xs <= mtp_x], xs[xs > mtp_x]), LUMPED_ALONG_3D, strict=True):
+        lx, wx = lump_axis(part, n)
+        for x, a in zip(lx, wx, strict=True):
+            for y, b in zip(ly, wy, strict=True):
+                pts.append((x, y))
+                weights.append(a * b)
+    return np.array(pts), np.array(weights)
+
+
+def add_foot(spec: mujoco.MjSpec, foot, toes, side: str, mode: str, heel_x: float,
+             mtp: np.ndarray, foot_len: float, foot_w: float, ankle_h: float,
+             ) -> tuple[list[str], list[float]]:
+    """Add the sole of one foot: two boxes, 96 sites and the contact spheres of the mode.
+
+    Returns the names of the 96 sole sites and, per floor pair added (in order), the
+    number of reference points its sphere stands for (``points``: 1 each; ``lumped``: see
+    ``lumped_grid``; ``penalty``/``soft``: none). Sphere ``sole_r_07`` (``points``) has
+    geom ``sole_r_07_geom`` and pair ``sole_r_07_floor``; ``lumped`` spheres are
+    ``lump_r_03_geom``. ``toes`` is None for the planar model (toes lumped into the foot).
     """
     from stumble.body.build import FOOT_OBSTACLE, FOOT_RGBA, SEGMENT
 
@@ -94,33 +160,50 @@ def add_foot(spec: mujoco.MjSpec, foot, toes, side: str, mode: str, heel_x: floa
         g.contype, g.conaffinity, g.density = 0, box_conaff, 0.0
         g.rgba = list(FOOT_RGBA)
         g.friction = [FRICTION, 0.005, 0.0001]
-    names = []  # the grid exists in both modes (in soft mode only as kinematic markers)
-    for k, (x, y) in enumerate(grid(heel_x, foot_len, foot_w)):
+
+    def place(x: float, y: float) -> tuple[object, np.ndarray]:
         on_toes = toes is not None and x > mtp[0]
-        body = toes if on_toes else foot
-        pos = np.array([x, y, sole]) - (mtp if on_toes else 0.0)
+        return (toes if on_toes else foot), np.array([x, y, sole]) - (mtp if on_toes else 0.0)
+
+    def sphere(body, pos: np.ndarray, name: str) -> None:
+        g = body.add_geom(name=f"{name}_geom", type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                          pos=[float(pos[0]), float(pos[1]), float(pos[2] + SPHERE_RADIUS_M)],
+                          size=[SPHERE_RADIUS_M, 0, 0])
+        g.contype, g.conaffinity, g.density, g.group = 0, 0, 0.0, 3
+        spec.add_pair(name=f"{name}_floor", geomname1="floor", geomname2=f"{name}_geom",
+                      condim=3)
+
+    names, weights = [], []  # the grid exists in every mode (as kinematic markers)
+    for k, (x, y) in enumerate(grid(heel_x, foot_len, foot_w)):
+        body, pos = place(x, y)
         name = f"sole_{side}_{k:02d}"
         site = body.add_site(name=name, pos=list(map(float, pos)), size=[0.004, 0, 0])
         site.rgba = [0.9, 0.3, 0.2, 1.0]
         site.group = 3  # hidden in renders by default
         names.append(name)
         if mode == "points":
-            g = body.add_geom(name=f"{name}_geom", type=mujoco.mjtGeom.mjGEOM_SPHERE,
-                              pos=[float(pos[0]), float(pos[1]), float(pos[2] + SPHERE_RADIUS_M)],
-                              size=[SPHERE_RADIUS_M, 0, 0])
-            g.contype, g.conaffinity, g.density, g.group = 0, 0, 0.0, 3
-            spec.add_pair(name=f"{name}_floor", geomname1="floor", geomname2=f"{name}_geom",
-                          condim=3)
-    return names
+            sphere(body, pos, name)
+            weights.append(1.0)
+    if mode == "lumped":
+        pts, w = lumped_grid(heel_x, foot_len, foot_w, None if toes is None else mtp[0])
+        for k, ((x, y), n) in enumerate(zip(pts, w, strict=True)):
+            sphere(*place(x, y), f"lump_{side}_{k:02d}")
+            weights.append(float(n))
+    return names, weights
 
 
-def configure(model: mujoco.MjModel) -> None:
-    """Calibrate every floor-sphere pair of a compiled model to the SCA 2009 §4.2 law."""
+def configure(model: mujoco.MjModel, weights: np.ndarray | None = None) -> None:
+    """Calibrate every floor-sphere pair of a compiled model to the SCA 2009 §4.2 law:
+    pair i carries ``weights[i]`` reference points' stiffness and damping (default 1)."""
     d = IMPEDANCE
+    w = np.ones(model.npair) if weights is None else np.asarray(weights, dtype=float)
+    if w.shape != (model.npair,):
+        raise ValueError(f"{len(w)} contact weights for {model.npair} pairs")
     for i in range(model.npair):
         a = float(model.body_invweight0[model.geom_bodyid[model.pair_geom2[i]], 0])
+        k, c = STIFFNESS_N_PER_M * w[i], DAMPING_NS_PER_M * w[i]
         model.pair_solimp[i] = (d, d, 0.001, 0.5, 2.0)
-        model.pair_solref[i] = (-STIFFNESS_N_PER_M * (1 - d) * a, -DAMPING_NS_PER_M * (1 - d) * a)
+        model.pair_solref[i] = (-k * (1 - d) * a, -c * (1 - d) * a)
         model.pair_solreffriction[i] = (0.0, -STICK_RATE_PER_S * d)  # direct: B = -s1/d
         model.pair_friction[i] = (FRICTION, FRICTION, 0.005, 1e-4, 1e-4)
         model.pair_margin[i] = 0.0

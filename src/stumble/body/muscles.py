@@ -41,6 +41,14 @@ import mujoco
 import numpy as np
 
 MUSCLE_NAMES = ("HAMS", "GLU", "TA", "GAS", "RF", "VAS", "SOL")  # seed 003 §III item 2
+# Muscle sets of the planar body: seed 003's seven, or those seven and an iliopsoas (Geyer &
+# Herr 2010's hip flexor HFL), without which RF is the only hip flexor and it also extends
+# the knee (see the README, "reflex walking", for the evidence).
+MUSCLE_SETS: dict[str, tuple[str, ...]] = {
+    "seed": MUSCLE_NAMES,
+    "hfl": (*MUSCLE_NAMES, "HFL"),
+}
+DEFAULT_MUSCLE_SET = "seed"
 MODEL_MASS_KG = 80.0  # Geyer & Herr 2010 model (as we read their parameter file)
 MODEL_HEIGHT_M = 1.80
 
@@ -82,6 +90,7 @@ MUSCLES: dict[str, Muscle] = {
     "RF": Muscle("RF", 1200.0, 0.08, 12.0, 0.35, (0.3 * 0.08 + 0.5 * 0.06) / 0.14),
     "VAS": Muscle("VAS", 6000.0, 0.08, 12.0, 0.23, 0.7),
     "SOL": Muscle("SOL", 4000.0, 0.04, 6.0, 0.26, 0.5),
+    "HFL": Muscle("HFL", 2000.0, 0.11, 12.0, 0.10, 0.5),  # Geyer & Herr 2010 (iliopsoas)
 }
 
 # (muscle, joint) -> (lever arm m, Geyer reference angle deg at which l_CE = l_opt,
@@ -99,6 +108,7 @@ LEVERS: dict[tuple[str, str], tuple[float, float, int]] = {
     ("RF", "knee"): (0.06, 125.0, +1),  # knee extensor
     ("VAS", "knee"): (0.06, 125.0, +1),  # knee extensor
     ("SOL", "ankle"): (0.05, 80.0, -1),  # plantarflexor
+    ("HFL", "hip"): (0.10, 180.0, +1),  # hip flexor (Geyer & Herr 2010)
 }
 
 
@@ -194,13 +204,22 @@ class MuscleGeometry:
 _JOINT_OF = {"hip": "hip_flexion", "knee": "knee_angle", "ankle": "ankle_angle"}
 
 
-def geometry(side: str, height_m: float = MODEL_HEIGHT_M,
-             mass_kg: float = MODEL_MASS_KG) -> list[MuscleGeometry]:
-    """The 7 muscles of one leg (``side`` 'r' or 'l'), scaled to the person."""
+def check_muscle_set(name: str) -> tuple[str, ...]:
+    """The muscles of a named set; InputError if there is no such set."""
+    from stumble.errors import InputError
+
+    if name not in MUSCLE_SETS:
+        raise InputError(f"muscle set {name!r} is not one of {', '.join(MUSCLE_SETS)}")
+    return MUSCLE_SETS[name]
+
+
+def geometry(side: str, height_m: float = MODEL_HEIGHT_M, mass_kg: float = MODEL_MASS_KG,
+             names: tuple[str, ...] = MUSCLE_NAMES) -> list[MuscleGeometry]:
+    """The muscles ``names`` of one leg (``side`` 'r' or 'l'), scaled to the person."""
     ls = height_m / MODEL_HEIGHT_M
     fs = mass_kg / MODEL_MASS_KG
     out = []
-    for name in MUSCLE_NAMES:
+    for name in names:
         m = MUSCLES[name]
         joints, coef, ref = [], [], 0.0
         for (mus, joint), (r, phi_ref, action) in LEVERS.items():
@@ -215,9 +234,11 @@ def geometry(side: str, height_m: float = MODEL_HEIGHT_M,
     return out
 
 
-def add_muscles(spec: mujoco.MjSpec, height_m: float, mass_kg: float) -> list[MuscleGeometry]:
-    """Add the 14 muscles (7 per leg) as fixed tendons with MuJoCo muscle actuators."""
-    geos = geometry("r", height_m, mass_kg) + geometry("l", height_m, mass_kg)
+def add_muscles(spec: mujoco.MjSpec, height_m: float, mass_kg: float,
+                names: tuple[str, ...] = MUSCLE_NAMES) -> list[MuscleGeometry]:
+    """Add the muscles ``names`` of both legs (right first) as fixed tendons with MuJoCo
+    muscle actuators."""
+    geos = geometry("r", height_m, mass_kg, names) + geometry("l", height_m, mass_kg, names)
     r0, r1 = LENGTH_RANGE_NORM
     for g in geos:
         t = spec.add_tendon(name=f"{g.name}_tendon")

@@ -24,7 +24,7 @@ import numpy as np
 
 from stumble.control.fsm_params import FSMParams
 from stumble.control.pd import ServoBank
-from stumble.sim import Context
+from stumble.sim import CONTROL_HZ, Context
 
 FIXED, HOLD, ATT_PITCH, ATT_ROLL = 0, 1, 2, 3
 OTHER = {"r": "l", "l": "r"}
@@ -61,6 +61,7 @@ class TripFSM:
     # ------------------------------------------------------------------ set-up
     def start(self, ctx: Context) -> None:
         """Take over at the trip: hold the current pose, schedule the reactions."""
+        self.period_steps = max(1, round(1.0 / (CONTROL_HZ * ctx.model.opt.timestep)))
         self.bank = ServoBank(ctx.body)
         nu = len(self.bank.names)
         self.mode = np.full(nu, HOLD)
@@ -187,7 +188,8 @@ class TripFSM:
 
     # ------------------------------------------------------------------ update
     def update(self, ctx: Context) -> None:
-        """Run due reactions, take event transitions, refresh attitude and compensation."""
+        """Run due reactions, take event transitions, refresh attitude and compensation
+        (writes ctrl and gains, held until the next update)."""
         s, d, t = ctx.sensors, ctx.data, ctx.sensors.t
         while self.pending and self.pending[0].time_s <= t:
             item = heapq.heappop(self.pending)

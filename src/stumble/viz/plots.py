@@ -65,6 +65,8 @@ def plot_joint_angles(
     events: Mapping | None = None,
     title: str | None = None,
     spread_deg: Mapping[str, np.ndarray] | None = None,
+    reference_deg: Mapping[str, np.ndarray] | None = None,
+    reference_label: str = "recorded",
 ) -> Path:
     """Plot hip, knee and ankle angles over the gait cycle into a PNG; return its path.
 
@@ -72,6 +74,8 @@ def plot_joint_angles(
     at ``cycle_percent`` (0–100 %); right is drawn solid, left dashed, and missing keys are
     skipped. ``spread_deg`` (same keys) adds a ±SD band around each curve. ``events`` may
     hold ``{"toe_off_percent": {"r": 62.0, "l": 12.0}}`` for vertical toe-off lines.
+    ``reference_deg`` (same keys) draws a reference stride (e.g. the recorded one) under
+    the curves in grey, labelled ``reference_label``.
     The image is about 6×8 in at 150 dpi (900×1200 pixels).
     """
     path = Path(path)
@@ -89,6 +93,12 @@ def plot_joint_angles(
         legend: dict[str, object] = {}  # one figure legend, first handle per label
         for ax, (stem, ylabel) in zip(axes, _PANELS, strict=True):
             drawn = False
+            for side, side_name, _colour, style in _SIDES:
+                ref = (reference_deg or {}).get(f"{stem}_{side}")
+                if ref is not None:
+                    ax.plot(x, _curve(f"{stem}_{side}", ref, n, "reference curve"),
+                            color="0.25", linestyle=style, linewidth=1.0, alpha=0.8,
+                            label=f"{reference_label} {side_name}")
             for side, side_name, colour, style in _SIDES:
                 key = f"{stem}_{side}"
                 if key not in angles_deg or angles_deg[key] is None:

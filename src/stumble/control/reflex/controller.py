@@ -1,7 +1,7 @@
 """The reflex network as a trip controller: one network, never switched (seed 003 §IV.B).
 
-At every network tick (1 kHz by default) the controller reads each muscle's fibre
-stretch, stretch velocity and tension from MuJoCo and turns them into receptor rates;
+At every network tick (1 kHz by default) each muscle's fibre stretch, stretch velocity
+and tension, sensed by MuJoCo (``stumble.body.sensors``), become receptor rates;
 each spinal segment's interneurons see those rates as old as their afferent paths, and
 each muscle's excitation comes from interneuron outputs as old as their efferent paths.
 MuJoCo's muscle actuators then do activation dynamics and eq. 1 in C. The lumbar servo
@@ -9,8 +9,9 @@ holds the trunk at its angle at the trip (seed 003 §IV.B: upper body on PD serv
 
 No path is shorter than its afferent plus efferent delay (17 ms at the nominal
 velocities), so the excitations of the next ``block`` ticks are already fixed by the
-state sensed so far. The controller therefore stores the sensed state at every tick
-(three slice copies) and evaluates receptors and network once per block, vectorised:
+state sensed so far. The controller therefore hands the physics loop a whole block of
+per-tick controls, which MuJoCo steps natively (``mujoco.rollout``), takes back the
+block's sensor rows, and evaluates receptors and network once per block, vectorised:
 the same numbers as tick by tick (``block=1``), at a fraction of the Python cost.
 
 Before the trip the buffers are filled from the walking data the network was identified
@@ -19,8 +20,6 @@ that led up to it (the seed replays the walk and its inverse dynamics until the 
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 from scipy import signal
@@ -68,15 +67,17 @@ class TrunkBalance:
         for name, sign in (("GLU", 1.0), ("HAMS", 1.0), ("RF", -1.0)):
             self.mus[MUSCLE_NAMES.index(name)] = sign
 
-    def sense(self, ctx: Context, tid: int) -> tuple[float, float, float]:
-        """(lean rad, pitch rate rad/s, right leg's share of the foot load) now."""
-        d = ctx.data
-        zx, zz = d.xmat[tid, 2], d.xmat[tid, 8]  # torso z axis: world x and z parts
-        f = ctx.sensors.foot_force_n
-        total = f["r"] + f["l"]
-        share = f["r"] / total if total > 0.0 else 0.5
+    @staticmethod
+    def sense(rows: np.ndarray, lay) -> np.ndarray:
+        """(n, 3) lean (rad), pitch rate (rad/s) and right leg's share of the foot load,
+        from sensor rows (n, nsensordata)."""
+        z = rows[:, lay.torso_z]
+        fz = -rows[:, lay.foot_force[:, 2]]  # (n, 2) vertical loads r, l
+        total = fz.sum(axis=1)
+        share = np.where(total > 0.0, fz[:, 0] / np.where(total > 0.0, total, 1.0), 0.5)
         # forward lean (z axis towards +x), pitch rate about +y
-        return math.atan2(zx, zz), d.cvel[tid, 1], share
+        return np.column_stack([np.arctan2(z[:, 0], z[:, 2]), rows[:, lay.torso_angvel[1]],
+                                share])
 
     def drive(self, sensed: np.ndarray) -> np.ndarray:
         """(n, 2, 7) excitation from (n, 3) delayed lean, rate and right load share."""
@@ -89,9 +90,7 @@ class ReflexController:
     """Seed 003's neuromuscular network driving the 14 muscles of the planar body."""
 
     name = "reflex"
-    # foot loads (trunk balance, contact afferents) at 200 Hz, as the recording: the
-    # network itself reads the muscles at every tick
-    sensor_hz = 200.0
+    uses_sensors = False  # reads the sensor rows of each block (``observe``) instead
 
     def __init__(self, network: Network,
                  history: tuple[np.ndarray, np.ndarray] | None = None,
@@ -240,6 +239,9 @@ class ReflexController:
     def start(self, ctx: Context) -> None:
         """Bind to the model, fill the buffers with the walk before the trip."""
         self._bind(ctx)
+        self.lay = ctx.body.sensors
+        self.every = max(1, round(1.0 / (self.net.topology.rate_hz * ctx.model.opt.timestep)))
+        self.period_steps = self.block * self.every
         if self.history is not None:
             hist, gto_state = self.history
             ib = hist[:, :, 2:21:3].reshape(len(hist), -1)  # (N, 14): r muscles, l muscles
@@ -253,32 +255,36 @@ class ReflexController:
             act = ctx.model.actuator_actadr[self.act_ids]
             ctx.data.act[act] = np.clip(self.excitation, 0.01, 1.0)
         if self.balance is not None:  # before the trip: the lean and loads of this instant
-            self.bal_buf[:] = self.balance.sense(ctx, self.torso)
+            self.bal_buf[:] = self.balance.sense(ctx.data.sensordata[None], self.lay)[0]
         self.block_start = self.k
         self.lumbar_target = float(ctx.data.qpos[self.lumbar_q])
         ctx.data.ctrl[self.lumbar] = self.lumbar_target
+        self.plan = np.empty((self.period_steps, ctx.model.nu))
         self.log.append(("reflex", 0.0))
 
-    def update(self, ctx: Context) -> None:
-        """One network tick: sense the muscles now, excite them as the block fixed."""
-        i = self.k - self.block_start
-        if i == self.block or (i == 0 and self.k == self.block_start):
-            self._next_block()
-            i = 0
-        d = ctx.data
-        sl = self.act_slice
-        row = self.sensed[i]
-        row[0] = d.actuator_length[sl]
-        row[1] = d.actuator_velocity[sl]
-        row[2] = d.actuator_force[sl]
+    def update(self, ctx: Context) -> np.ndarray:
+        """The next block's controls (period_steps, nu), fixed by what has been sensed."""
+        self._next_block()
+        self.excitation = self.exc_block[-1]
+        self.plan[:] = ctx.data.ctrl
+        self.plan[:, self.act_slice] = np.repeat(self.ctrl_block, self.every, axis=0)
+        return self.plan
+
+    def observe(self, rows: np.ndarray) -> None:
+        """Store the muscle states (and loads, lean) sensed at each tick of the block."""
+        lay = self.lay
+        ticks = rows[::self.every]
+        n = len(ticks)
+        k0 = self.k
+        self.sensed[:n, 0] = ticks[:, lay.muscle_length]
+        self.sensed[:n, 1] = ticks[:, lay.muscle_velocity]
+        self.sensed[:n, 2] = ticks[:, lay.muscle_force]
         if self.contact:
-            f = ctx.sensors.foot_force_n
-            self.loads[i] = f["r"], f["l"]
+            self.loads[:n] = -ticks[:, lay.foot_force[:, 2]]
         if self.balance is not None:
-            self.bal_buf[self.k % len(self.bal_buf)] = self.balance.sense(ctx, self.torso)
-        self.excitation = self.exc_block[i]
-        d.ctrl[sl] = self.ctrl_block[i]
-        self.k += 1
+            idx = (k0 + np.arange(n)) % len(self.bal_buf)
+            self.bal_buf[idx] = self.balance.sense(ticks, lay)
+        self.k = k0 + n
 
     def state(self) -> str:
         """The network has one state."""

@@ -1,0 +1,44 @@
+"""Delayed sensors: a ring buffer of per-tick signals, read at per-channel lags.
+
+A reflex reads its sensor as it was one neural delay ago. Every controller of this
+package that runs on delayed signals stores each tick's sensed channels here and reads a
+whole block of ticks at once: tick k of the block sees channel c as sensed at tick
+k − lag[c]. With every lag at least as long as the block, what a block reads has been
+sensed before the block starts (SCONE's delayed sensors, in spirit).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class DelayLine:
+    """Per-tick values of ``channels`` signals; ``lags`` (ticks) per channel."""
+
+    def __init__(self, lags: np.ndarray, block: int):
+        self.lags = np.asarray(lags, dtype=int)
+        if self.lags.ndim != 1 or np.any(self.lags < 1):
+            raise ValueError("every lag must be at least one tick")
+        if block > int(self.lags.min()):
+            raise ValueError(f"a block of {block} ticks is longer than the shortest lag "
+                             f"({int(self.lags.min())})")
+        self.block = int(block)
+        self.size = int(self.lags.max()) + self.block + 1
+        self.buf = np.zeros((self.size, len(self.lags)))
+        self.k = 0  # ticks stored so far
+        self._cols = np.arange(len(self.lags))
+
+    def fill(self, values: np.ndarray) -> None:
+        """A constant history: every past tick sensed ``values``."""
+        self.buf[:] = np.asarray(values, dtype=float)
+
+    def push(self, rows: np.ndarray) -> None:
+        """Store the values (n, channels) of the next n ticks."""
+        n = len(rows)
+        self.buf[(self.k + np.arange(n)) % self.size] = rows
+        self.k += n
+
+    def read(self, n: int) -> np.ndarray:
+        """(n, channels): each channel at its lag before each of the next n ticks."""
+        ticks = self.k + np.arange(n)[:, None] - self.lags[None, :]
+        return self.buf[ticks % self.size, self._cols]
