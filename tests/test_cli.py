@@ -191,8 +191,8 @@ def test_pipes_devices_and_absurd_files_are_one_line_errors(tmp_path):
     _one_line_error(run("walk", "--out", str(tmp_path / "o"), "--gait", str(one)),
                     "one.mot: 1 data row(s); at least 2 are needed")
     ms = tmp_path / "ms.mot"
-    rows = "".join(f"{k * 1000 / 60:.4f}\t{-30 - 20 * np.sin(k / 9):.3f}\n"
-                   for k in range(180000))
+    rows = "".join(f"{k * 100}\t{-30 - 20 * np.sin(k / 2):.2f}\n"  # 10 Hz, time in ms
+                   for k in range(30001))
     ms.write_text("Coordinates\nendheader\ntime\tknee_angle_r\n" + rows)
     r = run("walk", "--out", str(tmp_path / "o"), "--gait", str(ms), "--no-video")
     _one_line_error(r, "ms.mot: lasts 3000 s; stumble plays at most 600 s")

@@ -206,12 +206,11 @@ def _notes(notes) -> None:
         print(f"stumble: note: {note}", file=sys.stderr)
 
 
-def _load_gait_file(args, body):
-    from stumble.gait.files import play_motion, read_motion
+def _read_gait_file(args):
+    from stumble.gait.files import read_motion
 
-    motion = read_motion(args.gait, planar=body.planar, model=args.motion_model,
-                         up=args.up, forward=args.forward)
-    return play_motion(body, motion, args.duration, as_recorded=args.as_recorded)
+    return read_motion(args.gait, planar=args.planar, model=args.motion_model, up=args.up,
+                       forward=args.forward)
 
 
 def _cycle_curves(pb, names):
@@ -284,12 +283,7 @@ def _title(pb, model: str) -> str:
 
 def cmd_walk(args) -> int:
     """``stumble walk``: play a gait back and write motion, events, plot and video."""
-    from stumble.gait.playback import walk
     from stumble.gait.reference import check_speed
-    from stumble.gait.writers import write_bvh, write_mot
-    from stumble.jsonio import write_json
-    from stumble.outputs import VIDEO_FPS, prepare_dir
-    from stumble.viz.plots import plot_joint_angles
 
     if args.gait is not None and args.speed is not None:
         raise InputError("--speed applies to the embedded reference gait; a --gait file plays "
@@ -299,9 +293,18 @@ def cmd_walk(args) -> int:
     if args.gait is None and (args.as_recorded or args.motion_model != "auto"
                               or args.up != "auto" or args.forward != "auto"):
         raise InputError("--as-recorded, --model, --up and --forward apply to a --gait file")
+    motion = _read_gait_file(args) if args.gait is not None else None  # before the model
+    from stumble.gait.playback import walk
+    from stumble.gait.writers import write_bvh, write_mot
+    from stumble.jsonio import write_json
+    from stumble.outputs import VIDEO_FPS, prepare_dir
+    from stumble.viz.plots import plot_joint_angles
+
     body = _build(args)
-    if args.gait is not None:
-        pb = _load_gait_file(args, body)
+    if motion is not None:
+        from stumble.gait.files import play_motion
+
+        pb = play_motion(body, motion, args.duration, as_recorded=args.as_recorded)
     else:
         pb = walk(body, args.speed, duration_s=args.duration or 4.0)
     _notes(pb.notes)
