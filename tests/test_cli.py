@@ -190,6 +190,12 @@ def test_pipes_devices_and_absurd_files_are_one_line_errors(tmp_path):
     one.write_text("Coordinates\nendheader\ntime\tknee_angle_r\n0\t-10\n")
     _one_line_error(run("walk", "--out", str(tmp_path / "o"), "--gait", str(one)),
                     "one.mot: 1 data row(s); at least 2 are needed")
+    from test_bvh import _bvh_text
+
+    frame = tmp_path / "frame.bvh"
+    frame.write_text(_bvh_text([{}]))
+    _one_line_error(run("walk", "--out", str(tmp_path / "o"), "--gait", str(frame)),
+                    "frame.bvh: 1 sample(s)")
     ms = tmp_path / "ms.mot"
     rows = "".join(f"{k * 100}\t{-30 - 20 * np.sin(k / 2):.2f}\n"  # 10 Hz, time in ms
                    for k in range(30001))

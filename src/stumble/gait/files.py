@@ -93,6 +93,8 @@ def straighten(motion: Motion) -> Motion:
     if "pelvis_tx" not in cols or "pelvis_tz" not in cols:
         return motion
     t = motion.time_s
+    if len(t) < 3:
+        return motion
     fwd, left = cols["pelvis_tx"], -cols["pelvis_tz"]
     dt = float(np.median(np.diff(t)))
     w = max(1, round(HEADING_WINDOW_S / dt))
@@ -154,6 +156,8 @@ def play_motion(body: Body, motion: Motion, duration_s: float | None = None,
     stride is twice the step (``GaitEvents.stride_estimate_s``), with a note.
     """
     src = motion.source
+    if motion.n_frames < 2:
+        raise InputError(f"{src}: {motion.n_frames} sample(s); playing needs at least 2")
     t = motion.time_s - motion.time_s[0]
     if duration_s is not None:
         if not np.isfinite(duration_s) or duration_s <= 0:
