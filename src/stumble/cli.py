@@ -294,8 +294,6 @@ def cmd_walk(args) -> int:
                               or args.up != "auto" or args.forward != "auto"):
         raise InputError("--as-recorded, --model, --up and --forward apply to a --gait file")
     motion = _read_gait_file(args) if args.gait is not None else None  # before the model
-    if motion is not None:
-        _notes(motion.notes)  # what reading ignored or converted, even if playing fails
     from stumble.gait.playback import walk
     from stumble.gait.writers import write_bvh, write_mot
     from stumble.jsonio import write_json
@@ -309,7 +307,7 @@ def cmd_walk(args) -> int:
         pb = play_motion(body, motion, args.duration, as_recorded=args.as_recorded)
     else:
         pb = walk(body, args.speed, duration_s=args.duration or 4.0)
-    _notes(pb.notes[len(motion.notes) if motion is not None else 0:])
+    _notes(pb.notes)  # after playing: a refused file gives its one error line only
     out = prepare_dir(args.out)
     write_motion_csv(out / "motion.csv", pb)
     write_mot(out / "motion.mot", body, pb.time_s, pb.qpos)
