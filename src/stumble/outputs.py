@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import csv
-import json
 import sys
 from pathlib import Path
 
 import numpy as np
 
 from stumble.errors import InputError
+from stumble.jsonio import write_json
 from stumble.pipeline import TripResult
 
 VIDEO_FPS = 25.0
@@ -18,7 +18,7 @@ WALK_SHOWN_S = 1.0  # walking shown in the video before the trip
 
 def write_summary(out: Path, result: TripResult) -> None:
     """``summary.json``: the outcome and metrics (see ``stumble.pipeline``)."""
-    (out / "summary.json").write_text(json.dumps(result.summary, indent=1) + "\n")
+    write_json(out / "summary.json", result.summary)
 
 
 def write_timeseries(out: Path, result: TripResult) -> None:
@@ -41,6 +41,48 @@ def write_timeseries(out: Path, result: TripResult) -> None:
                         *np.round(rec.com[k], 5), *np.round(rec.com_vel[k], 4),
                         int(rec.foot_on_floor[k, 0]), int(rec.foot_on_floor[k, 1]),
                         *np.round(rec.trip_force[k], 3)])
+
+
+def trip_motion(result: TripResult, before_s: float = WALK_SHOWN_S) -> tuple[np.ndarray,
+                                                                              np.ndarray]:
+    """Times (s, 0 at the trip) and qpos of a trip with ``before_s`` of its walk before it.
+
+    The walk is the playback at the recording's sample interval, so the whole motion is
+    uniformly sampled (for BVH)."""
+    rec = result.recording
+    dt = float(np.mean(np.diff(rec.time_s))) if len(rec.time_s) > 1 else 0.005
+    t_trip = result.summary["trip_time_s"]
+    k = int(np.floor(min(before_s, t_trip - result.playback.time_s[0]) / dt + 1e-9))
+    t_walk = -dt * np.arange(k, 0, -1)
+    walk_q = [result.playback.state_at(t_trip + t)[0] for t in t_walk]
+    qpos = np.vstack([*walk_q, rec.qpos]) if walk_q else rec.qpos
+    return np.concatenate([t_walk, rec.time_s]), qpos
+
+
+def write_motion_files(out: Path, body, time_s: np.ndarray, qpos: np.ndarray,
+                       recording=None) -> list[str]:
+    """``motion.mot`` and ``motion.bvh`` of a motion (``qpos`` (T, nq) at ``time_s`` (s),
+    uniformly sampled) and, when ``recording`` has muscle activations, ``muscles.sto``
+    (its activation and force per muscle); returns the names written."""
+    import mujoco
+
+    from stumble.gait.writers import opensim_muscle_name, write_bvh, write_mot, write_muscles_sto
+
+    write_mot(out / "motion.mot", body, time_s, qpos)
+    write_bvh(out / "motion.bvh", body, time_s, qpos)
+    written = ["motion.mot", "motion.bvh"]
+    m = body.model
+    muscles = np.flatnonzero(m.actuator_gaintype == mujoco.mjtGain.mjGAIN_MUSCLE)
+    rec = recording
+    if (rec is not None and len(muscles) and rec.activation is not None
+            and rec.activation.size and len(rec.time_s) > 1):
+        names = [opensim_muscle_name(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, i))
+                 for i in muscles]
+        act = rec.activation[:, m.actuator_actadr[muscles]]
+        write_muscles_sto(out / "muscles.sto", rec.time_s, names, act,
+                          -rec.actuator_force[:, muscles])
+        written.append("muscles.sto")
+    return written
 
 
 def frames_at_states(result: TripResult, most: int = 7) -> tuple[list[np.ndarray], list[str]]:
@@ -96,17 +138,16 @@ def write_media(out: Path, result: TripResult, video: bool, progress: bool) -> l
                            distance=3.0)
     save_filmstrip(out / "filmstrip.png", frames, labels)
     written.append("filmstrip.png")
-    step = max(1, round(1.0 / (VIDEO_FPS * float(np.mean(np.diff(rec.time_s))))))
     # one second of the walk before the trip (played back), then the physics
-    t_trip = s["trip_time_s"]
-    before = np.arange(max(0.0, t_trip - WALK_SHOWN_S), t_trip - 1e-9, 1.0 / VIDEO_FPS)
-    walk_q = [result.playback.state_at(t)[0] for t in before]
-    qpos = np.vstack([*walk_q, rec.qpos[::step]]) if walk_q else rec.qpos[::step]
-    overlay = ([f"t = {t - t_trip:5.2f} s  walking" for t in before]
-               + [f"t = {t:5.2f} s  {st.replace('_', ' ')}"
-                  for t, st in zip(rec.time_s[::step], rec.state[::step], strict=True)])
-    render_video(out / "trip.mp4", result.body.model, qpos, VIDEO_FPS, overlay=overlay,
-                 progress=progress)
+    time_all, qpos_all = trip_motion(result)
+    step = max(1, round(1.0 / (VIDEO_FPS * float(np.mean(np.diff(time_all))))))
+    n_walk = len(time_all) - len(rec.time_s)
+    state = ["walking"] * n_walk + list(rec.state)
+    qpos = qpos_all[::step]
+    overlay = [f"t = {t:5.2f} s  {st.replace('_', ' ')}"
+               for t, st in zip(time_all[::step], state[::step], strict=True)]
+    render_video(out / "trip.mp4", result.body.model, qpos, 1.0 / (step * float(
+        np.mean(np.diff(time_all)))), overlay=overlay, progress=progress)
     written.append("trip.mp4")
     return written
 
@@ -170,7 +211,7 @@ def write_fit(out: Path, fit, video: bool = True) -> list[str]:
         "rmse_deg": step.rmse_deg, "duration_s": round(step.duration_s, 3),
         "fell": step.fell, "start": "right heel strike, subject's speed",
         "trunk_balance": True}
-    (out / "fit.json").write_text(json.dumps(fit.report, indent=1) + "\n")
+    write_json(out / "fit.json", fit.report)
     ident = fit.ident
     T = len(ident.time_s)
     pct = 100.0 * np.arange(T) / T
@@ -257,9 +298,8 @@ def write_reflex_walk(out: Path, result, video: bool, progress: bool) -> list[st
               "stride_s": None if not pb.stride_s else round(pb.stride_s, 4),
               "stance_fraction": s["stance_fraction"], "source": pb.source,
               "model": "planar", "retarget": {}}
-    (out / "events.json").write_text(json.dumps(events, indent=1, allow_nan=False) + "\n")
-    summary = {k: v for k, v in s.items() if k != "events"}
-    (out / "summary.json").write_text(json.dumps(summary, indent=1, allow_nan=False) + "\n")
+    write_json(out / "events.json", events)
+    write_json(out / "summary.json", {k: v for k, v in s.items() if k != "events"})
     rec, m = result.recording, result.body.model
     names = [f"{j}_{side}" for j in WALK_JOINTS for side in SIDES]
     angles = {n: rec.qpos[:, m.jnt_qposadr[m.joint(n).id]] for n in names}
@@ -275,7 +315,8 @@ def write_reflex_walk(out: Path, result, video: bool, progress: bool) -> list[st
              f" knee {rm.get('knee_angle', 0):.1f}° ankle {rm.get('ankle_angle', 0):.1f}°")
     plot_joint_angles(out / "joint_angles.png", pct, mean, title=title, spread_deg=sd,
                       reference_deg=ref)
-    written = ["motion.csv", "events.json", "summary.json", "joint_angles.png"]
+    written = ["motion.csv", "events.json", "summary.json", "joint_angles.png",
+               *write_motion_files(out, result.body, rec.time_s, rec.qpos, rec)]
     if video:
         from stumble.viz.render import render_video, video_available
 

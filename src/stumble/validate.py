@@ -34,13 +34,13 @@ A figure that cannot be computed yet (the reflex controller still missing, say) 
 
 from __future__ import annotations
 
-import json
 import os
 import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 from stumble import __version__
+from stumble.jsonio import dumps
 from stumble.study.grid import run_key, scenario_fields
 from stumble.trip import Scenario
 
@@ -317,7 +317,7 @@ def run_validation(out: Path, workers: int | None = None, progress: bool = True,
     }
     path = Path(out) / "validation.json"
     tmp = path.with_name(".validation.json.tmp")
-    tmp.write_text(json.dumps(report, indent=1) + "\n")
+    tmp.write_text(dumps(report, indent=1) + "\n")
     os.replace(tmp, path)
     return rows
 

@@ -19,7 +19,6 @@ except the wall times (``wall_time_s``, ``run_wall_time_s``).
 from __future__ import annotations
 
 import contextlib
-import json
 import multiprocessing
 import os
 import signal
@@ -37,6 +36,7 @@ import numpy as np
 
 from stumble import __version__
 from stumble.errors import SimulationDiverged, StumbleError
+from stumble.jsonio import dumps
 from stumble.study.grid import run_key, scenario_fields
 from stumble.study.store import Store, require_pyarrow, write_parquet
 from stumble.trip import Scenario
@@ -61,7 +61,7 @@ def _plain(v):
     if isinstance(v, np.ndarray):
         v = v.tolist()
     if isinstance(v, (list, tuple)):
-        return json.dumps(v, default=_json_default)
+        return dumps(v, default=_json_default)
     return v
 
 
@@ -488,7 +488,7 @@ def run_study(scenarios: Iterable[Scenario], out: Path, workers: int | None = No
 def _write_study_json(out: Path, unique: dict, metadata: dict | None) -> None:
     d = {"stumble_version": __version__, "runs": len(unique), **(metadata or {})}
     tmp = out / ".study.json.tmp"
-    tmp.write_text(json.dumps(d, indent=1) + "\n")
+    tmp.write_text(dumps(d, indent=1) + "\n")
     os.replace(tmp, out / "study.json")
 
 

@@ -26,6 +26,7 @@ import uuid
 from pathlib import Path
 
 from stumble.errors import StumbleError
+from stumble.jsonio import dumps
 
 PART_ROWS = 500  # rows per Parquet part (a journal is moved into a part at this size)
 
@@ -209,7 +210,7 @@ class Store:
         if self._file is None:
             self._journal = self.runs / f"journal-{uuid.uuid4().hex[:12]}.jsonl"
             self._file = open(self._journal, "a", encoding="utf-8")
-        self._file.write(json.dumps(row) + "\n")
+        self._file.write(dumps(row) + "\n")
         self._file.flush()
         self._pending.append(row)
         self._keep(row)
