@@ -48,7 +48,7 @@ ORDER = "ZXY"  # rotation channel order of every joint
 
 
 def _bvh_text(frames, root_pos=(0.0, 95.0, 0.0), scale=1.0, order=ORDER, dt=1 / 60,
-              skeleton=SKELETON, end_sites=END_SITES):
+              skeleton=SKELETON, end_sites=END_SITES, root="Hips"):
     """BVH text of ``skeleton``; ``frames`` is a list of {joint: {axis letter: degrees}}."""
     children = {}
     for name, parent, _ in skeleton:
@@ -73,7 +73,7 @@ def _bvh_text(frames, root_pos=(0.0, 95.0, 0.0), scale=1.0, order=ORDER, dt=1 / 
                           f"{pad}\t\tOFFSET {e[0]:.6f} {e[1]:.6f} {e[2]:.6f}", f"{pad}\t}}"])
         lines.append(pad + "}")
 
-    emit("Hips", 0)
+    emit(root, 0)
     lines.extend(["MOTION", f"Frames: {len(frames)}", f"Frame Time: {dt:.8f}"])
     for frame in frames:
         values = []
@@ -149,9 +149,11 @@ def _break(text, old, new, count=1):
     (GOOD.rstrip("\n").rsplit(" ", 1)[0] + "\n", "values, expected"),
     (GOOD.rstrip("\n").rsplit(" ", 1)[0] + " abc\n", "not a number"),
     (GOOD.rstrip("\n").rsplit(" ", 1)[0] + " nan\n", "not finite"),
-    (GOOD.replace("Frames: 2", "Frames: 3"), "Frames: 3"),
-    (GOOD.replace("Frame Time: 0.01666667", "Frame Time: 0"), "not positive"),
-    (GOOD.replace("Frame Time: 0.01666667", "Frame Time: -0.1"), "not positive"),
+    (GOOD.replace("Frame Time: 0.01666667", "Frame Time: 0"), "not a motion-capture rate"),
+    (GOOD.replace("Frame Time: 0.01666667", "Frame Time: -0.1"), "not a motion-capture rate"),
+    (GOOD.replace("Frame Time: 0.01666667", "Frame Time: 1e-300"), "a frame time of 1e-300 s"),
+    (GOOD.replace("Frame Time: 0.01666667", "Frame Time: 1e300"), "a frame time of 1e300 s"),
+    (GOOD.split("MOTION")[0] + "MOTION\nFrames: 2\nFrame Time: 0.01\n", "no rows of motion"),
     (GOOD.replace("CHANNELS 3 Zrotation", "CHANNELS 3 Wrotation", 1), "unknown channel"),
     (GOOD.replace("OFFSET 0.000000 -45.000000", "OFFSET zero -45.000000", 1), "not a number"),
     (GOOD.replace("JOINT RightUpLeg", "JOINT LeftUpLeg"), "appears twice"),
@@ -183,6 +185,11 @@ def test_missing_bvh_file(tmp_path):
     ("LeftToe", "toes_l"), ("LeftArm", "upper_arm_l"), ("RightUpperArm", "upper_arm_r"),
     ("LeftForeArm", "forearm_l"), ("RightHand", "hand_r"), ("LeftShoulder", None),
     ("LeftHandIndex1", None), ("Reference", None),
+    # DAZ and Poser names
+    ("lShldr", "upper_arm_l"), ("rForeArm", "forearm_r"), ("lThigh", "thigh_l"),
+    ("rShin", "shank_r"), ("hip", "pelvis"), ("abdomen", "torso"), ("lCollar", None),
+    ("LeftCollar", None), ("LeftElbow", "forearm_l"), ("RightWrist", "hand_r"),
+    ("LeftHip", "thigh_l"), ("RightKnee", "shank_r"), ("LeftAnkle", "foot_l"),
 ])
 def test_default_segment_names(name, segment):
     assert default_segment(name) == segment
@@ -478,3 +485,190 @@ def test_hinge_angles_prefers_the_solution_inside_the_ranges():
     np.testing.assert_allclose(hinge_angles(rot, axes, ranges), truth, atol=1e-9)
     plain = hinge_angles(rot, axes)  # without ranges: the smaller first and third angles
     assert np.abs(plain[0, [0, 2]]).sum() < 0.5
+
+
+def test_frame_count_that_disagrees_is_a_note(tmp_path):
+    path = tmp_path / "cut.bvh"
+    path.write_text(GOOD.replace("Frames: 2", "Frames: 207"))
+    bvh = read_bvh(path)
+    assert bvh.n_frames == 2
+    assert bvh.notes == ("cut.bvh: 'Frames: 207' but the file has 2 rows of motion; the rows "
+                         "are used",)
+
+
+def test_poser_collar_shoulder_elbow_names_map_the_arms(tmp_path):
+    # Poser / 3ds Max CMU: LeftCollar (clavicle), LeftShoulder (upper arm), LeftElbow, ...
+    rename = {"LeftShoulder": "LeftCollar", "LeftArm": "LeftShoulder",
+              "LeftForeArm": "LeftElbow", "LeftHand": "LeftWrist",
+              "RightShoulder": "RightCollar", "RightArm": "RightShoulder",
+              "RightForeArm": "RightElbow", "RightHand": "RightWrist"}
+    skeleton = [(rename.get(n, n), rename.get(p, p), o) for n, p, o in SKELETON]
+    ends = {rename.get(k, k): v for k, v in END_SITES.items()}
+    m = _retarget(tmp_path, [{"LeftShoulder": {"Z": 20.0}, "RightShoulder": {"Z": -20.0}}],
+                  skeleton=skeleton, end_sites=ends)
+    for s in "rl":
+        assert _deg(m, f"shoulder_adduction_{s}") == pytest.approx(-110.0, abs=1e-6)
+
+
+def test_a_bvh_whose_joints_map_to_nothing_is_an_error(tmp_path):
+    names = {n: f"Bone{i}" for i, (n, _, _) in enumerate(SKELETON)}
+    skeleton = [(names[n], names.get(p), o) for n, p, o in SKELETON]
+    ends = {names[k]: v for k, v in END_SITES.items()}
+    path = tmp_path / "bones.bvh"
+    frames = [{"root_pos": (0.0, 95.0, 0.0)}, {"root_pos": (0.0, 95.0, 1.0)}]
+    text = _bvh_text(frames, skeleton=[(n, p, o) for n, p, o in skeleton], end_sites=ends,
+                     root="Bone0")
+    path.write_text(text)
+    with pytest.raises(InputError) as info:
+        bvh_to_coordinates(read_bvh(path))
+    assert str(info.value).startswith("bones.bvh: no joint maps to a leg (joints: Bone0, Bone1, "
+                                      "Bone2, Bone3, Bone4 and 16 more)")
+
+
+# ----------------------------------------------------- axes, walking direction, rest pose
+
+
+def _walk_frames(n=48, dt=1 / 30, heading_deg=0.0, speed_cm_s=120.0):
+    """A stylised walk (hips, knees, ankles, a pelvis sway), facing and moving along the
+    BVH direction rotated ``heading_deg`` about Y from +Z."""
+    turn = Rotation.from_euler("Y", heading_deg, degrees=True)
+    frames = []
+    for k in range(n):
+        t = k * dt
+        ph = 2 * np.pi * t / 1.1
+        d = speed_cm_s * t
+        hips = turn * Rotation.from_euler("ZXY", [0.0, 3.0 + 2.0 * np.sin(2 * ph),
+                                                  4.0 * np.sin(ph)], degrees=True)
+        z, x, y = hips.as_euler("ZXY", degrees=True)
+        frames.append({
+            "root_pos": tuple(turn.apply([0.0, 95.0 + 1.5 * np.cos(2 * ph), d])),
+            "Hips": {"Z": z, "X": x, "Y": y},
+            "LeftUpLeg": {"X": -22.0 * np.sin(ph) - 5.0, "Z": 3.0 * np.cos(ph)},
+            "RightUpLeg": {"X": 22.0 * np.sin(ph) - 5.0, "Z": -3.0 * np.cos(ph)},
+            "LeftLeg": {"X": 30.0 + 28.0 * np.sin(ph + 2.0)},
+            "RightLeg": {"X": 30.0 + 28.0 * np.sin(ph + 2.0 + np.pi)},
+            "LeftFoot": {"X": -8.0 * np.sin(ph + 1.0)},
+            "RightFoot": {"X": 8.0 * np.sin(ph + 1.0)},
+            "Spine": {"X": 4.0 + 2.0 * np.sin(2 * ph)},
+        })
+    return frames
+
+
+LEG_NAMES = [f"{j}_{s}" for j in ("hip_flexion", "hip_adduction", "knee_angle", "ankle_angle")
+             for s in "rl"]
+
+
+def test_a_walk_along_minus_x_reads_as_a_heading_of_the_pelvis(tmp_path):
+    ahead = _retarget(tmp_path, _walk_frames(), name="z.bvh")
+    sideways = _retarget(tmp_path, _walk_frames(heading_deg=-90.0), name="minus_x.bvh")
+    assert sideways.notes == ()  # the skeleton faces +z at rest: the usual axes
+    for name in [*LEG_NAMES, "pelvis_ty"]:
+        np.testing.assert_allclose(sideways.columns[name], ahead.columns[name], atol=1e-9,
+                                   err_msg=name)
+    # the pelvis is the same but for a heading of -90 deg about the vertical
+    from stumble.gait.files import _pelvis_rotation
+
+    r_side = _pelvis_rotation(sideways.columns, 48)
+    r_ahead = _pelvis_rotation(ahead.columns, 48)
+    np.testing.assert_allclose(r_side, rotation_matrix((0.0, 0.0, 1.0), -np.pi / 2) @ r_ahead,
+                               atol=1e-9)
+    # 1.2 m/s for 47/30 s: forward in one file, to the right (OpenSim +z) in the other
+    assert ahead.columns["pelvis_tx"][-1] == pytest.approx(1.88, abs=0.01)
+    assert sideways.columns["pelvis_tz"][-1] == pytest.approx(1.88, abs=0.01)
+
+
+def test_z_up_files_are_detected(tmp_path):
+    m_ = np.array([[-1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
+    skeleton = [(n, p, tuple(m_ @ o)) for n, p, o in SKELETON]
+    end_sites = {k: tuple(m_ @ v) for k, v in END_SITES.items()}
+    frames = []
+    for f in _walk_frames(12):
+        g = {"root_pos": tuple(m_ @ f["root_pos"])}
+        for j, ang in f.items():
+            if j != "root_pos":
+                g[j] = {"X": -ang.get("X", 0.0), "Z": ang.get("Y", 0.0), "Y": ang.get("Z", 0.0)}
+        frames.append(g)
+    ref = _retarget(tmp_path, _walk_frames(12))
+    zup = _retarget(tmp_path, frames, name="zup.bvh", order="YXZ", skeleton=skeleton,
+                    end_sites=end_sites)
+    assert zup.notes == ("zup.bvh: axes read from the skeleton: z up, y forward",)
+    for name in LEG_NAMES:
+        np.testing.assert_allclose(zup.columns[name], ref.columns[name], atol=1e-9)
+    explicit = _retarget(tmp_path, frames, name="zup.bvh", order="YXZ", skeleton=skeleton,
+                         end_sites=end_sites, up="z", forward="y")
+    assert explicit.notes == ()
+
+
+def _reoriented_bvh(path, frames, skeleton, end_sites):
+    """The motion of ``frames`` written with every joint frame turned so that its first
+    child's OFFSET lies along +x: the layout of Bandai-Namco's skeleton, whose zero pose
+    (all channels 0) is no upright pose."""
+    upright = path.with_name("upright.bvh")
+    upright.write_text(_bvh_text(frames, skeleton=skeleton, end_sites=end_sites))
+    bvh = read_bvh(upright)
+    rot, pos = joint_world_frames(bvh)
+    q = []
+    for k, j in enumerate(bvh.joints):
+        kids = [c for c in bvh.joints if c.parent == k]
+        ref = kids[-1].offset if kids else (j.end_sites[0] if j.end_sites else np.array([1.0,
+                                                                                         0, 0]))
+        if j.name == "Hips":
+            ref = bvh.joints[bvh.index("Spine")].offset
+        x = ref / np.linalg.norm(ref)
+        a = np.cross(x, [0.3, 0.5, 0.8])
+        a /= np.linalg.norm(a)
+        q.append(np.column_stack([x, a, np.cross(x, a)]))  # q @ [1, 0, 0] = x
+    lines = ["HIERARCHY"]
+    children = {}
+    for k, j in enumerate(bvh.joints):
+        children.setdefault(j.parent, []).append(k)
+
+    def emit(k, depth):
+        j = bvh.joints[k]
+        pad = "  " * depth
+        off = j.offset if j.parent < 0 else q[j.parent].T @ j.offset
+        lines.append(f"{pad}{'ROOT' if j.parent < 0 else 'JOINT'} {j.name}")
+        lines.append(pad + "{")
+        lines.append(f"{pad}  OFFSET {off[0]:.9f} {off[1]:.9f} {off[2]:.9f}")
+        pos_ch = "Xposition Yposition Zposition " if j.parent < 0 else ""
+        lines.append(f"{pad}  CHANNELS {6 if j.parent < 0 else 3} {pos_ch}Zrotation "
+                     "Xrotation Yrotation")
+        for c in children.get(k, []):
+            emit(c, depth + 1)
+        for e in j.end_sites:
+            e2 = q[k].T @ e
+            lines.extend([f"{pad}  End Site", f"{pad}  {{",
+                          f"{pad}    OFFSET {e2[0]:.9f} {e2[1]:.9f} {e2[2]:.9f}", f"{pad}  }}"])
+        lines.append(pad + "}")
+
+    emit(0, 0)
+    lines += ["MOTION", f"Frames: {bvh.n_frames}", f"Frame Time: {bvh.frame_time_s:.8f}"]
+    for f in range(bvh.n_frames):
+        vals = list(pos[f, 0])
+        for k, j in enumerate(bvh.joints):
+            world = rot[f, k] @ q[k]
+            local = world if j.parent < 0 else (rot[f, j.parent] @ q[j.parent]).T @ world
+            vals += list(Rotation.from_matrix(local).as_euler("ZXY", degrees=True))
+        lines.append(" ".join(f"{v:.9f}" for v in vals))
+    path.write_text("\n".join(lines) + "\n")
+    return upright
+
+
+def test_a_rest_pose_that_is_not_upright_reads_through_the_motion(tmp_path):
+    # a skeleton whose foot bone slopes as ours (FOOT_BONE_SLOPE_DEG), so both readings
+    # agree on the neutral ankle
+    from stumble.gait.bvh import FOOT_BONE_SLOPE_DEG
+
+    drop = 14.0 * np.tan(np.radians(FOOT_BONE_SLOPE_DEG))
+    skeleton = [(n, p, (0.0, -drop, 14.0) if n.endswith("ToeBase") else o)
+                for n, p, o in SKELETON]
+    frames = _walk_frames(40)
+    bandai = tmp_path / "bandai.bvh"
+    upright = _reoriented_bvh(bandai, frames, skeleton, END_SITES)
+    ref = bvh_to_coordinates(read_bvh(upright))
+    got = bvh_to_coordinates(read_bvh(bandai))
+    assert any("the rest pose is not upright" in n for n in got.notes)
+    for name in [*LEG_NAMES, "pelvis_tilt", "pelvis_list", "pelvis_rotation",
+                 "lumbar_extension"]:
+        np.testing.assert_allclose(np.degrees(got.columns[name]),
+                                   np.degrees(ref.columns[name]), atol=0.05, err_msg=name)

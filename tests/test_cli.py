@@ -46,11 +46,16 @@ def test_model_json_scales_with_mass_height_and_sex(capsys):
     assert d["height_m"] == 1.9 and d["sex"] == "female"
 
 
+def _strict_json(path):
+    return json.loads(path.read_text(), parse_constant=lambda c: pytest.fail(f"{path}: {c}"))
+
+
 def test_walk_writes_the_named_files(tmp_path, capsys):
     out = tmp_path / "walk"
     assert main(["walk", "--out", str(out), "--no-video", "--duration", "3"]) == 0
-    for name in ("motion.csv", "events.json", "joint_angles.png"):
+    for name in ("motion.csv", "motion.mot", "motion.bvh", "events.json", "joint_angles.png"):
         assert (out / name).stat().st_size > 0
+    assert (out / "motion.mot").read_text().startswith("stumble motion (gait2392 coordinates)")
     with (out / "motion.csv").open() as f:
         rows = list(csv.reader(f))
     header = rows[0]
@@ -60,7 +65,8 @@ def test_walk_writes_the_named_files(tmp_path, capsys):
     assert data[-1, 0] == pytest.approx(3.0)
     knee = data[:, header.index("knee_angle_r_deg")]
     assert knee.min() < -60 and knee.max() < 5  # degrees at the edge
-    ev = json.loads((out / "events.json").read_text())
+    ev = _strict_json(out / "events.json")
+    assert ev["notes"] == []
     for side in ("r", "l"):
         assert ev[side]["toe_off_s"] and ev[side]["heel_strike_s"]
     assert ev["speed_m_per_s"] == pytest.approx(1.10, abs=0.03)
@@ -82,9 +88,72 @@ def test_walk_plays_the_subject01_mot_without_options(tmp_path):
     mot = REFERENCE / "walking" / "subject01_walk1_ik.mot"
     r = run("walk", "--out", str(tmp_path), "--gait", str(mot), "--no-video")
     assert r.returncode == 0, r.stderr
-    ev = json.loads((tmp_path / "events.json").read_text())
+    ev = _strict_json(tmp_path / "events.json")  # 1.2 s, less than two strides: no NaN
     assert ev["source"] == "file: subject01_walk1_ik.mot"
     assert len(ev["r"]["toe_off_s"]) + len(ev["l"]["toe_off_s"]) >= 1
+    assert ev["stride_s"] == pytest.approx(1.23, abs=0.03)
+    assert 0.55 < ev["stance_fraction"] < 0.7
+    assert ev["notes"][0].startswith("subject01_walk1_ik.mot: no complete stride of one foot")
+    assert r.stderr.startswith("stumble: note: subject01_walk1_ik.mot: no complete stride")
+    # .mot -> stumble -> .mot: every coordinate within 0.01 deg with --as-recorded
+    out = tmp_path / "exact"
+    r = run("walk", "--out", str(out), "--gait", str(mot), "--no-video", "--as-recorded")
+    assert r.returncode == 0, r.stderr
+    assert _max_angle_change(mot, out / "motion.mot") < 0.01
+
+
+def _max_angle_change(before, after) -> float:
+    """Largest difference (deg) of any rotational coordinate of ``before`` in ``after``."""
+    from stumble.gait.readers import read_mot
+
+    a, b = read_mot(before), read_mot(after)
+    np.testing.assert_allclose(b.time_s, a.time_s - a.time_s[0], atol=1e-9)
+    worst = 0.0
+    for k, v in a.columns.items():
+        if k.startswith("pelvis_t") and k != "pelvis_tilt":
+            continue  # translations: placed by stumble on its own body
+        worst = max(worst, float(np.degrees(np.abs(b.columns[k] - v).max())))
+    return worst
+
+
+def test_mot_round_trip_keeps_every_coordinate(tmp_path):
+    from stumble.gait.readers import write_storage
+    from stumble.gait.reference import load_reference
+    from stumble.gait.writers import GAIT2392_COORDINATES
+
+    gait = load_reference()
+    t = np.arange(0.0, 2.5, 1 / 60)
+    cols = gait.angles(t / gait.stride_s + 0.3)
+    cols.update({"pelvis_list": np.radians(3.0) * np.sin(t), "pelvis_rotation":
+                 np.radians(5.0) * np.cos(t), "pelvis_tx": 1.1 * t, "pelvis_ty": 0.95 + 0 * t,
+                 "pelvis_tz": 0 * t, "subtalar_angle_r": np.radians(4.0) * np.sin(3 * t),
+                 "mtp_angle_l": np.radians(10.0) * np.sin(2 * t)})
+    cols = {k: cols.get(k, 0 * t) for k in GAIT2392_COORDINATES}
+    src = tmp_path / "in.mot"
+    write_storage(src, t, cols)
+    out = tmp_path / "o"
+    assert main(["walk", "--gait", str(src), "--as-recorded", "--no-video", "--out",
+                 str(out)]) == 0
+    assert _max_angle_change(src, out / "motion.mot") < 0.01
+
+
+def test_bvh_round_trip_keeps_the_legs(tmp_path):
+    from test_bvh import _bvh_text, _walk_frames
+
+    from stumble.gait.bvh import bvh_to_coordinates, read_bvh
+
+    src = tmp_path / "in.bvh"
+    src.write_text(_bvh_text(_walk_frames(n=100), dt=1 / 30))
+    out = tmp_path / "o"
+    assert main(["walk", "--gait", str(src), "--as-recorded", "--no-video", "--out",
+                 str(out)]) == 0
+    a = bvh_to_coordinates(read_bvh(src))
+    b = bvh_to_coordinates(read_bvh(out / "motion.bvh"))
+    for side in "rl":
+        for j in ("hip_flexion", "hip_adduction", "hip_rotation", "knee_angle",
+                  "ankle_angle"):
+            k = f"{j}_{side}"
+            assert np.degrees(np.abs(b.columns[k] - a.columns[k]).max()) < 0.5, k
 
 
 def _one_line_error(r: subprocess.CompletedProcess, *words: str) -> None:
@@ -108,16 +177,45 @@ def test_bad_input_is_one_line_and_non_zero(tmp_path, args, words):
     _one_line_error(run(*args), *words)
 
 
+def test_pipes_devices_and_absurd_files_are_one_line_errors(tmp_path):
+    import os
+
+    fifo = tmp_path / "pipe.mot"
+    os.mkfifo(fifo)
+    _one_line_error(run("walk", "--out", str(tmp_path / "o"), "--gait", str(fifo)),
+                    "pipe.mot: not a regular file")
+    if Path("/dev/zero").exists():
+        _one_line_error(run("walk", "--out", str(tmp_path / "o"), "--gait", "/dev/zero"),
+                        "zero: not a regular file")
+    one = tmp_path / "one.mot"
+    one.write_text("Coordinates\nendheader\ntime\tknee_angle_r\n0\t-10\n")
+    _one_line_error(run("walk", "--out", str(tmp_path / "o"), "--gait", str(one)),
+                    "one.mot: 1 data row(s); at least 2 are needed")
+    from test_bvh import _bvh_text
+
+    frame = tmp_path / "frame.bvh"
+    frame.write_text(_bvh_text([{}]))
+    _one_line_error(run("walk", "--out", str(tmp_path / "o"), "--gait", str(frame)),
+                    "frame.bvh: 1 sample(s)")
+    ms = tmp_path / "ms.mot"
+    rows = "".join(f"{k * 100}\t{-30 - 20 * np.sin(k / 2):.2f}\n"  # 10 Hz, time in ms
+                   for k in range(30001))
+    ms.write_text("Coordinates\nendheader\ntime\tknee_angle_r\n" + rows)
+    r = run("walk", "--out", str(tmp_path / "o"), "--gait", str(ms), "--no-video")
+    _one_line_error(r, "ms.mot: lasts 3000 s; stumble plays at most 600 s")
+    assert not (tmp_path / "o").exists()
+
+
 def test_corrupt_and_unknown_files_are_one_line_errors(tmp_path):
     bad = tmp_path / "corrupt.mot"
     bad.write_text("Coordinates\nversion=1\nendheader\ntime\tknee_angle_r\n0.0\tabc\n")
     _one_line_error(run("walk", "--out", str(tmp_path / "o"), "--gait", str(bad)),
                     "corrupt.mot")
-    unknown = tmp_path / "unknown.mot"
-    unknown.write_text("Coordinates\nversion=1\ninDegrees=yes\nendheader\n"
-                       "time\tknee_angle_r\twing_flap\n0.0\t-10\t3\n0.01\t-11\t4\n")
-    _one_line_error(run("walk", "--out", str(tmp_path / "o"), "--gait", str(unknown)),
-                    "wing_flap")
+    arms = tmp_path / "arms.mot"
+    arms.write_text("Coordinates\nversion=1\ninDegrees=yes\nendheader\n"
+                    "time\tr_shoulder_elev\twing_flap\n0.0\t-10\t3\n0.01\t-11\t4\n")
+    _one_line_error(run("walk", "--out", str(tmp_path / "o"), "--gait", str(arms)),
+                    "arms.mot: no hip, knee or ankle coordinate", "wing_flap")
     _one_line_error(run("walk", "--out", str(tmp_path / "o"), "--gait", str(bad),
                         "--speed", "1.0"), "--speed")
 

@@ -1,39 +1,169 @@
-"""Output directories and strict JSON (stumble.files)."""
-
-import json
-import math
-import os
-from pathlib import Path
+"""Motion files in (stumble.gait.files): reading any format, time spans, turning walks onto
++x, short files, and the alignment of a recorded trip."""
 
 import numpy as np
 import pytest
 
+from stumble.body import build
+from stumble.body.joints import PELVIS_ROTATIONS, rotation_matrix
 from stumble.errors import InputError
-from stumble.files import finite_or_none, output_dir, write_json
+from stumble.gait.bvh import hinge_angles
+from stumble.gait.files import (
+    MAX_PLAY_S,
+    _pelvis_rotation,
+    align_reference,
+    play_motion,
+    read_motion,
+    straighten,
+)
+from stumble.gait.readers import Motion, write_storage
+from stumble.gait.reference import load_reference
+from stumble.trip import Scenario
+
+GAIT = load_reference()
+SPEED = GAIT.speed_m_per_s
 
 
-def test_json_written_is_strict(tmp_path):
-    value = {"a": math.nan, "b": [1.0, math.inf, {"c": -math.inf}], "d": np.float64("nan"),
-             "e": np.float32(2.5), "f": "text", "g": None, "h": 3}
-    write_json(tmp_path / "x.json", value)
-    text = (tmp_path / "x.json").read_text()
-    assert "NaN" not in text and "Infinity" not in text
-    assert json.loads(text) == {"a": None, "b": [1.0, None, {"c": None}], "d": None,
-                                "e": 2.5, "f": "text", "g": None, "h": 3}
-    assert finite_or_none((1.0, math.nan)) == [1.0, None]
+@pytest.fixture(scope="module")
+def body3d():
+    return build()
 
 
-def test_output_dir_made_checked_and_refused(tmp_path):
-    out = output_dir(tmp_path / "a" / "b")
-    assert out.is_dir() and list(out.iterdir()) == []  # the probe file is gone
-    (tmp_path / "f").write_text("")
-    with pytest.raises(InputError, match="a file of that name exists"):
-        output_dir(tmp_path / "f")
-    with pytest.raises(InputError, match="cannot create output directory"):
-        output_dir(tmp_path / "f" / "x")
-    ro = Path("/proc") if os.geteuid() == 0 else tmp_path / "ro"
-    if ro != Path("/proc"):
-        ro.mkdir()
-        ro.chmod(0o555)
-    with pytest.raises(InputError, match=f"output directory {ro} is not writable"):
-        output_dir(ro)
+def _gait_columns(t, heading_rad=None, speed=SPEED):
+    """The embedded gait at the times ``t`` as OpenSim coordinates (rad, m), walking along
+    ``heading_rad(t)`` (default +x) at ``speed``."""
+    cols = GAIT.angles(t / GAIT.stride_s)
+    heading = np.zeros_like(t) if heading_rad is None else heading_rad(t)
+    if heading_rad is not None:  # the pelvis turned by a world yaw
+        rot = rotation_matrix((0.0, 0.0, 1.0), heading) @ _pelvis_rotation(cols, len(t))
+        angles = hinge_angles(rot, [h.axis for h in PELVIS_ROTATIONS],
+                              [tuple(np.radians(h.range_deg)) for h in PELVIS_ROTATIONS])
+        for i, h in enumerate(PELVIS_ROTATIONS):
+            cols[h.name] = np.unwrap(angles[:, i])
+    steps = np.diff(t, prepend=t[0])
+    cols["pelvis_tx"] = np.cumsum(speed * np.cos(heading) * steps)
+    cols["pelvis_tz"] = -np.cumsum(speed * np.sin(heading) * steps)  # OpenSim z: right
+    cols["pelvis_ty"] = 0.95 + 0.0 * t
+    return cols
+
+
+def _mot(tmp_path, t, cols, name="gait.mot"):
+    path = tmp_path / name
+    write_storage(path, t, cols)
+    return path
+
+
+def test_read_motion_maps_each_format_and_refuses_others(tmp_path):
+    t = np.arange(0.0, 1.0, 0.01)
+    path = _mot(tmp_path, t, _gait_columns(t))
+    motion = read_motion(path)
+    assert {"hip_flexion_r", "knee_angle_l", "pelvis_tilt"} <= set(motion.columns)
+    planar = read_motion(path, planar=True)
+    assert "hip_adduction_r" not in planar.columns and "knee_angle_r" in planar.columns
+    other = tmp_path / "gait.trc"
+    other.write_text("x")
+    with pytest.raises(InputError, match=r"^gait\.trc: unknown motion format '\.trc'"):
+        read_motion(other)
+
+
+def test_a_walk_along_minus_x_plays_as_the_walk_along_plus_x(tmp_path, body3d):
+    t = np.arange(0.0, 3.0, 0.01)
+    ahead = read_motion(_mot(tmp_path, t, _gait_columns(t), "ahead.mot"))
+    back = read_motion(_mot(tmp_path, t, _gait_columns(t, lambda t: np.pi + 0 * t), "back.mot"))
+    straight = straighten(back)
+    assert straight.notes[-1] == ("back.mot: walks along a heading of 180 deg, turning 0 deg "
+                                  "in all; played along +x (speed and events along the "
+                                  "walking direction)")
+    for k in ("pelvis_tilt", "pelvis_list", "pelvis_rotation"):
+        np.testing.assert_allclose(straight.columns[k], ahead.columns[k], atol=1e-6)
+    assert straighten(ahead) is ahead  # already along +x: untouched
+    pa, pb = play_motion(body3d, ahead), play_motion(body3d, back)
+    assert pb.speed_m_per_s == pytest.approx(pa.speed_m_per_s, rel=1e-3)
+    for side in "rl":
+        np.testing.assert_allclose(pb.events.heel_strike_s[side], pa.events.heel_strike_s[side],
+                                   atol=0.011)
+
+
+def test_a_turning_walk_is_played_along_its_path(tmp_path, body3d):
+    t = np.arange(0.0, 4.0, 0.01)
+    path = _mot(tmp_path, t, _gait_columns(t, lambda t: np.radians(22.5) * t), "turn.mot")
+    pb = play_motion(body3d, read_motion(path))
+    import re
+
+    assert re.match(r"turn\.mot: walks along a heading of [0-5] deg, turning 8\d deg in all",
+                    pb.notes[0]), pb.notes[0]
+    straight = play_motion(body3d, read_motion(_mot(tmp_path, t, _gait_columns(t), "s.mot")))
+    assert pb.speed_m_per_s == pytest.approx(straight.speed_m_per_s, rel=0.03)
+    assert len(pb.events.heel_strike_s["r"]) == len(straight.events.heel_strike_s["r"])
+
+
+def test_a_file_of_one_stride_plays_on_its_steps_and_less_is_an_error(tmp_path, body3d):
+    t = np.arange(0.0, 1.2, 1 / 60)  # about subject01_walk1_ik.mot: 1.2 s at 60 Hz
+    pb = play_motion(body3d, read_motion(_mot(tmp_path, t, _gait_columns(t))))
+    assert np.isfinite(pb.stride_s) and pb.stride_s == pytest.approx(GAIT.stride_s, rel=0.05)
+    assert any("no complete stride of one foot; stride" in n and "twice the step" in n
+               for n in pb.notes)
+    short = np.arange(0.0, 0.5, 1 / 60)
+    with pytest.raises(InputError, match=r"^gait\.mot: 0\.48 s is less than one stride"):
+        play_motion(body3d, read_motion(_mot(tmp_path, short, _gait_columns(short))))
+
+
+def test_as_recorded_keeps_the_file_angles_and_times(tmp_path, body3d):
+    t = np.arange(0.0, 1.5, 1 / 60)
+    motion = read_motion(_mot(tmp_path, t, _gait_columns(t)))
+    pb = play_motion(body3d, motion, as_recorded=True)
+    np.testing.assert_allclose(pb.time_s, t)
+    for k in ("hip_flexion_r", "knee_angle_l", "ankle_angle_r"):
+        np.testing.assert_array_equal(pb.coordinates[k], motion.columns[k])
+    planted = play_motion(body3d, motion)
+    assert len(planted.time_s) == 297  # resampled at 200 Hz: 0 to 1.48 s
+    assert planted.retarget["joint_correction_max_deg"] > 0.1
+
+
+def test_time_spans_are_checked(tmp_path, body3d):
+    t = np.arange(0.0, 2.0, 0.01)
+    motion = read_motion(_mot(tmp_path, t, _gait_columns(t)))
+    with pytest.raises(InputError, match=r"--duration 5\.0 s is longer than gait\.mot"):
+        play_motion(body3d, motion, duration_s=5.0)
+    long = Motion(np.arange(0.0, 700.0, 0.5), {k: np.zeros(1400) for k in ("knee_angle_r",)},
+                  True, "long.mot")
+    with pytest.raises(InputError, match=rf"^long\.mot: lasts 699\.5 s; stumble plays at most "
+                                         rf"{MAX_PLAY_S:g} s"):
+        play_motion(body3d, long)
+    one = Motion(np.array([0.0, 1e-3]), {"knee_angle_r": np.zeros(2)}, True, "one.bvh")
+    with pytest.raises(InputError, match=r"^one\.bvh: 1 sample\(s\) in 0\.001 s; playing needs "
+                                         r"at least 2"):
+        play_motion(body3d, one)
+
+
+# ------------------------------------------------------------------- trip reference
+
+
+def test_a_reference_is_aligned_by_the_swing_fraction_or_by_its_time(tmp_path):
+    t = np.arange(0.0, 3.0, 0.01)
+    motion = read_motion(_mot(tmp_path, t, _gait_columns(t)))
+    sc = Scenario(swing_fraction=0.4, leg="left")
+    by_time = align_reference(motion, sc, how="time")
+    np.testing.assert_allclose(by_time.time_s, t)
+    assert set(by_time.columns) == {"pelvis_tilt", "hip_flexion_r", "hip_flexion_l",
+                                    "knee_angle_r", "knee_angle_l", "ankle_angle_r",
+                                    "ankle_angle_l"}
+    by_swing = align_reference(motion, sc)
+    shift = t[0] - by_swing.time_s[0]
+    note = by_swing.notes[-1]
+    to, hs = (float(x) for x in note.split("swing from ")[1].rstrip(" s)").split(" to "))
+    assert shift == pytest.approx(to + 0.4 * (hs - to), abs=1e-3)
+    assert 0.3 < hs - to < 0.6  # a swing: about 37 % of the 1.2 s stride
+
+
+def test_a_reference_without_usable_columns_or_overlap_is_an_error(tmp_path):
+    sc = Scenario()
+    arms = Motion(np.array([0.0, 1.0]), {"hip_adduction_r": np.zeros(2)}, True, "arms.mot")
+    with pytest.raises(InputError, match=r"^arms\.mot: none of the joint pitches of SCA 2009 "
+                                         r"Table 2"):
+        align_reference(arms, sc, how="time")
+    before = Motion(np.array([-2.0, -1.0]), {"knee_angle_r": np.zeros(2)}, True, "early.mot")
+    with pytest.raises(InputError, match=r"^early\.mot: its time \(-2\.00 to -1\.00 s from its "
+                                         r"trip\) does not overlap the simulated trip "
+                                         r"\(0 to 3 s\)"):
+        align_reference(before, sc, how="time")

@@ -69,6 +69,47 @@ def test_cli_trip_writes_the_named_files(tmp_path, capsys):
                 "foot_l_on_floor", "trip_force_x_n"):
         assert col in header
     assert (out / "trajectories.png").stat().st_size > 10_000
+    # OpenSim and BVH: 1 s of walk, then the trip (time 0), at the recording's 200 Hz
+    from stumble.gait.bvh import read_bvh
+    from stumble.gait.readers import read_mot
+
+    mot = read_mot(out / "motion.mot")
+    n_rec = len((out / "timeseries.csv").read_text().splitlines()) - 1
+    assert mot.n_frames == n_rec + 200 and mot.time_s[200] == pytest.approx(0.0)
+    assert mot.time_s[0] == pytest.approx(-1.0)
+    assert read_bvh(out / "motion.bvh").n_frames == mot.n_frames
+    # the trip's own motion.mot as its reference (OpenSim path names, time 0 the trip):
+    # the joint pitches agree with themselves
+    text = (out / "motion.mot").read_text()
+    for n in ("hip_flexion_l", "knee_angle_l", "ankle_angle_r"):
+        text = text.replace(f"\t{n}\t", f"\t/jointset/x/{n}/value\t")
+    (tmp_path / "ref.mot").write_text(text)
+    again = tmp_path / "again"
+    assert main(["trip", "--swing", "0.2", "--out", str(again), "--no-video", "--duration",
+                 "0.8", "--reference", str(tmp_path / "ref.mot"), "--reference-align",
+                 "time"]) == 0
+    rmse = json.loads((again / "summary.json").read_text())["rmse_deg"]
+    assert set(rmse) >= {"lead_hip", "lead_knee", "trail_ankle"}
+    assert max(rmse.values()) < 0.05
+
+
+def test_cli_trip_reference_errors_are_one_line(tmp_path, capsys):
+    ref = tmp_path / "arms.mot"
+    ref.write_text("r\nendheader\ntime\tshoulder_flexion_r\thip_adduction_r\n0\t1\t2\n"
+                   "0.01\t1\t2\n")
+    argv = ["trip", "--out", str(tmp_path / "o"), "--reference-align", "time", "--reference"]
+    assert main([*argv, str(ref)]) == 2
+    err = capsys.readouterr().err
+    assert err == ("stumble: arms.mot: none of the joint pitches of SCA 2009 Table 2 "
+                   "(pelvis_tilt, hip_flexion_r, hip_flexion_l, knee_angle_r, ...) to compare "
+                   "with\n")
+    late = tmp_path / "late.mot"
+    late.write_text("r\nendheader\ntime\tknee_angle_l\n10\t-5\n10.01\t-6\n")
+    assert main([*argv, str(late)]) == 2
+    assert capsys.readouterr().err == (
+        "stumble: late.mot: its time (10.00 to 10.01 s from its trip) does not overlap the "
+        "simulated trip (0 to 3 s)\n")
+    assert not (tmp_path / "o").exists()  # refused before anything ran
 
 
 def test_cli_trip_bad_input_is_one_line(tmp_path, capsys):

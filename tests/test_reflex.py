@@ -56,8 +56,24 @@ def test_nerve_delays_follow_table_one():
     assert d[("SOL", "S1", "SOL")] == pytest.approx(1.28 / 57.6 + 1.28 / 52.4)
     assert d[("RF", "L2", "VAS")] == pytest.approx(0.57 / 57.6 + 0.68 / 52.4)
     assert ("HAMS", "L2", "RF") not in d  # no HAMS fibre in L2 (Table I: —)
-    assert len(t.connections()) == sum(len(v) for v in NERVE_LENGTH_M.values()) == 19
+    seven = [v for k, v in NERVE_LENGTH_M.items() if k != "HFL"]
+    assert len(t.connections()) == sum(len(v) for v in seven) == 19
     assert len(t.inputs()) == 3 * 19
+    assert t.segments == ("L2", "L3", "L4", "L5", "S1", "S2")
+
+
+def test_the_iliopsoas_enters_the_network_through_l1_to_l3():
+    """HFL (optional) is bound to L1-L3 by its documented nerve lengths; L1 joins the
+    segments only with it."""
+    from stumble.body.muscles import MUSCLE_SETS
+
+    t = Topology(muscles=MUSCLE_SETS["hfl"])
+    assert t.segments == ("L1", "L2", "L3", "L4", "L5", "S1", "S2")
+    assert len(t.connections()) == 19 + 3 and len(t.inputs()) == 3 * 22
+    d = t.path_delays_s()
+    assert d[("HFL", "L2", "HFL")] == pytest.approx(0.24 / 57.6 + 0.24 / 52.4)
+    assert d[("RF", "L3", "HFL")] == pytest.approx(0.55 / 57.6 + 0.22 / 52.4)
+    assert ("HAMS", "L5", "HFL") not in d
 
 
 def test_contact_afferent_nerves_are_soleus_plus_seven_cm():
@@ -166,15 +182,27 @@ def _bad(tmp_path, name, make) -> Path:
 
 
 def test_the_shipped_layout_is_accepted_and_checked_against_its_own_muscles(tmp_path):
+    from stumble.body.muscles import MUSCLE_SETS
+
     net = Network.load(write_network(tmp_path / "same.npz"))
     assert net.w.shape == (57, 36) and net.walk_rates.shape[0] == 2
-    # six muscles (no SOL): a consistent file of another layout, refused by the model
+    # eight muscles (with HFL, bound to L1-L3): checked as the layout its file says
+    t = Topology(muscles=MUSCLE_SETS["hfl"])
+    eight = Network.initial(t, np.zeros(t.n_signals), np.ones(t.n_signals), seed=0)
+    eight.save(tmp_path / "eight.npz")
+    back = Network.load(tmp_path / "eight.npz")
+    assert back.muscle_set == "hfl" and back.w.shape == eight.w.shape != net.w.shape
+    with pytest.raises(InputError, match=r"eight\.npz: a network of the muscles HAMS, GLU, TA, "
+                       "GAS, RF, VAS, SOL, HFL; this model has HAMS, GLU, TA, GAS, RF, VAS, "
+                       "SOL$"):
+        Network.load(tmp_path / "eight.npz", muscles=MUSCLE_SETS["seed"])
+    # six muscles (no SOL): a consistent file, but no muscle set of the body
     six = tuple(m for m in MUSCLE_NAMES if m != "SOL")
     t = Topology(muscles=six)
     other = Network.initial(t, np.zeros(t.n_signals), np.ones(t.n_signals), seed=0)
     other.save(tmp_path / "six.npz")
     with pytest.raises(InputError, match="a network of the muscles HAMS, GLU, TA, GAS, RF, "
-                       "VAS; this model has HAMS, GLU, TA, GAS, RF, VAS, SOL"):
+                       "VAS, not a muscle set of the body"):
         Network.load(tmp_path / "six.npz")
 
 
@@ -205,9 +233,9 @@ BAD_NETWORKS = {
                                   "c has type <U1, not a number"),
     "an unknown muscle": (lambda p: write_network(p, muscles=np.array([*MUSCLE_NAMES[:6], "XYZ"])),
                           "each must be one of"),
-    "eight muscles, HFL without nerves in Table I": (
+    "eight muscles over a seven-muscle layout": (
         lambda p: write_network(p, muscles=np.array([*MUSCLE_NAMES, "HFL"])),
-        "muscles HAMS, GLU, TA, GAS, RF, VAS, SOL, HFL: each must be one of"),
+        "segments are not L1, L2, L3, L4, L5, S1, S2"),
     "info not JSON": (lambda p: write_network(p, info=np.array("{oops")), "info is not a JSON"),
     "a truncated zip": (lambda p: p.write_bytes(write_network(p).read_bytes()[:60_000]),
                         "is not a readable network .npz \\(BadZipFile"),

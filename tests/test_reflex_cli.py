@@ -44,6 +44,17 @@ def test_reflex_trip_with_a_fitted_network(tmp_path):
     assert (out / "muscle_tensions.png").stat().st_size > 10_000
     header = (out / "timeseries.csv").read_text().splitlines()[0]
     assert "knee_angle_l_deg" in header and "subtalar" not in header
+    # OpenSim: the planar model's coordinates and the 14 muscles' activation and force
+    from stumble.gait.readers import read_mot
+
+    assert read_mot(out / "motion.mot").columns.keys() >= {"pelvis_tilt", "knee_angle_r",
+                                                           "lumbar_extension"}
+    sto = read_mot(out / "muscles.sto")
+    act = [k for k in sto.columns if k.endswith("/activation")]
+    assert len(act) == 14 and "/forceset/soleus_l/activation" in act
+    for k in act:
+        assert 0.0 <= sto.columns[k].min() and sto.columns[k].max() <= 1.0
+    assert max(sto.columns["/forceset/soleus_r|tendon_force"]) > 100.0  # N
 
 
 @pytest.mark.parametrize("argv, message", [

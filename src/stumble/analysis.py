@@ -202,10 +202,10 @@ def rmse_deg(sim: dict[str, np.ndarray], sim_t: np.ndarray, ref: dict[str, np.nd
              ref_t: np.ndarray) -> dict[str, float]:
     """RMSE (deg) per Table 2 joint over the overlap of two time series (t = 0 the trip)."""
     t_end = min(sim_t[-1], ref_t[-1])
-    sel = sim_t <= t_end
+    sel = (sim_t >= ref_t[0]) & (sim_t <= t_end)
     out = {}
     for k, v in sim.items():
-        if k in ref:
+        if k in ref and sel.any():
             r = np.interp(sim_t[sel], ref_t, ref[k])
             out[k] = float(np.sqrt(np.mean((v[sel] - r) ** 2)))
     return out

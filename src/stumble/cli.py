@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import csv
 import itertools
-import json
 import sys
 from pathlib import Path
 
@@ -13,6 +12,7 @@ import numpy as np
 
 from stumble import __version__
 from stumble.errors import InputError, StumbleError
+from stumble.jsonio import dumps
 
 
 class _Parser(argparse.ArgumentParser):
@@ -68,6 +68,17 @@ def _person_args(p: argparse.ArgumentParser) -> None:
                    "the same law in Python, or MuJoCo soft boxes")
 
 
+def _motion_file_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--model", dest="motion_model", default="auto",
+                   choices=("auto", "gait2392", "gait10dof18musc", "rajagopal"),
+                   help=".mot/.sto: the OpenSim model family of the file, for its signs "
+                   "(default: read from its coordinates and values)")
+    p.add_argument("--up", default="auto", metavar="AXIS",
+                   help=".bvh: the file's up axis, x y z -x -y -z (default: read from the motion)")
+    p.add_argument("--forward", default="auto", metavar="AXIS",
+                   help=".bvh: the axis the body faces (default: read from the motion)")
+
+
 def _parser() -> argparse.ArgumentParser:
     p = _Parser(
         prog="stumble",
@@ -82,12 +93,17 @@ def _parser() -> argparse.ArgumentParser:
 
     w = sub.add_parser("walk", help="play walking back on a model and write its files",
                        description="Play walking back kinematically on a model: writes "
-                       "motion.csv, events.json, joint_angles.png and walk.mp4 to DIR.")
+                       "motion.csv, motion.mot, motion.bvh, events.json, joint_angles.png and "
+                       "walk.mp4 to DIR.")
     w.add_argument("--out", required=True, type=out_dir_arg, metavar="DIR",
                    help="output directory")
     w.add_argument("--gait", type=Path, metavar="FILE",
-                   help="an OpenSim .mot/.sto or a .bvh motion (default: the embedded "
-                   "subject01 reference gait)")
+                   help="an OpenSim .mot/.sto, a .bvh or a Plug-in Gait .c3d motion (default: "
+                   "the embedded subject01 reference gait)")
+    _motion_file_args(w)
+    w.add_argument("--as-recorded", action="store_true",
+                   help="--gait: play the file's joint angles exactly, at its own sample "
+                   "times (no foot planting, no turning onto +x)")
     w.add_argument("--speed", type=float, metavar="V",
                    help="walking speed in m/s, 0.7-1.6 (reference gait only; default: the "
                    "subject's 1.10 m/s)")
@@ -98,13 +114,17 @@ def _parser() -> argparse.ArgumentParser:
 
     t = sub.add_parser("trip", help="walk, trip and recover (or fall); write its files",
                        description="Simulate one trip: writes summary.json, timeseries.csv, "
-                       "trajectories.png, filmstrip.png and trip.mp4 to DIR.")
+                       "motion.mot, motion.bvh (reflex: muscles.sto), trajectories.png, "
+                       "filmstrip.png and trip.mp4 to DIR.")
     t.add_argument("--out", required=True, type=out_dir_arg, metavar="DIR",
                    help="output directory")
-    t.add_argument("--controller", choices=("fsm", "reflex"), default="fsm",
+    t.add_argument("--controller", choices=("fsm", "reflex", "gh2010"), default="fsm",
                    help="fsm: the state-machine controllers of SCA 2009 on the 3D human; "
                    "reflex: the neuromuscular reflex network of seed 003 on the planar "
-                   "musculoskeletal human (its strategy emerges)")
+                   "musculoskeletal human; gh2010: Geyer & Herr 2010's reflexes on that "
+                   "body (the reflex controllers' strategy emerges)")
+    t.add_argument("--params", type=Path, metavar="FILE",
+                   help="gh2010 controller: a gh2010.json (default: the shipped parameters)")
     t.add_argument("--network", type=Path, metavar="FILE",
                    help="reflex controller: a network.npz from `stumble reflex fit` "
                    "(default: the network shipped with stumble)")
@@ -124,7 +144,11 @@ def _parser() -> argparse.ArgumentParser:
                    help="obstacle height in m (default 0.10)")
     t.add_argument("--leg", choices=("left", "right"), default="left", help="tripped leg")
     t.add_argument("--reference", type=Path, metavar="FILE",
-                   help="a recorded trip (.mot, time 0 at the trip) for the joint-pitch RMSE")
+                   help="a recorded trip (.mot/.sto/.bvh/.c3d) for the joint-pitch RMSE")
+    t.add_argument("--reference-align", choices=("swing", "time"), default="swing",
+                   help="swing (default): the reference's trip is its tripped leg's first "
+                   "toe-off plus --swing of that swing; time: the file's time 0 is the trip")
+    _motion_file_args(t)
     t.add_argument("--seed", type=seed_arg, default=0,
                    help="0 (default): the recorded walk as it is; another seed perturbs the "
                    "initial joint angles (SD 0.5 deg) and velocities; deterministic")
@@ -163,8 +187,9 @@ def _parser() -> argparse.ArgumentParser:
 
     rw = rsub.add_parser("walk", help="walk under a reflex controller",
                          description="Walk under a reflex controller from the played-back "
-                         "walk at right heel strike: writes motion.csv, events.json, "
-                         "summary.json, joint_angles.png and walk.mp4 to DIR.")
+                         "walk at right heel strike: writes motion.csv, motion.mot, "
+                         "motion.bvh, muscles.sto, events.json, summary.json, "
+                         "joint_angles.png and walk.mp4 to DIR.")
     rw.add_argument("--out", required=True, type=out_dir_arg, metavar="DIR",
                     help="output directory")
     rw.add_argument("--controller", choices=("network", "gh2010"), default="network",
@@ -195,7 +220,7 @@ def cmd_model(args) -> int:
     """``stumble model``: describe the model."""
     d = _build(args).describe()
     if args.json:
-        print(json.dumps(d))
+        print(dumps(d))
     else:
         print(f"{d['model']} human: {d['dof']} DOF ({d['internal_dof']} internal), "
               f"nq {d['nq']}, nu {d['nu']}, {d['mass_kg']:.1f} kg, {d['height_m']} m")
@@ -204,35 +229,17 @@ def cmd_model(args) -> int:
     return 0
 
 
-def _load_gait_file(path: Path, body, duration: float | None):
-    from stumble.body.joints import PELVIS_ROTATIONS, hinge_names
-    from stumble.gait.playback import SAMPLE_HZ, play
-    from stumble.gait.readers import map_coordinates, read_mot
+def _notes(notes) -> None:
+    """Print each one-line note about an input file on stderr."""
+    for note in notes:
+        print(f"stumble: note: {note}", file=sys.stderr)
 
-    suffix = path.suffix.lower()
-    if suffix in (".mot", ".sto"):
-        motion = read_mot(path)
-        known = hinge_names() + [h.name for h in PELVIS_ROTATIONS] + [
-            "pelvis_tx", "pelvis_ty", "pelvis_tz"]
-        coords = map_coordinates(motion, known)
-    elif suffix == ".bvh":
-        from stumble.gait.bvh import bvh_to_coordinates, read_bvh
 
-        motion = bvh_to_coordinates(read_bvh(path))
-        coords = dict(motion.columns)
-    else:
-        raise InputError(f"{path.name}: unknown motion format {suffix!r} (use .mot, .sto or .bvh)")
-    t = motion.time_s - motion.time_s[0]
-    if duration is not None:
-        if duration > t[-1] + 1e-9:
-            raise InputError(f"--duration {duration} s is longer than {path.name} "
-                             f"({t[-1]:.3f} s)")
-    else:
-        duration = float(t[-1])
-    time_s = np.arange(0.0, duration + 1e-9, 1.0 / SAMPLE_HZ)
-    wanted = set(body.joints) | {h.name for h in PELVIS_ROTATIONS}
-    resampled = {k: np.interp(time_s, t, v) for k, v in coords.items() if k in wanted}
-    return play(body, time_s, resampled, f"file: {path.name}")
+def _read_gait_file(args):
+    from stumble.gait.files import read_motion
+
+    return read_motion(args.gait, planar=args.planar, model=args.motion_model, up=args.up,
+                       forward=args.forward)
 
 
 def _cycle_curves(pb, names):
@@ -250,14 +257,19 @@ def _cycle_curves(pb, names):
             if strides:
                 rows = [np.interp(a + pct / 100.0 * (b - a), pb.time_s, series)
                         for a, b in strides]
-            else:  # shorter than a stride: fold the time axis on the stride period
-                ph = (pb.time_s / pb.stride_s % 1.0) * 100.0
+            else:  # shorter than a stride: fold on the stride from this foot's heel strike
+                other = pb.events.heel_strike_s["l" if side == "r" else "r"]
+                start = hs[0] if hs else (other[0] - 0.5 * pb.stride_s if other else 0.0)
+                ph = ((pb.time_s - start) / pb.stride_s % 1.0) * 100.0
                 order = np.argsort(ph)
-                rows = [np.interp(pct, ph[order], series[order])]
+                rows = [np.interp(pct, ph[order], series[order], period=100.0)]
             mean[key] = np.degrees(np.mean(rows, axis=0))
             sd[key] = np.degrees(np.std(rows, axis=0))
         offs = [np.mean([(x - a) / (b - a) for x in pb.events.toe_off_s[side] if a < x < b])
                 for a, b in strides if any(a < x < b for x in pb.events.toe_off_s[side])]
+        if not strides:  # the toe-offs that follow a heel strike within a stride
+            offs = [(x - a) / pb.stride_s for a in hs for x in pb.events.toe_off_s[side]
+                    if 0 < x - a < pb.stride_s]
         if offs:
             toe_off[side] = 100.0 * float(np.mean(offs))
     return pct, mean, sd, toe_off
@@ -300,35 +312,55 @@ def _title(pb, model: str) -> str:
 
 def cmd_walk(args) -> int:
     """``stumble walk``: play a gait back and write motion, events, plot and video."""
-    from stumble.gait.playback import walk
     from stumble.gait.reference import check_speed
-    from stumble.outputs import VIDEO_FPS, prepare_dir
-    from stumble.viz.plots import plot_joint_angles
 
     if args.gait is not None and args.speed is not None:
         raise InputError("--speed applies to the embedded reference gait; a --gait file plays "
                          "at its own speed")
     if args.speed is not None:
         check_speed(args.speed)
+    if args.gait is None and (args.as_recorded or args.motion_model != "auto"
+                              or args.up != "auto" or args.forward != "auto"):
+        raise InputError("--as-recorded, --model, --up and --forward apply to a --gait file")
+    motion = _read_gait_file(args) if args.gait is not None else None  # before the model
+    from stumble.gait.playback import walk
+    from stumble.gait.writers import write_bvh, write_mot
+    from stumble.jsonio import write_json
+    from stumble.outputs import VIDEO_FPS, prepare_dir
+    from stumble.viz.plots import plot_joint_angles
+
     body = _build(args)
-    if args.gait is not None:
-        pb = _load_gait_file(args.gait, body, args.duration)
+    if motion is not None:
+        from stumble.gait.files import play_motion
+
+        pb = play_motion(body, motion, args.duration, as_recorded=args.as_recorded)
     else:
         pb = walk(body, args.speed, duration_s=args.duration or 4.0)
+    _notes(pb.notes)  # after playing: a refused file gives its one error line only
     out = prepare_dir(args.out)
     write_motion_csv(out / "motion.csv", pb)
+    write_mot(out / "motion.mot", body, pb.time_s, pb.qpos)
+    write_bvh(out / "motion.bvh", body, pb.time_s, pb.qpos)
+    stance = pb.events.stance_fraction()
+    notes = list(pb.notes)
+    if not np.isfinite(stance):
+        stance = pb.events.stance_fraction_from(pb.stride_s)
+        notes.append("stance fraction from heel strike to toe-off over the estimated stride"
+                     if stance is not None else "stance fraction: no heel strike followed "
+                     "by a toe-off")
     events = {**pb.events.to_json(),
               "speed_m_per_s": round(pb.speed_m_per_s, 4),
               "stride_s": round(pb.stride_s, 4),
-              "stance_fraction": round(pb.events.stance_fraction(), 4),
+              "stance_fraction": None if stance is None else round(stance, 4),
               "source": pb.source,
               "model": "planar" if body.planar else "3d",
-              "retarget": pb.retarget}
-    (out / "events.json").write_text(json.dumps(events, indent=1) + "\n")
+              "retarget": pb.retarget,
+              "notes": notes}
+    write_json(out / "events.json", events)
     pct, mean, sd, toe_off = _cycle_curves(pb, ["hip_flexion", "knee_angle", "ankle_angle"])
     plot_joint_angles(out / "joint_angles.png", pct, mean, events={"toe_off_percent": toe_off},
                       title=_title(pb, events["model"]), spread_deg=sd)
-    written = ["motion.csv", "events.json", "joint_angles.png"]
+    written = ["motion.csv", "motion.mot", "motion.bvh", "events.json", "joint_angles.png"]
     if not args.no_video:
         from stumble.viz.render import render_video, video_available
 
@@ -342,15 +374,22 @@ def cmd_walk(args) -> int:
             written.append("walk.mp4")
         else:
             print(f"stumble: {why}", file=sys.stderr)
+    stance_text = "n/a" if stance is None else f"{stance:.3f}"
     print(f"walked {pb.time_s[-1]:.2f} s at {pb.speed_m_per_s:.2f} m/s (stride "
-          f"{pb.stride_s:.3f} s, stance {events['stance_fraction']:.3f}); wrote "
-          f"{', '.join(written)} to {out}")
+          f"{pb.stride_s:.3f} s, stance {stance_text}); wrote {', '.join(written)} to {out}")
     return 0
 
 
 def cmd_trip(args) -> int:
     """``stumble trip``: one trip, its summary, time series, plots and video."""
-    from stumble.outputs import prepare_dir, write_media, write_summary, write_timeseries
+    from stumble.outputs import (
+        prepare_dir,
+        trip_motion,
+        write_media,
+        write_motion_files,
+        write_summary,
+        write_timeseries,
+    )
     from stumble.pipeline import simulate_trip
     from stumble.trip import Scenario
 
@@ -359,26 +398,38 @@ def cmd_trip(args) -> int:
                          "uses the planar one (--controller reflex)")
     if (args.network or args.no_trunk_balance) and args.controller != "reflex":
         raise InputError("--network and --no-trunk-balance are for --controller reflex")
+    if args.params and args.controller != "gh2010":
+        raise InputError("--params is for --controller gh2010")
     scenario = Scenario(swing_fraction=args.swing, speed_m_per_s=args.speed,
                         leg=args.leg, mechanism=args.mechanism or (
-                            "obstacle" if args.controller == "reflex" else "force"),
+                            "force" if args.controller == "fsm" else "obstacle"),
                         obstacle_height_m=args.obstacle_height, controller=args.controller,
                         strategy=args.strategy, seed=args.seed, height_m=args.height,
                         mass_kg=args.mass, sex=args.sex, contact=args.contact,
                         duration_after_trip_s=args.duration).validated()
-    reference = _load_reference_trip(args.reference) if args.reference else None
+    if args.reference is None and (args.motion_model != "auto" or args.up != "auto"
+                                   or args.forward != "auto"):
+        raise InputError("--model, --up and --forward apply to a --reference file")
+    reference = _load_reference_trip(args, scenario) if args.reference else None
     network = None
     if args.network:
         from stumble.control.reflex.network import Network, steps_per_tick
 
         network = Network.load(args.network)
         steps_per_tick(scenario.timestep_s, network.topology.rate_hz)
+    gh2010 = None
+    if args.params:
+        from stumble.control.reflex.gh2010 import load_params
+
+        gh2010 = load_params(args.params)
     out = prepare_dir(args.out)  # and writable: checked before the simulation
     result = simulate_trip(scenario, reference=reference, network=network,
-                           trunk_balance=not args.no_trunk_balance)
+                           trunk_balance=not args.no_trunk_balance, gh2010=gh2010)
     write_summary(out, result)
     write_timeseries(out, result)
+    time_s, qpos = trip_motion(result)
     written = ["summary.json", "timeseries.csv",
+               *write_motion_files(out, result.body, time_s, qpos, result.recording),
                *write_media(out, result, not args.no_video, sys.stderr.isatty())]
     s = result.summary
     outcome = ("diverged" if s["diverged"] else "recovered" if s["recovered"]
@@ -472,15 +523,15 @@ class _Progress:
             print(file=sys.stderr)
 
 
-def _load_reference_trip(path: Path) -> dict:
-    """Pitch angles (deg) of a recorded trip from a .mot: pelvis_tilt, hips, knees, ankles.
+def _load_reference_trip(args, scenario) -> dict:
+    """Pitch angles (deg) of a recorded trip, time 0 at its trip (``--reference-align``)."""
+    from stumble.gait.files import align_reference, read_motion
 
-    Columns named as our model (``hip_flexion_l`` …); time 0 must be the trip.
-    """
-    from stumble.gait.readers import read_mot
-
-    mot = read_mot(path)
-    return {"time_s": mot.time_s, **{k: np.degrees(v) for k, v in mot.columns.items()}}
+    motion = read_motion(args.reference, planar=args.controller == "reflex",
+                         model=args.motion_model, up=args.up, forward=args.forward)
+    ref = align_reference(motion, scenario, args.reference_align, args.duration)
+    _notes(ref.notes)
+    return {"time_s": ref.time_s, **{k: np.degrees(v) for k, v in ref.columns.items()}}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -8,7 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from stumble.files import output_dir, write_json
+from stumble.jsonio import write_json
+from stumble.outdir import output_dir
 from stumble.pipeline import TripResult
 
 VIDEO_FPS = 25.0
@@ -42,12 +43,54 @@ def write_timeseries(out: Path, result: TripResult) -> None:
                         *np.round(rec.trip_force[k], 3)])
 
 
+def trip_motion(result: TripResult, before_s: float = WALK_SHOWN_S) -> tuple[np.ndarray,
+                                                                              np.ndarray]:
+    """Times (s, 0 at the trip) and qpos of a trip with ``before_s`` of its walk before it.
+
+    The walk is the playback at the recording's sample interval, so the whole motion is
+    uniformly sampled (for BVH)."""
+    rec = result.recording
+    dt = float(np.mean(np.diff(rec.time_s))) if len(rec.time_s) > 1 else 0.005
+    t_trip = result.summary["trip_time_s"]
+    k = int(np.floor(min(before_s, t_trip - result.playback.time_s[0]) / dt + 1e-9))
+    t_walk = -dt * np.arange(k, 0, -1)
+    walk_q = [result.playback.state_at(t_trip + t)[0] for t in t_walk]
+    qpos = np.vstack([*walk_q, rec.qpos]) if walk_q else rec.qpos
+    return np.concatenate([t_walk, rec.time_s]), qpos
+
+
+def write_motion_files(out: Path, body, time_s: np.ndarray, qpos: np.ndarray,
+                       recording=None) -> list[str]:
+    """``motion.mot`` and ``motion.bvh`` of a motion (``qpos`` (T, nq) at ``time_s`` (s),
+    uniformly sampled) and, when ``recording`` has muscle activations, ``muscles.sto``
+    (its activation and force per muscle); returns the names written."""
+    import mujoco
+
+    from stumble.gait.writers import opensim_muscle_name, write_bvh, write_mot, write_muscles_sto
+
+    write_mot(out / "motion.mot", body, time_s, qpos)
+    write_bvh(out / "motion.bvh", body, time_s, qpos)
+    written = ["motion.mot", "motion.bvh"]
+    m = body.model
+    muscles = np.flatnonzero(m.actuator_gaintype == mujoco.mjtGain.mjGAIN_MUSCLE)
+    rec = recording
+    if (rec is not None and len(muscles) and rec.activation is not None
+            and rec.activation.size and len(rec.time_s) > 1):
+        names = [opensim_muscle_name(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, i))
+                 for i in muscles]
+        act = rec.activation[:, m.actuator_actadr[muscles]]
+        write_muscles_sto(out / "muscles.sto", rec.time_s, names, act,
+                          -rec.actuator_force[:, muscles])
+        written.append("muscles.sto")
+    return written
+
+
 def frames_at_states(result: TripResult, most: int = 7) -> tuple[list[np.ndarray], list[str]]:
     """qpos at the first entry of each state (as SCA 2009 Figures 7-9), then the end."""
     rec = result.recording
     qs, labels, seen = [], [], set()
     states = list(result.states)
-    if result.scenario.controller == "reflex" and len(rec.time_s):
+    if result.scenario.controller in ("reflex", "gh2010") and len(rec.time_s):
         # one network state: show its events and the motion every 0.15 s between them
         marks = {round(t, 2) for _n, t in states}
         states += [(f"@{t:.2f}", t) for t in np.arange(0.15, rec.time_s[-1] - 0.05, 0.15)
@@ -79,7 +122,7 @@ def write_media(out: Path, result: TripResult, video: bool, progress: bool) -> l
     plot_trajectories(out / "trajectories.png", result.body.model, rec.time_s, rec.qpos,
                       result.scenario.side, s["strategy"], result.states, title)
     written = ["trajectories.png"]
-    if result.scenario.controller == "reflex":
+    if result.scenario.controller in ("reflex", "gh2010"):
         write_muscle_tensions(out, result)
         written.append("muscle_tensions.png")
     if not video:
@@ -95,17 +138,16 @@ def write_media(out: Path, result: TripResult, video: bool, progress: bool) -> l
                            distance=3.0)
     save_filmstrip(out / "filmstrip.png", frames, labels)
     written.append("filmstrip.png")
-    step = max(1, round(1.0 / (VIDEO_FPS * float(np.mean(np.diff(rec.time_s))))))
     # one second of the walk before the trip (played back), then the physics
-    t_trip = s["trip_time_s"]
-    before = np.arange(max(0.0, t_trip - WALK_SHOWN_S), t_trip - 1e-9, 1.0 / VIDEO_FPS)
-    walk_q = [result.playback.state_at(t)[0] for t in before]
-    qpos = np.vstack([*walk_q, rec.qpos[::step]]) if walk_q else rec.qpos[::step]
-    overlay = ([f"t = {t - t_trip:5.2f} s  walking" for t in before]
-               + [f"t = {t:5.2f} s  {st.replace('_', ' ')}"
-                  for t, st in zip(rec.time_s[::step], rec.state[::step], strict=True)])
-    render_video(out / "trip.mp4", result.body.model, qpos, VIDEO_FPS, overlay=overlay,
-                 progress=progress)
+    time_all, qpos_all = trip_motion(result)
+    step = max(1, round(1.0 / (VIDEO_FPS * float(np.mean(np.diff(time_all))))))
+    n_walk = len(time_all) - len(rec.time_s)
+    state = ["walking"] * n_walk + list(rec.state)
+    qpos = qpos_all[::step]
+    overlay = [f"t = {t:5.2f} s  {st.replace('_', ' ')}"
+               for t, st in zip(time_all[::step], state[::step], strict=True)]
+    render_video(out / "trip.mp4", result.body.model, qpos, 1.0 / (step * float(
+        np.mean(np.diff(time_all)))), overlay=overlay, progress=progress)
     written.append("trip.mp4")
     return written
 
@@ -120,8 +162,7 @@ TENSION_WINDOW_S = (-0.1, 0.6)  # muscle_tensions.png: from before the trip to 0
 
 def write_muscle_tensions(out: Path, result: TripResult) -> None:
     """``muscle_tensions.png`` (seed 003 Fig. 5): tensions of a reflex trip vs walking."""
-    from stumble.body.muscles import MUSCLE_NAMES
-    from stumble.control.reflex.identify import default_network
+    from stumble.control.reflex.identify import default_network, leg_muscles
     from stumble.control.reflex.receptors import IB_FORCE_N, IB_GAIN
     from stumble.pipeline import _phase
     from stumble.viz.reflex_plots import plot_muscle_tensions
@@ -129,35 +170,36 @@ def write_muscle_tensions(out: Path, result: TripResult) -> None:
     rec, m, s = result.recording, result.body.model, result.summary
     tripped = result.scenario.side
     legs = (tripped, {"r": "l", "l": "r"}[tripped])
-    ids = [[m.actuator(f"{mus}_{side}").id for mus in MUSCLE_NAMES] for side in legs]
+    muscles = leg_muscles(result.body)
+    ids = [[m.actuator(f"{mus}_{side}").id for mus in muscles] for side in legs]
     sel = rec.time_s <= TENSION_WINDOW_S[1]
     f_trip = np.stack([-rec.actuator_force[sel][:, row] for row in ids], axis=1)
     net = result.network or default_network()
     t_walk = np.arange(TENSION_WINDOW_S[0], TENSION_WINDOW_S[1], 0.002)
-    f_walk = np.full((len(t_walk), 2, len(MUSCLE_NAMES)), np.nan)
-    if net.walk_rates is not None:
+    f_walk = np.full((len(t_walk), 2, len(muscles)), np.nan)
+    if net.walk_rates is not None and net.topology.muscles == muscles:
         T = net.walk_rates.shape[1]
         phase = _phase(result.playback, s["trip_time_s"]) + t_walk / result.playback.stride_s
         k = np.round(phase * T).astype(int) % T
         for col, side in enumerate(legs):
-            ib = net.walk_rates["rl".index(side)][k][:, 2:21:3]
+            ib = net.walk_rates["rl".index(side)][k][:, 2:3 * len(muscles):3]
             f_walk[:, col] = IB_FORCE_N * (np.exp(ib / IB_GAIN) - 1.0)  # invert Ib's law
     names = {"r": "right", "l": "left"}
     plot_muscle_tensions(
         out / "muscle_tensions.png", rec.time_s[sel], f_trip, t_walk, f_walk,
         (f"{names[legs[0]]} leg (tripped)", f"{names[legs[1]]} leg (support)"),
         f"muscle tension (N): trip at {s['swing_fraction']:.2f} of swing "
-        f"({s['strategy'] or 'no strategy'}) vs walking")
+        f"({s['strategy'] or 'no strategy'}) vs walking", muscles)
 
 
 def write_fit(out: Path, fit, video: bool = True) -> list[str]:
     """The files of ``stumble reflex fit``: network, figures of the fit, walking data, and
     one walking step under the network (seed 003 Fig. 3) in fit.json and walking_step.png."""
-    from stumble.body.muscles import MUSCLE_NAMES
     from stumble.control.reflex.walking import write_moments_csv
     from stumble.pipeline import simulate_walking_step
     from stumble.viz.reflex_plots import plot_activity_fit
 
+    muscles = fit.network.topology.muscles
     fit.network.save(out / "network.npz")
     step = simulate_walking_step(fit.network)
     fit.report["walking_step"] = {
@@ -178,16 +220,17 @@ def write_fit(out: Path, fit, video: bool = True) -> list[str]:
     plot_activity_fit(
         out / "activity_fit.png", pct, ident.activity[0], fit.activity_net[0], events,
         f"right-leg muscle activity: identified vs network (average error "
-        f"{100 * r['avg_error']:.1f} %, max {100 * r['max_error']:.0f} %; seed 003: 2.0 %, 36 %)")
+        f"{100 * r['avg_error']:.1f} %, max {100 * r['max_error']:.0f} %; seed 003: 2.0 %, 36 %)",
+        muscles)
     write_moments_csv(walk, out / "walking_moments.csv")
     grid = np.linspace(0.0, 100.0, 51)
     ext = np.append(pct, 100.0)
     with (out / "walking_activity.csv").open("w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["percent", *[f"{mus}_{kind}" for mus in MUSCLE_NAMES
+        w.writerow(["percent", *[f"{mus}_{kind}" for mus in muscles
                                  for kind in ("target", "network")]])
         cols = []
-        for j in range(len(MUSCLE_NAMES)):
+        for j in range(len(muscles)):
             for series in (ident.activity[0, :, j], fit.activity_net[0, :, j]):
                 cols.append(np.interp(grid, ext, np.append(series, series[0])))
         for i, p in enumerate(grid):
@@ -267,7 +310,8 @@ def write_reflex_walk(out: Path, result, video: bool, progress: bool) -> list[st
              f" knee {rm.get('knee_angle', 0):.1f}° ankle {rm.get('ankle_angle', 0):.1f}°")
     plot_joint_angles(out / "joint_angles.png", pct, mean, title=title, spread_deg=sd,
                       reference_deg=ref)
-    written = ["motion.csv", "events.json", "summary.json", "joint_angles.png"]
+    written = ["motion.csv", "events.json", "summary.json", "joint_angles.png",
+               *write_motion_files(out, result.body, rec.time_s, rec.qpos, rec)]
     if video:
         from stumble.viz.render import render_video, video_available
 

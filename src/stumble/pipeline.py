@@ -33,7 +33,13 @@ from stumble.errors import InputError
 from stumble.gait.playback import Playback, walk
 from stumble.gait.reference import load_reference
 from stumble.sim import Context, Recording, Sensors, run
-from stumble.trip import OBSTACLE_DEPTH_M, OBSTACLE_WIDTH_M, Scenario, trip_time
+from stumble.trip import (
+    MUSCLE_CONTROLLERS,
+    OBSTACLE_DEPTH_M,
+    OBSTACLE_WIDTH_M,
+    Scenario,
+    trip_time,
+)
 
 WALK_BEFORE_TRIP_S = 0.4  # the trip comes in the first swing of that leg after this time
 OBSTACLE_GAP_M = 0.002  # the obstacle's near face this far ahead of the toe at the trip
@@ -106,9 +112,12 @@ def perturb_initial_state(body: Body, data: mujoco.MjData, seed: int) -> None:
 
 
 def _controller(sc: Scenario, strategy: str | None, params: FSMParams | None,
-                network, pb: Playback, t_trip: float, trunk_balance: bool = True):
+                network, pb: Playback, t_trip: float, trunk_balance: bool = True,
+                gh2010=None):
     if sc.controller == "reflex":
         return _reflex_controller(network, pb, t_trip, sc.delay_scale, trunk_balance)
+    if sc.controller == "gh2010":
+        return walk_controller("gh2010", pb, t_trip, gh2010, delay_scale=sc.delay_scale)
     p = replace(params or FSMParams(), delay_scale=sc.delay_scale)
     return TripFSM(strategy, sc.side, sc.speed_m_per_s, p)
 
@@ -126,8 +135,8 @@ def _reflex_controller(network, pb: Playback, t: float, delay_scale: float,
                                  2 * net.topology.max_lag + 2, net.topology.rate_hz)
     balance = None
     if trunk_balance:  # its vestibulospinal latency scales with the nerve delays
-        balance = TrunkBalance(delay_s=TrunkBalance.DELAY_S * delay_scale,
-                               rate_hz=net.topology.rate_hz)
+        balance = TrunkBalance.from_info(net.info, TrunkBalance.DELAY_S * delay_scale,
+                                         net.topology.rate_hz)
     return ReflexController(net, history, balance)
 
 
@@ -158,12 +167,14 @@ def _phase(pb: Playback, t: float) -> float:
 
 def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
                   reference: dict | None = None, network=None,
-                  trunk_balance: bool = True) -> TripResult:
+                  trunk_balance: bool = True, gh2010=None) -> TripResult:
     """Walk, trip and recover (or fall): the whole pipeline for one scenario.
 
     Controller ``fsm`` (SCA 2009) drives the 3D human; ``reflex`` (seed 003) the planar
     musculoskeletal human, with ``network`` (a ``stumble.control.reflex.Network``) or the
-    shipped one; its strategy is not chosen but classified from the motion.
+    shipped one; ``gh2010`` the same body with Geyer & Herr 2010's reflexes
+    (``gh2010``: ``GH2010Params``, default the shipped ones). The strategy of the reflex
+    controllers is not chosen but classified from the motion.
     ``trunk_balance``: the reflex controller's stance-hip trunk-lean reflex
     (``stumble.control.reflex.controller.TrunkBalance``; our addition, on by default).
 
@@ -172,13 +183,15 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     for the joint-pitch RMSE of SCA 2009 Table 2.
     """
     sc = scenario.validated()
-    reflex = sc.controller == "reflex"
+    reflex = sc.controller in MUSCLE_CONTROLLERS
     p = params or FSMParams()
     strategy = None
     if not reflex:
         strategy = p.strategy_for(sc.swing_fraction) if sc.strategy == "auto" else sc.strategy
+    muscle_set = (muscle_set_of("network" if sc.controller == "reflex" else sc.controller,
+                                network) if reflex else DEFAULT_MUSCLE_SET)
     base, pb = _walk(sc.height_m, sc.mass_kg, sc.sex, sc.contact, sc.speed_m_per_s,
-                     sc.timestep_s, reflex)
+                     sc.timestep_s, reflex, muscle_set)
     t_trip = trip_time(pb.events, sc.side, sc.swing_fraction, after_s=WALK_BEFORE_TRIP_S)
     qpos, qvel = pb.state_at(t_trip)
     obstacle = None
@@ -193,7 +206,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
         _check_clear_of_stance(base, qpos, {"l": "r", "r": "l"}[sc.side], obstacle)
     body = build(planar=reflex, height_m=sc.height_m, mass_kg=sc.mass_kg, sex=sc.sex,
                  contact=sc.contact, obstacle=obstacle, timestep_s=sc.timestep_s,
-                 actuation="muscles" if reflex else "servos")
+                 actuation="muscles" if reflex else "servos", muscle_set=muscle_set)
     m = body.model
     d = mujoco.MjData(m)
     d.qpos[:], d.qvel[:] = qpos, qvel
@@ -202,7 +215,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
         _rest_support_foot(m, d, reflex)
     _scale_strength(m, sc.strength_scale)
     ctx = Context(m, d, body, Sensors(), t0=0.0)
-    controller = _controller(sc, strategy, p, network, pb, t_trip, trunk_balance)
+    controller = _controller(sc, strategy, p, network, pb, t_trip, trunk_balance, gh2010)
     stop = StopRule(strategy, sc.side, FALL_PELVIS_FRACTION * _standing_pelvis(body),
                     far_x=far_x)
     force_kwargs = {}
@@ -213,15 +226,16 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
         force_kwargs = {"trip_force": sc.force, "force_body": toe_body,
                         "force_point": lambda dd: dd.site_xpos[tip_sites].mean(axis=0)}
     penalty = PenaltyContact.for_body(body) if sc.contact == "penalty" else None
-    if reflex:
+    if sc.controller == "reflex":
         _network_every(controller.net, m)
     rec = run(ctx, controller, sc.duration_after_trip_s, stop=stop, penalty=penalty,
               **force_kwargs)
     strategy = strategy or stop.classified
     summary = _summary(sc, strategy, controller, rec, stop, body, pb, t_trip, reference)
     states = list(controller.log)
-    if reflex:  # one network, no states: the filmstrip shows the events instead
-        summary["trunk_balance"] = trunk_balance
+    if reflex:  # one controller, no states: the filmstrip shows the events instead
+        if sc.controller == "reflex":
+            summary["trunk_balance"] = trunk_balance
         states = [("trip", 0.0)]
         if stop.tripped_down_s is not None:
             states.append((f"tripped foot down ({stop.classified})", stop.tripped_down_s))
@@ -231,7 +245,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
         summary["tripped_foot_down_x_m"] = (None if stop.tripped_down_x is None else
                                             round(stop.tripped_down_x - float(qpos[0]), 4))
     return TripResult(summary, rec, body, pb, sc, states,
-                      controller.net if reflex else None)
+                      controller.net if sc.controller == "reflex" else None)
 
 
 def _scale_strength(m: mujoco.MjModel, scale: float) -> None:
@@ -341,7 +355,8 @@ def simulate_walking_step(network=None, trunk_balance: bool = True,
 
     net = network or default_network()
     speed = speed_m_per_s or load_reference().speed_m_per_s
-    body, pb = _walk(1.75, 70.0, "male", DEFAULT_CONTACT, round(speed, 4), 0.001, True)
+    body, pb = _walk(1.75, 70.0, "male", DEFAULT_CONTACT, round(speed, 4), 0.001, True,
+                     net.muscle_set)
     m = body.model
     t0 = next(t for t in pb.events.heel_strike_s["r"] if t >= WALK_BEFORE_TRIP_S)
     d = mujoco.MjData(m)
@@ -398,10 +413,13 @@ def walk_controller(kind: str, pb: Playback, t: float, params=None, network=None
 
 
 def muscle_set_of(kind: str, network=None) -> str:
-    """The body's muscle set a reflex controller drives."""
+    """The body's muscle set a reflex controller drives (GH2010: with the iliopsoas;
+    the network: the set it was identified for)."""
     if kind == "gh2010":
         return "hfl"
-    return DEFAULT_MUSCLE_SET
+    from stumble.control.reflex.identify import default_network
+
+    return (network or default_network()).muscle_set
 
 
 def simulate_walk(controller: str = "gh2010", duration_s: float = 20.0,

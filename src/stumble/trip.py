@@ -35,7 +35,9 @@ OBSTACLE_WIDTH_M = 0.14  # across: the tripped foot's lane only, as the pop-up o
 # lie under the stance foot for trips before mid swing (our choice)
 MECHANISMS = ("force", "obstacle")
 LEGS = ("left", "right")
-CONTROLLERS = ("fsm", "reflex")  # SCA 2009 state machines; seed 003 reflex network
+# SCA 2009 state machines; seed 003's reflex network; Geyer & Herr 2010's reflexes
+CONTROLLERS = ("fsm", "reflex", "gh2010")
+MUSCLE_CONTROLLERS = ("reflex", "gh2010")  # on the planar musculoskeletal body
 MAX_SEED = 2**63 - 1  # seeds are stored as 64-bit integers (study results)
 
 
@@ -107,10 +109,11 @@ class Scenario:
         if self.strategy not in ("auto", "elevating", "lowering"):
             raise InputError(f"strategy {self.strategy!r} is not auto, elevating or lowering")
         if self.controller not in CONTROLLERS:
-            raise InputError(f"controller {self.controller!r} is not fsm or reflex")
-        if self.controller == "reflex" and self.strategy != "auto":
-            raise InputError("the reflex controller is not told a strategy: it emerges "
-                             "(use strategy auto)")
+            raise InputError(f"controller {self.controller!r} is not one of "
+                             f"{', '.join(CONTROLLERS)}")
+        if self.controller in MUSCLE_CONTROLLERS and self.strategy != "auto":
+            raise InputError(f"the {self.controller} controller is not told a strategy: it "
+                             "emerges (use strategy auto)")
         if not 0.2 <= self.delay_scale <= 5.0:
             raise InputError(f"delay scale {self.delay_scale} is outside 0.2-5")
         if not 0.1 <= self.strength_scale <= 5.0:

@@ -40,7 +40,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from stumble import __version__
-from stumble.files import write_json
+from stumble.jsonio import dumps
 from stumble.study.grid import run_key, scenario_fields
 from stumble.trip import Scenario
 
@@ -317,7 +317,7 @@ def run_validation(out: Path, workers: int | None = None, progress: bool = True,
     }
     path = Path(out) / "validation.json"
     tmp = path.with_name(".validation.json.tmp")
-    write_json(tmp, report)
+    tmp.write_text(dumps(report, indent=1) + "\n")
     os.replace(tmp, path)
     return rows
 

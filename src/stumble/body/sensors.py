@@ -22,7 +22,7 @@ a row holds the sensors of the state before that step's integration.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import mujoco
 import numpy as np
@@ -56,18 +56,11 @@ class SensorLayout:
     muscle_velocity: np.ndarray  # (n_muscles,) m/s
     muscle_force: np.ndarray  # (n_muscles,) N, MuJoCo sign (negative = pulling)
     size: int
-
-    @property
-    def decode_index(self) -> np.ndarray:
-        """One gather of everything ``stumble.sim.decode`` reads, in the order it reads:
-        feet's vertical force (2), feet's obstacle contacts (2), floor contacts (1), feet's
-        floor contacts (2), COM (3), its velocity (3), pelvis height (1), torso axis (3),
-        torso angular velocity (3), ankles (6), sole corners (24)."""
-        ob = self.obstacle_found if self.obstacle_found is not None else self.foot_found
-        return np.concatenate([self.foot_force[:, 2], ob, [self.floor_found],
-                               self.foot_found, self.com, self.com_vel, self.pelvis[2:],
-                               self.torso_z, self.torso_angvel, self.foot_pos.ravel(),
-                               self.sole.ravel()]).astype(int)
+    # one gather of everything ``stumble.sim.Sensors`` reads, in the order it reads: feet's
+    # vertical force (2), feet's obstacle contacts (2), floor contacts (1), feet's floor
+    # contacts (2), COM (3), its velocity (3), pelvis height (1), torso axis (3), torso
+    # angular velocity (3), ankles (6), sole corners (24)
+    decode_index: np.ndarray = None
 
 
 def add_sensors(spec: mujoco.MjSpec, foot_points: dict[str, list[str]],
@@ -136,7 +129,7 @@ def layout(model: mujoco.MjModel, muscles: list[str]) -> SensorLayout:
 
     floor = [at(f"floor_{s}") for s in SIDES]
     has_obstacle = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, "obstacle_r") >= 0
-    return SensorLayout(
+    lay = SensorLayout(
         foot_found=np.array([f[0] for f in floor]),
         foot_force=np.array([f[1:4] for f in floor]),
         foot_cop=np.array([f[4:7] for f in floor]),
@@ -156,3 +149,8 @@ def layout(model: mujoco.MjModel, muscles: list[str]) -> SensorLayout:
         muscle_velocity=np.array([at(f"{n}_velocity")[0] for n in muscles], dtype=int),
         muscle_force=np.array([at(f"{n}_force")[0] for n in muscles], dtype=int),
         size=int(model.nsensordata))
+    ob = lay.obstacle_found if lay.obstacle_found is not None else lay.foot_found
+    index = np.concatenate([lay.foot_force[:, 2], ob, [lay.floor_found], lay.foot_found,
+                            lay.com, lay.com_vel, lay.pelvis[2:], lay.torso_z,
+                            lay.torso_angvel, lay.foot_pos.ravel(), lay.sole.ravel()])
+    return replace(lay, decode_index=index.astype(int))

@@ -68,7 +68,15 @@ from stumble.body.joints import (
     rotation_matrix,
 )
 from stumble.errors import InputError
-from stumble.gait.readers import Motion, _clip, numeric_table
+from stumble.gait.readers import (
+    MAX_STEP_S,
+    MIN_STEP_S,
+    Motion,
+    _clip,
+    listed,
+    numeric_table,
+    read_text,
+)
 
 _CHANNEL_NAMES = {c.lower(): c for c in ("Xposition", "Yposition", "Zposition",
                                          "Xrotation", "Yrotation", "Zrotation")}
@@ -89,10 +97,14 @@ _SIDED_ALIASES: dict[str, tuple[str, ...]] = {
     "shank": ("leg", "lowerleg", "lowleg", "shin", "calf", "knee", "tibia"),
     "foot": ("foot", "ankle"),
     "toes": ("toebase", "toe", "toes", "toe0", "ball"),
-    "upper_arm": ("arm", "upperarm", "uparm", "humerus"),
+    "upper_arm": ("arm", "upperarm", "uparm", "humerus", "shldr"),
     "forearm": ("forearm", "lowerarm", "lowarm", "elbow", "radius"),
     "hand": ("hand", "wrist"),
 }
+# Used only when no joint of that side maps to the segment by the names above: Poser's and
+# the 3ds Max CMU conversion's LeftCollar / LeftShoulder / LeftElbow, where "Shoulder" is
+# the upper arm (in CMU and Mixamo skeletons LeftShoulder is the clavicle, before LeftArm).
+_SIDED_FALLBACK: dict[str, tuple[str, ...]] = {"upper_arm": ("shoulder",)}
 _SIDE_WORDS = {"l": ("left", "l"), "r": ("right", "r")}
 _PREFIX = re.compile(r"^(mixamorig\d*|bip0*1|biped|character\d*|ccbase|skel\d*|def)")
 # Next segment down each chain (its joint fixes the rest-pose bone direction).
@@ -126,12 +138,14 @@ class BvhJoint:
 @dataclass(frozen=True, eq=False)
 class Bvh:
     """A parsed BVH file: joints in file order (parents first), ``frame_time_s`` (s),
-    ``motion`` (F, C) channel values (degrees, file length units) and the file name."""
+    ``motion`` (F, C) channel values (degrees, file length units), the file name and
+    one-line notes on what was repaired while reading."""
 
     joints: tuple[BvhJoint, ...]
     frame_time_s: float
     motion: np.ndarray
     source: str
+    notes: tuple[str, ...] = ()
 
     @property
     def n_frames(self) -> int:
@@ -307,26 +321,18 @@ def _parse_hierarchy(source: str, lines: list[str]) -> tuple[list[dict], int]:
 def read_bvh(path: str | Path) -> Bvh:
     """Parse a BVH file into a :class:`Bvh` (angles in degrees, lengths in file units).
 
-    Raises :class:`InputError` (one line, naming the file) for a missing file, a missing
+    Raises :class:`InputError` (one line, naming the file) for a file that is missing,
+    not regular, too large or empty (:func:`~stumble.gait.readers.read_text`), a missing
     HIERARCHY or MOTION section, unbalanced braces, unknown channels, a row whose value
-    count differs from the channel count, non-numeric or non-finite values, a frame
-    count that differs from ``Frames:``, and a non-positive ``Frame Time``.
+    count differs from the channel count, non-numeric or non-finite values, no rows, and
+    a ``Frame Time`` that is no motion-capture rate (0.1 ms to 1 s). A frame count that
+    differs from ``Frames:`` is a note (the rows are used, as a truncated file's should).
     """
     path = Path(path)
     source = path.name
-    if not path.exists():
-        raise InputError(f"{source}: file not found ({path})")
-    if path.is_dir():
-        raise InputError(f"{source}: is a directory, not a file")
-    try:
-        text = path.read_bytes().decode("utf-8-sig")
-    except OSError as exc:
-        raise InputError(f"{source}: cannot read the file ({exc.strerror or exc})") from exc
-    except UnicodeDecodeError as exc:
-        raise InputError(f"{source}: not a text file (byte {exc.start} is not UTF-8)") from exc
+    text = read_text(path)
     lines = text.splitlines()
-    if not text.strip():
-        raise InputError(f"{source}: the file is empty")
+    notes: list[str] = []
     motion_at = next((i for i, ln in enumerate(lines) if ln.strip().upper() == "MOTION"), None)
     hier_lines = lines if motion_at is None else lines[:motion_at]
     joints, n_channels = _parse_hierarchy(source, hier_lines)
@@ -359,8 +365,9 @@ def read_bvh(path: str | Path) -> Bvh:
     except ValueError:
         raise InputError(f"{source}: line {lineno}: frame time {_clip(m.group(1))!r} is not "
                          "a number") from None
-    if not (math.isfinite(dt) and dt > 0.0):
-        raise InputError(f"{source}: line {lineno}: frame time {m.group(1)} s is not positive")
+    if not (math.isfinite(dt) and MIN_STEP_S <= dt <= MAX_STEP_S):
+        raise InputError(f"{source}: line {lineno}: a frame time of {m.group(1)} s is not a "
+                         f"motion-capture rate ({MIN_STEP_S:g} to {MAX_STEP_S:g} s per frame)")
 
     rows, row_lines = [], []
     for lineno, s in rest[2:]:
@@ -370,16 +377,18 @@ def read_bvh(path: str | Path) -> Bvh:
                              f"{n_channels} (the channels of the hierarchy)")
         rows.append(parts)
         row_lines.append(lineno)
+    if not rows:
+        raise InputError(f"{source}: 'Frames: {n_frames}' but the file has no rows of motion")
     if len(rows) != n_frames:
-        raise InputError(f"{source}: 'Frames: {n_frames}' but the file has {len(rows)} "
-                         "rows of motion")
+        notes.append(f"{source}: 'Frames: {n_frames}' but the file has {len(rows)} rows of "
+                     "motion; the rows are used")
     data = numeric_table(source, rows, row_lines, lambda k: f"value {k + 1}").reshape(
-        n_frames, n_channels)
+        len(rows), n_channels)
     frozen = tuple(
         BvhJoint(name=j["name"], parent=j["parent"], offset=j["offset"],
                  channels=j["channels"], channel_start=j["start"], end_sites=tuple(j["ends"]))
         for j in joints)
-    return Bvh(joints=frozen, frame_time_s=dt, motion=data, source=source)
+    return Bvh(joints=frozen, frame_time_s=dt, motion=data, source=source, notes=tuple(notes))
 
 
 # ---------------------------------------------------------------------- kinematics
@@ -463,12 +472,13 @@ def _normalise(name: str) -> str:
     return re.sub(r"[^a-z0-9]", "", last.lower())
 
 
-def _alias_table() -> dict[str, str]:
+def _alias_table(fallback: bool = False) -> dict[str, str]:
     table: dict[str, str] = {}
-    for seg, aliases in _UNSIDED_ALIASES.items():
-        for a in aliases:
-            table[a] = seg
-    for seg, aliases in _SIDED_ALIASES.items():
+    if not fallback:
+        for seg, aliases in _UNSIDED_ALIASES.items():
+            for a in aliases:
+                table[a] = seg
+    for seg, aliases in (_SIDED_FALLBACK if fallback else _SIDED_ALIASES).items():
         for side, words in _SIDE_WORDS.items():
             for a in aliases:
                 for w in words:
@@ -477,16 +487,19 @@ def _alias_table() -> dict[str, str]:
     return table
 
 
-def default_segment(joint_name: str) -> str | None:
+def default_segment(joint_name: str, fallback: bool = False) -> str | None:
     """Model segment of a BVH joint name under the default map, or None.
 
     Case, separators and namespaces are ignored (``mixamorig:LeftUpLeg``,
     ``Bip01 L Thigh``, ``thigh_l`` and ``LeftThigh`` all give ``thigh_l``). Recognised:
-    Hips/Pelvis; Spine…/Chest/LowerBack/Thorax (torso); Neck/Head; Left/Right (or L/R)
-    UpLeg/Thigh/HipJoint, Leg/Shin/Calf/Knee, Foot/Ankle, ToeBase/Toe, Arm/UpperArm,
-    ForeArm/LowerArm/Elbow, Hand/Wrist. Clavicles (``LeftShoulder``) are not mapped.
+    Hips/Pelvis; Spine…/Chest/LowerBack/Thorax/Abdomen (torso); Neck/Head; Left/Right (or
+    L/R) UpLeg/Thigh/HipJoint/Hip, Leg/Shin/Calf/Knee, Foot/Ankle, ToeBase/Toe,
+    Arm/UpperArm/Shldr (DAZ), ForeArm/LowerArm/Elbow, Hand/Wrist. Clavicles
+    (``LeftShoulder`` before ``LeftArm``, ``LeftCollar``) are not mapped. With
+    ``fallback``, the names used only when a side has no other joint for that segment:
+    ``LeftShoulder`` as the upper arm (Poser, 3ds Max CMU: Collar, Shoulder, Elbow).
     """
-    table = _alias_table()
+    table = _alias_table(fallback)
     key = _normalise(joint_name)
     if key in table:
         return table[key]
@@ -513,6 +526,11 @@ def _segment_joints(bvh: Bvh, name_map: Mapping[str, str] | None) -> dict[str, i
         for k, joint in enumerate(bvh.joints):
             seg = default_segment(joint.name)
             if seg is not None:
+                candidates.setdefault(seg, []).append(k)
+        primary = set(candidates)
+        for k, joint in enumerate(bvh.joints):
+            seg = default_segment(joint.name, fallback=True)
+            if seg is not None and seg not in primary:
                 candidates.setdefault(seg, []).append(k)
     else:
         valid = set(model_segments())
@@ -706,8 +724,14 @@ def hinge_angles(rot: np.ndarray, axes: list[tuple[float, float, float]],
 
 
 def _guess_unit(bvh: Bvh, segs: dict[str, int], rest: np.ndarray, c: np.ndarray) -> float:
-    legs = [float(np.linalg.norm(rest[segs[f"foot_{s}"]] - rest[segs[f"thigh_{s}"]]))
-            for s in SIDES if f"foot_{s}" in segs and f"thigh_{s}" in segs]
+    def length(a: str, b: str) -> float:
+        return float(np.linalg.norm(rest[segs[b]] - rest[segs[a]]))
+
+    # thigh + shank bone lengths: right whatever the rest pose folds
+    legs = [length(f"thigh_{s}", f"shank_{s}") + length(f"shank_{s}", f"foot_{s}")
+            for s in SIDES if all(f"{g}_{s}" in segs for g in ("thigh", "shank", "foot"))]
+    legs += [length(f"thigh_{s}", f"foot_{s}") for s in SIDES
+             if f"foot_{s}" in segs and f"thigh_{s}" in segs and f"shank_{s}" not in segs]
     if legs and max(legs) > 0.0:
         leg, how = max(legs), "leg length"
     else:
@@ -725,27 +749,273 @@ def _guess_unit(bvh: Bvh, segs: dict[str, int], rest: np.ndarray, c: np.ndarray)
     return best
 
 
-def bvh_to_coordinates(bvh: Bvh, name_map: Mapping[str, str] | None = None, up: str = "y",
-                       forward: str = "z", length_unit_m: float | None = None) -> Motion:
+# Model parent of each segment (the chain the alignment follows) and the chain's name.
+_PARENT_SEGMENT = {"torso": "pelvis", "head": "torso", "upper_arm": "torso",
+                   "forearm": "upper_arm", "hand": "forearm", "thigh": "pelvis",
+                   "shank": "thigh", "foot": "shank", "toes": "foot"}
+_CHAIN = {"torso": "spine", "head": "spine", "upper_arm": "arm", "forearm": "arm",
+          "hand": "arm", "thigh": "leg", "shank": "leg", "foot": "leg", "toes": "leg"}
+UPRIGHT_TOLERANCE_DEG = 60.0  # rest-pose legs and spine this close to vertical: upright
+# At a neutral ankle our foot's bone (ankle to MTP joint) slopes down this much from the
+# sole's forward axis (stumble.body.build, de Leva proportions: 0.135 m ahead, 0.044 m down)
+FOOT_BONE_SLOPE_DEG = 18.2
+
+
+def _split(seg: str) -> tuple[str, str]:
+    """``"upper_arm_l"`` -> ``("upper_arm", "l")``; ``"torso"`` -> ``("torso", "")``."""
+    return (seg[:-2], seg[-1]) if seg.endswith(("_r", "_l")) else (seg, "")
+
+
+def _seg_name(base: str, side: str) -> str:
+    return f"{base}_{side}" if side and base not in ("pelvis", "torso", "head") else base
+
+
+def _parent_seg(seg: str) -> str:
+    base, side = _split(seg)
+    return _seg_name(_PARENT_SEGMENT[base], side)
+
+
+def _distal_seg(seg: str) -> str | None:
+    base, side = _split(seg)
+    d = _DISTAL.get(base)
+    return None if d is None else _seg_name(d, side)
+
+
+def _bone_world(bvh: Bvh, segs: dict[str, int], seg: str, rot: np.ndarray,
+                pos: np.ndarray) -> np.ndarray | None:
+    """World bone of a segment (F, 3), BVH axes: to its distal segment's joint, else to the
+    mean of its children and End Sites."""
+    k = segs[seg]
+    distal = _distal_seg(seg)
+    if distal in segs and _is_descendant(bvh, segs[distal], k):
+        return pos[:, segs[distal]] - pos[:, k]
+    kids = [i for i, j in enumerate(bvh.joints) if j.parent == k]
+    points = [pos[:, i] for i in kids]
+    points += [pos[:, k] + rot[:, k] @ e for e in bvh.joints[k].end_sites]
+    if not points:
+        return None
+    vec = np.mean(points, axis=0) - pos[:, k]
+    return vec if np.linalg.norm(vec, axis=1).max() > 1e-9 else None
+
+
+def _nearest_axis(vec: np.ndarray, exclude: int | None = None) -> tuple[str, float]:
+    """The signed axis name ("y", "-z") nearest to ``vec`` (BVH axes) and its cosine."""
+    v = np.array(vec, dtype=float)
+    if exclude is not None:
+        v[exclude] = 0.0
+    n = float(np.linalg.norm(v))
+    if n < 1e-12:
+        return "", 0.0
+    i = int(np.argmax(np.abs(v)))
+    return ("-" if v[i] < 0 else "") + "xyz"[i], abs(float(v[i])) / n
+
+
+def detect_axes(bvh: Bvh, segs: dict[str, int], pos: np.ndarray,
+                up: str | None = None) -> tuple[str, str, str]:
+    """BVH ``up`` and ``forward`` axes read from the motion: ``(up, forward, how)``.
+
+    Up: the mean direction from the feet (toes, feet or shanks) to the head (or torso,
+    or pelvis) over all frames of ``pos`` (F, J, 3), snapped to the nearest signed axis.
+    Forward: the body's facing, left × up with left the mean vector from the right to the
+    left hip (or shoulder, or foot), snapped to the nearest axis across ``up``; without
+    sided joints, the root's path. ``bvh_to_coordinates`` reads forward from the rest
+    pose when that is upright (the alignment is relative to it; a walk along -x is then a
+    heading of the pelvis), else from the motion. What cannot be read falls back to Y up
+    and +Z forward (the common BVH convention), which ``how`` says. A given ``up`` is
+    kept and only forward read.
+    """
+    def mean_pos(names: list[str]) -> np.ndarray | None:
+        ks = [segs[n] for n in names if n in segs]
+        return None if not ks else pos[:, ks].mean(axis=1)
+
+    low = next((p for p in (mean_pos([f"toes_{s}" for s in SIDES] + [f"foot_{s}" for s in SIDES]),
+                            mean_pos([f"shank_{s}" for s in SIDES])) if p is not None), None)
+    high = next((p for p in (mean_pos(["head"]), mean_pos(["torso"]), mean_pos(["pelvis"]))
+                 if p is not None), None)
+    how = []
+    if up is None:
+        cos_up = 0.0
+        if low is not None and high is not None:
+            up, cos_up = _nearest_axis((high - low).mean(axis=0))
+        if cos_up < 0.7:
+            up = "y"
+            how.append("up not readable from the skeleton: Y assumed")
+    basis_matrix(up, "x" if up.lstrip("+-").lower() != "x" else "y")  # checks the name
+    up = up.strip().lower().lstrip("+")
+    ui = "xyz".index(up[-1])
+    u = np.zeros(3)
+    u[ui] = -1.0 if up.startswith("-") else 1.0
+    left = None
+    for a in ("thigh", "upper_arm", "foot"):
+        pl, pr = mean_pos([f"{a}_l"]), mean_pos([f"{a}_r"])
+        if pl is not None and pr is not None:
+            left = (pl - pr).mean(axis=0)
+            break
+    forward, cos_f = ("", 0.0)
+    if left is not None:
+        forward, cos_f = _nearest_axis(np.cross(left, u), exclude=ui)
+    if cos_f < 0.5:
+        root = pos[:, 0]
+        forward, cos_f = _nearest_axis(root[-1] - root[0], exclude=ui)
+    if cos_f < 0.5:
+        forward = {"y": "z", "-y": "z", "z": "x", "-z": "x", "x": "z", "-x": "z"}[up]
+        how.append(f"facing not readable: {forward} forward assumed")
+    return up, forward, "; ".join(how)
+
+
+def _rest_is_upright(bvh: Bvh, segs: dict[str, int], rest: np.ndarray, c: np.ndarray) -> bool:
+    """Whether the rest pose (all rotations 0) has vertical legs and spine (within
+    ``UPRIGHT_TOLERANCE_DEG``): the usual T- or A-pose. Bandai-Namco's skeleton, whose
+    bones rest along ±x, is not."""
+    cos_tol = math.cos(math.radians(UPRIGHT_TOLERANCE_DEG))
+    for seg, want in [*((f"{b}_{s}", -1.0) for b in ("thigh", "shank") for s in SIDES),
+                      ("torso", 1.0)]:
+        if seg not in segs:
+            continue
+        distal = _distal_seg(seg)
+        vec = _bone_vector(bvh, segs[seg], segs.get(distal), rest)
+        if vec is None:
+            continue
+        b = c @ vec
+        if want * b[2] < cos_tol * np.linalg.norm(b):
+            return False
+    return True
+
+
+def _alignments_from_motion(bvh: Bvh, segs: dict[str, int], rot: np.ndarray,
+                            pos: np.ndarray, c: np.ndarray) -> dict[str, np.ndarray]:
+    """``R_align`` of every mapped segment of a skeleton whose rest pose is not upright.
+
+    The pelvis frame is fixed in the Hips joint's own frame by its bones: left from the
+    right to the left hip joint, up toward the spine (or, without one, the mean world up),
+    both averaged over the motion. Every other segment is aligned at one reference frame
+    of its chain (leg, arm, spine: the frame where that chain's bones are closest to
+    vertical): there its frame is its parent's, turned by the least rotation onto its
+    bone, so its joint has no axial twist at that instant (our choice). The foot's bone
+    (ankle to toe joint) is taken to slope down ``FOOT_BONE_SLOPE_DEG`` at a neutral
+    ankle, as ours does. After that the BVH rotations carry every change, twists
+    included.
+    """
+    cc = c.T
+    out: dict[str, np.ndarray] = {}
+    k0 = segs["pelvis"]
+    rp = rot[:, k0]
+    left = None
+    for a in ("thigh", "upper_arm"):
+        if f"{a}_l" in segs and f"{a}_r" in segs:
+            w = pos[:, segs[f"{a}_l"]] - pos[:, segs[f"{a}_r"]]
+            left = c @ np.einsum("fji,fj->i", rp, w) / len(w)
+            break
+    if "torso" in segs:  # the pelvis's own child on the way to the torso: a fixed OFFSET
+        k = segs["torso"]
+        while bvh.joints[k].parent not in (k0, -1):
+            k = bvh.joints[k].parent
+        w = pos[:, segs["torso"]] - pos[:, k0]
+        upv = c @ bvh.joints[k].offset if np.linalg.norm(bvh.joints[k].offset) > 1e-9 else (
+            c @ np.einsum("fji,fj->i", rp, w) / len(w))
+    else:
+        upv = c @ np.einsum("fji,j->i", rp, cc @ np.array([0.0, 0.0, 1.0])) / len(rp)
+    if left is None or np.linalg.norm(left) < 1e-9:
+        left = np.cross(upv, c @ np.einsum("fji,j->i", rp, cc @ np.array([1.0, 0.0, 0.0])))
+    y = left / np.linalg.norm(left)
+    z = upv - (upv @ y) * y
+    z /= np.linalg.norm(z)
+    out["pelvis"] = np.column_stack([np.cross(y, z), y, z])
+
+    bones = {seg: _bone_world(bvh, segs, seg, rot, pos) for seg in segs if seg != "pelvis"}
+    bones = {k: (v @ c.T) for k, v in bones.items() if v is not None}
+    ref: dict[tuple[str, str], int] = {}
+    for chain in ("leg", "arm", "spine"):
+        for side in (*SIDES, ""):
+            cost = np.zeros(len(rot))
+            used = False
+            for seg, b in bones.items():
+                base, sd = _split(seg)
+                if _CHAIN.get(base) != chain or sd != side or base in _NEUTRAL_ON:
+                    continue
+                want = np.asarray(SEGMENT_DIRECTION[base])
+                cosang = (b @ want) / np.maximum(np.linalg.norm(b, axis=1), 1e-12)
+                cost += np.arccos(np.clip(cosang, -1.0, 1.0))
+                used = True
+            if used:
+                ref[(chain, side)] = int(np.argmin(cost))
+
+    world = {seg: c @ rot[:, k] @ cc for seg, k in segs.items()}
+    for base in SEGMENT_DIRECTION:  # proximal segments first
+        for side in (*SIDES, ""):
+            seg = _seg_name(base, side)
+            if base == "pelvis" or seg not in segs or seg in out or (side == "") != (
+                    base in ("torso", "head")):
+                continue
+            parent = _parent_seg(seg)
+            while parent not in out and parent != "pelvis":
+                parent = _parent_seg(parent)
+            f = ref.get((_CHAIN[base], side), 0)
+            s_parent = world[parent][f] @ out[parent]
+            if seg not in bones:
+                target = s_parent
+            else:
+                b = bones[seg][f] / np.linalg.norm(bones[seg][f])
+                neutral = np.asarray(SEGMENT_DIRECTION[base], dtype=float)
+                if base == "foot":
+                    a = math.radians(FOOT_BONE_SLOPE_DEG)
+                    neutral = np.array([math.cos(a), 0.0, -math.sin(a)])
+                target = _shortest_arc(s_parent @ neutral, b) @ s_parent
+            out[seg] = world[seg][f].T @ target
+    return out
+
+
+def bvh_to_coordinates(bvh: Bvh, name_map: Mapping[str, str] | None = None, up: str = "auto",
+                       forward: str = "auto", length_unit_m: float | None = None) -> Motion:
     """Retarget a BVH motion onto the model's coordinates (see the module docstring).
 
     ``name_map`` maps BVH joint names to model segments (``"thigh_l"``, ``"torso"``, ...;
     see :func:`model_segments`) and replaces the default name recognition
-    (:func:`default_segment`). ``up``/``forward`` name the BVH world axes. The length unit
-    (m per file unit) is guessed when None: the one of ``LENGTH_UNITS_M`` that brings the
-    hip-to-ankle length closest to 0.9 m. Returns a :class:`Motion` with angles in rad
-    and ``pelvis_tx/ty/tz`` in m (tx forward, ty up, tz right); joints whose parent or
-    child segment is missing from the BVH are left out.
+    (:func:`default_segment`). ``up``/``forward`` name the BVH world axes (``"y"``,
+    ``"-z"``, ...); ``"auto"`` reads them from the motion (:func:`detect_axes`). The
+    length unit (m per file unit) is guessed when None: the one of ``LENGTH_UNITS_M`` that
+    brings the hip-to-ankle length closest to 0.9 m. A rest pose that is not upright
+    (:func:`_rest_is_upright`) is read through the motion instead
+    (:func:`_alignments_from_motion`). Returns a :class:`Motion` with angles in rad,
+    ``pelvis_tx/ty/tz`` in m (tx forward, ty up, tz right) and notes; joints whose parent
+    or child segment is missing from the BVH are left out. A file whose joints drive no
+    hip, knee or ankle is an :class:`InputError`.
     """
-    c = basis_matrix(up, forward)
     if length_unit_m is not None and not (math.isfinite(length_unit_m) and length_unit_m > 0):
         raise InputError(f"{bvh.source}: length_unit_m must be positive, got {length_unit_m}")
     segs = _segment_joints(bvh, name_map)
-    rest = _rest_positions(bvh)
-    unit = _guess_unit(bvh, segs, rest, c) if length_unit_m is None else float(length_unit_m)
+    legs = sorted(s for s in segs if _split(s)[0] in ("thigh", "shank", "foot"))
+    if not legs:
+        names = [j.name for j in bvh.joints]
+        raise InputError(f"{bvh.source}: no joint maps to a leg (joints: {listed(names)}); "
+                         "the names understood are those of stumble.gait.bvh.default_segment, "
+                         "or pass name_map")
+    notes = list(bvh.notes)
     rot_b, pos_b = joint_world_frames(bvh)
+    rest = _rest_positions(bvh)
+    given = (up, forward)
+    how = ""
+    if up == "auto":
+        up, _, how = detect_axes(bvh, segs, pos_b)
+    side = {"x": "y", "y": "z", "z": "x"}[up.strip().lstrip("+-").lower()[-1:] or "y"]
+    upright = _rest_is_upright(bvh, segs, rest, basis_matrix(up, side))
+    if forward == "auto":  # the facing of the rest pose the alignment reads, else the motion's
+        _, forward, how_f = detect_axes(bvh, segs, rest[None] if upright else pos_b, up)
+        how = "; ".join(h for h in (how, how_f) if h)
+    if given != (up, forward) and (up, forward) != ("y", "z"):
+        notes.append(f"{bvh.source}: axes read from the skeleton: {up} up, {forward} forward"
+                     + (f" ({how})" if how else ""))
+    elif how:
+        notes.append(f"{bvh.source}: {how}")
+    c = basis_matrix(up, forward)
+    unit = _guess_unit(bvh, segs, rest, c) if length_unit_m is None else float(length_unit_m)
 
-    aligns = _alignments(bvh, segs, rest, c)
+    if _rest_is_upright(bvh, segs, rest, c):
+        aligns = _alignments(bvh, segs, rest, c)
+    else:
+        aligns = _alignments_from_motion(bvh, segs, rot_b, pos_b, c)
+        notes.append(f"{bvh.source}: the rest pose is not upright (bones at rest point away "
+                     "from vertical); segments aligned on the motion instead")
     frames = {seg: c @ rot_b[:, k] @ c.T @ aligns[seg] for seg, k in segs.items()}
 
     columns: dict[str, np.ndarray] = {}
@@ -775,8 +1045,11 @@ def bvh_to_coordinates(bvh: Bvh, name_map: Mapping[str, str] | None = None, up: 
         angles = hinge_angles(rel, [h[2] for h in hinges], [h[3] for h in hinges])
         for i, (name, *_) in enumerate(hinges):
             columns[name] = np.unwrap(angles[:, i])
+    if not any(n.split("_")[0] in ("hip", "knee", "ankle") for n in columns):
+        raise InputError(f"{bvh.source}: its joints ({listed(sorted(segs))}) drive no hip, "
+                         "knee or ankle of the model; pass name_map")
     return Motion(time_s=bvh.time_s, columns=columns, in_degrees_source=True,
-                  source=bvh.source)
+                  source=bvh.source, notes=tuple(notes))
 
 
 __all__ = [
@@ -786,6 +1059,7 @@ __all__ = [
     "basis_matrix",
     "bvh_to_coordinates",
     "default_segment",
+    "detect_axes",
     "hinge_angles",
     "joint_world_frames",
     "model_segments",

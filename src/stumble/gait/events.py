@@ -46,6 +46,23 @@ class GaitEvents:
         s = np.concatenate([self.strides_s("r"), self.strides_s("l")])
         return float(s.mean()) if len(s) else float("nan")
 
+    def stride_estimate_s(self) -> tuple[float | None, str]:
+        """Stride time (s) from the events that exist, and how it was found.
+
+        The mean complete stride (heel strike to heel strike of one foot) of both sides;
+        without one, twice the mean step (a heel strike to the next one of the other
+        foot, else a toe-off to the next of the other foot); without a step, None.
+        """
+        mean = self.mean_stride_s()
+        if np.isfinite(mean):
+            return mean, "complete strides"
+        for events, what in ((self.heel_strike_s, "heel strikes"), (self.toe_off_s, "toe-offs")):
+            marks = sorted([(t, "r") for t in events["r"]] + [(t, "l") for t in events["l"]])
+            steps = [b[0] - a[0] for a, b in itertools.pairwise(marks) if a[1] != b[1]]
+            if steps:
+                return 2.0 * float(np.mean(steps)), f"twice the step between {what}"
+        return None, "no step"
+
     def stance_fraction(self) -> float:
         """Mean share of a stride spent in stance, over complete strides of both sides."""
         fr = []
@@ -56,6 +73,17 @@ class GaitEvents:
                 if off:
                     fr.append((off[0] - a) / (b - a))
         return float(np.mean(fr)) if fr else float("nan")
+
+    def stance_fraction_from(self, stride_s: float) -> float | None:
+        """Mean stance time over ``stride_s``: heel strike to the next toe-off of one foot,
+        for files too short for a complete stride; None without such a pair."""
+        fr = []
+        for side in ("r", "l"):
+            for hs in self.heel_strike_s[side]:
+                offs = [x for x in self.toe_off_s[side] if x > hs]
+                if offs and offs[0] - hs < stride_s:
+                    fr.append((offs[0] - hs) / stride_s)
+        return float(np.mean(fr)) if fr else None
 
     def to_json(self) -> dict:
         """The events as JSON-ready lists (s, rounded to 0.1 ms)."""

@@ -50,6 +50,7 @@ class Playback:
     stride_s: float
     source: str
     retarget: dict = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)  # one-line remarks on the input
 
     def swing_fraction(self, side: str, t: float) -> float | None:
         """Fraction of the swing of ``side`` at time t (0 toe-off, 1 heel strike), or None."""
@@ -68,7 +69,8 @@ class Playback:
                                     {s: keep(v) for s, v in self.events.toe_off_s.items()})
         return Playback(self.body, t, self.qpos[sel], self.qvel[sel],
                         {k: v[sel] for k, v in self.coordinates.items()}, ev,
-                        self.speed_m_per_s, self.stride_s, self.source, dict(self.retarget))
+                        self.speed_m_per_s, self.stride_s, self.source, dict(self.retarget),
+                        list(self.notes))
 
     def state_at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """(qpos, qvel) at time t, linearly interpolated between frames."""
@@ -311,17 +313,22 @@ def build_qpos(body: Body, coords: dict[str, np.ndarray], n: int) -> np.ndarray:
 
 
 def play(body: Body, time_s: np.ndarray, coords: dict[str, np.ndarray], source: str,
-         speed_m_per_s: float | None = None, stride_s: float | None = None) -> Playback:
+         speed_m_per_s: float | None = None, stride_s: float | None = None,
+         plant: bool = True) -> Playback:
     """Play joint-angle series on ``body``: place the pelvis, plant the feet, find events.
 
     Velocities are central differences of the positions low-passed at
-    ``SMOOTH_CUTOFF_HZ`` (``smooth_positions``).
+    ``SMOOTH_CUTOFF_HZ`` (``smooth_positions``). ``plant=False`` keeps the joint angles
+    exactly as given (no foot-planting corrections; the pelvis is still placed by the
+    feet).
     """
+    if len(time_s) < 2:
+        raise InputError(f"{source}: {len(time_s)} sample(s); playing needs at least 2")
     dt = float(np.mean(np.diff(time_s)))
     qpos = build_qpos(body, coords, len(time_s))
     anchor_root(body, qpos, dt)
     ev = gait_events.detect(body, qpos, time_s)
-    lift = plant_feet(body, qpos, ev, time_s)
+    lift = plant_feet(body, qpos, ev, time_s) if plant else np.zeros(len(time_s))
     smooth = qpos.copy()
     smooth_positions(body, smooth, dt)
     qvel = qvel_from_qpos(body, smooth, dt)

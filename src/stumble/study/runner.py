@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
-import json
 import math
 import multiprocessing
 import os
@@ -43,7 +42,7 @@ import numpy as np
 
 from stumble import __version__
 from stumble.errors import SimulationDiverged, StumbleError
-from stumble.files import finite_or_none
+from stumble.jsonio import dumps, strict
 from stumble.study.grid import Grid, check_scenario, run_key, scenario_fields
 from stumble.study.store import (
     Store,
@@ -82,8 +81,8 @@ def _plain(v):
     if isinstance(v, np.ndarray):
         v = v.tolist()
     if isinstance(v, (list, tuple)):
-        return json.dumps(finite_or_none(v), default=_json_default, allow_nan=False)
-    return finite_or_none(v)
+        return dumps(v, default=_json_default)
+    return strict(v)
 
 
 def _json_default(v):
@@ -673,7 +672,7 @@ def run_study(scenarios: Grid | Iterable[Scenario], out: Path, workers: int | No
 def _write_study_json(out: Path, runs: int, metadata: dict | None) -> None:
     d = {"stumble_version": __version__, "runs": runs, **(metadata or {})}
     tmp = out / ".study.json.tmp"
-    tmp.write_text(json.dumps(d, indent=1, allow_nan=False) + "\n")
+    tmp.write_text(dumps(d, indent=1) + "\n")
     os.replace(tmp, out / "study.json")
 
 

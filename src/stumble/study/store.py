@@ -47,7 +47,8 @@ from pathlib import Path
 import numpy as np
 
 from stumble.errors import StumbleError
-from stumble.files import check_writable
+from stumble.jsonio import dumps
+from stumble.outdir import check_writable
 
 PART_ROWS = 500  # rows per Parquet part (a journal is moved into a part at this size)
 RESULT_CHUNK_ROWS = 20_000  # rows of results.parquet assembled at a time (one row group)
@@ -433,7 +434,7 @@ class Store:
         if self._file is None:
             self._journal = self.runs / f"journal-{uuid.uuid4().hex[:12]}.jsonl"
             self._file = open(self._journal, "a", encoding="utf-8")
-        self._file.write(json.dumps(row, allow_nan=False) + "\n")
+        self._file.write(dumps(row) + "\n")
         self._file.flush()
         self._pending.append(row)
         if traceback_text:

@@ -15,13 +15,14 @@ from stumble.body.muscles import MUSCLE_NAMES
 
 
 def plot_activity_fit(path: Path, percent: np.ndarray, target: np.ndarray,
-                      network: np.ndarray, events: dict[str, float], title: str) -> None:
+                      network: np.ndarray, events: dict[str, float], title: str,
+                      muscles: tuple[str, ...] = MUSCLE_NAMES) -> None:
     """Identified (dotted) and network (solid) activity per muscle over the stride.
 
-    ``target``/``network``: (T, 7) activity in 0-1; ``events``: label -> percent.
+    ``target``/``network``: (T, n_muscles) activity in 0-1; ``events``: label -> percent.
     """
-    fig, axes = plt.subplots(len(MUSCLE_NAMES), 1, figsize=(7.5, 10.5), sharex=True)
-    for j, (ax, name) in enumerate(zip(axes, MUSCLE_NAMES, strict=True)):
+    fig, axes = plt.subplots(len(muscles), 1, figsize=(7.5, 1.5 * len(muscles)), sharex=True)
+    for j, (ax, name) in enumerate(zip(axes, muscles, strict=True)):
         ax.plot(percent, target[:, j], ":", color="tab:blue", lw=2.0,
                 label="identified (inverse dynamics + static optimisation)")
         ax.plot(percent, network[:, j], "-", color="tab:red", lw=1.3, label="network")
@@ -45,14 +46,14 @@ def plot_activity_fit(path: Path, percent: np.ndarray, target: np.ndarray,
 
 def plot_muscle_tensions(path: Path, t_trip: np.ndarray, f_trip: np.ndarray,
                          t_walk: np.ndarray, f_walk: np.ndarray, sides: tuple[str, str],
-                         title: str) -> None:
+                         title: str, muscles: tuple[str, ...] = MUSCLE_NAMES) -> None:
     """Tension (N) per muscle of both legs: this trip (solid) and walking (dotted).
 
-    ``f_*``: (T, 2, 7) tensions of the (tripped, support) legs; time 0 the trip.
+    ``f_*``: (T, 2, n_muscles) tensions of the (tripped, support) legs; time 0 the trip.
     """
-    fig, axes = plt.subplots(len(MUSCLE_NAMES), 2, figsize=(9.0, 10.5), sharex=True)
+    fig, axes = plt.subplots(len(muscles), 2, figsize=(9.0, 1.5 * len(muscles)), sharex=True)
     for col, label in enumerate(sides):
-        for j, name in enumerate(MUSCLE_NAMES):
+        for j, name in enumerate(muscles):
             ax = axes[j, col]
             ax.plot(t_walk, f_walk[:, col, j], ":", color="tab:blue", lw=1.8,
                     label="walking without trip")

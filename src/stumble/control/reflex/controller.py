@@ -36,58 +36,98 @@ from stumble.control.reflex.receptors import (
     GTOFilter,
     gto_static,
 )
+from stumble.errors import InputError
 from stumble.sim import Context
 
 SIDES = ("r", "l")
-N_MUSCLES = len(MUSCLE_NAMES)
 
 
 class TrunkBalance:
-    """The stance hips' trunk-lean reflex of Geyer & Herr 2010 (vestibular), an addition.
+    """The trunk-lean reflexes of Geyer & Herr 2010 (vestibular), an addition to seed 003.
 
     Seed 003 does not say what holds the trunk up: its network senses the muscles only,
     and without a sense of the trunk's pitch the planar body pitches forward within half
     a second of walking (measured). Geyer & Herr 2010 hold it with the stance leg's hip
-    muscles: hip extensors (GLU, HAMS) get k_p (θ − θ_ref) + k_d θ̇ of the trunk's
-    forward lean θ, the hip flexor (HFL; here RF) the negative, in proportion to the
-    leg's share of the body weight. Gains as reported in reimplementations of Geyer &
-    Herr 2010 (k_p 1.91 /rad, k_d 0.2 s/rad, θ_ref 0.105 rad; not re-checked against the
-    paper's table). Lean, pitch rate and load share all arrive through one
-    vestibulospinal latency (``delay_s``, our choice 20 ms).
+    muscles: hip extensors (GLU, HAMS) get g = k_p (θ − θ_ref) + k_d θ̇ of the trunk's
+    forward lean θ, the hip flexor (HFL, or RF without one) −g, in proportion to the
+    leg's share of the body's load; with ``rectified`` each gets only its positive part,
+    as in Geyer & Herr (extensors [g]+, flexor [−g]+). ``k_lean`` adds their swing law
+    for the hip flexor, k_lean (θ − θ_ref), to a leg whose load is below ``stance_load``
+    body weights. Defaults: k_p 1.91 /rad, k_d 0.2 s/rad, θ_ref 0.105 rad as reported in
+    reimplementations of Geyer & Herr 2010 (not re-checked against the paper's table),
+    unrectified, no swing term; a closed-loop-refined network carries its own
+    (``from_info``). Lean, pitch rate and loads arrive through one vestibulospinal
+    latency (``delay_s``, our choice 20 ms).
     """
 
     DELAY_S = 0.02  # vestibulospinal latency (our choice)
 
     def __init__(self, kp_per_rad: float = 1.91, kd_s_per_rad: float = 0.2,
                  lean_ref_rad: float = 0.105, delay_s: float = DELAY_S,
-                 rate_hz: float = 1000.0):
+                 rate_hz: float = 1000.0, rectified: bool = False, k_lean: float = 0.0,
+                 stance_load: float = 0.1):
         self.kp, self.kd, self.ref = kp_per_rad, kd_s_per_rad, lean_ref_rad
+        self.rectified, self.k_lean, self.stance_load = rectified, k_lean, stance_load
         self.lag = max(1, round(delay_s * rate_hz))
-        self.mus = np.zeros(N_MUSCLES)
-        for name, sign in (("GLU", 1.0), ("HAMS", 1.0), ("RF", -1.0)):
-            self.mus[MUSCLE_NAMES.index(name)] = sign
+        self.weight_n = 686.7  # set by ``bind``
+        self.bind(MUSCLE_NAMES)
+
+    def to_info(self) -> dict:
+        """The gains, for a network file's ``info`` (the delay is the caller's)."""
+        return {"kp_per_rad": self.kp, "kd_s_per_rad": self.kd, "lean_ref_rad": self.ref,
+                "rectified": self.rectified, "k_lean": self.k_lean,
+                "stance_load": self.stance_load}
+
+    @classmethod
+    def from_info(cls, info: dict | None, delay_s: float = DELAY_S,
+                  rate_hz: float = 1000.0) -> TrunkBalance:
+        """The balance a network file names (``info['balance']``), or the default."""
+        gains = dict((info or {}).get("balance") or {})
+        return cls(delay_s=delay_s, rate_hz=rate_hz, **gains)
+
+    def bind(self, muscles: tuple[str, ...], weight_n: float | None = None) -> None:
+        """Drive one leg's ``muscles`` (in actuator order): extensors +, the flexor −."""
+        self.flexor = "HFL" if "HFL" in muscles else "RF"
+        self.mus = np.zeros(len(muscles))
+        self.ext = np.zeros(len(muscles))
+        self.flex = np.zeros(len(muscles))
+        for name, sign in (("GLU", 1.0), ("HAMS", 1.0), (self.flexor, -1.0)):
+            self.mus[muscles.index(name)] = sign
+        self.ext[[muscles.index("GLU"), muscles.index("HAMS")]] = 1.0
+        self.flex[muscles.index(self.flexor)] = 1.0
+        if weight_n is not None:
+            self.weight_n = weight_n
 
     @staticmethod
     def sense(rows: np.ndarray, lay) -> np.ndarray:
-        """(n, 3) lean (rad), pitch rate (rad/s) and right leg's share of the foot load,
-        from sensor rows (n, nsensordata)."""
+        """(n, 4) lean (rad), pitch rate (rad/s) and the right and left feet's vertical
+        loads (N), from sensor rows (n, nsensordata)."""
         z = rows[:, lay.torso_z]
         fz = -rows[:, lay.foot_force[:, 2]]  # (n, 2) vertical loads r, l
-        total = fz.sum(axis=1)
-        share = np.where(total > 0.0, fz[:, 0] / np.where(total > 0.0, total, 1.0), 0.5)
         # forward lean (z axis towards +x), pitch rate about +y
         return np.column_stack([np.arctan2(z[:, 0], z[:, 2]), rows[:, lay.torso_angvel[1]],
-                                share])
+                                fz])
 
     def drive(self, sensed: np.ndarray) -> np.ndarray:
-        """(n, 2, 7) excitation from (n, 3) delayed lean, rate and right load share."""
-        g = self.kp * (sensed[:, 0] - self.ref) + self.kd * sensed[:, 1]
-        share = np.stack([sensed[:, 2], 1.0 - sensed[:, 2]], axis=1)  # (n, 2)
-        return (g[:, None] * share)[:, :, None] * self.mus
+        """(n, 2, n_muscles) excitation from (n, 4) delayed lean, rate and loads."""
+        lean = sensed[:, 0] - self.ref
+        g = (self.kp * lean + self.kd * sensed[:, 1])[:, None, None]
+        fz = sensed[:, 2:4]
+        total = fz.sum(axis=1, keepdims=True)
+        share = np.where(total > 0.0, fz / np.where(total > 0.0, total, 1.0), 0.5)[:, :, None]
+        if self.rectified:
+            out = (np.maximum(g, 0.0) * self.ext + np.maximum(-g, 0.0) * self.flex) * share
+        else:
+            out = g * share * self.mus
+        if self.k_lean:
+            swing = (fz < self.stance_load * self.weight_n)[:, :, None]
+            out = out + swing * (self.k_lean * lean)[:, None, None] * self.flex
+        return out
 
 
 class ReflexController:
-    """Seed 003's neuromuscular network driving the 14 muscles of the planar body."""
+    """Seed 003's neuromuscular network driving the planar body's muscles (7 per leg, or 8
+    with the iliopsoas)."""
 
     name = "reflex"
     uses_sensors = False  # reads the sensor rows of each block (``observe``) instead
@@ -104,16 +144,25 @@ class ReflexController:
         self.history = history
         self.balance = balance
         self.block_request = block
-        self.excitation = np.zeros((2, N_MUSCLES))
+        self.trace: dict | None = None  # {"inputs": [...], "balance": [...]} when tracing
+        self.nm = network.topology.n_muscles
+        self.excitation = np.zeros((2, self.nm))
         self.log: list[tuple[str, float]] = []
 
     # ---- set-up -----------------------------------------------------------------
     def _bind(self, ctx: Context) -> None:
         m = ctx.model
         geos = {g.name: g for g in ctx.body.muscles}
-        self.act_ids = np.array([[m.actuator(f"{mus}_{s}").id for mus in MUSCLE_NAMES]
+        muscles = self.net.topology.muscles
+        body_muscles = tuple(g.name[:-2] for g in ctx.body.muscles if g.name.endswith("_r"))
+        if body_muscles != muscles:
+            raise InputError(f"the network drives {', '.join(muscles)} but the body has "
+                             f"{', '.join(body_muscles)}")
+        self.act_ids = np.array([[m.actuator(f"{mus}_{s}").id for mus in muscles]
                                  for s in SIDES])
-        g = [geos[f"{mus}_{s}"] for s in SIDES for mus in MUSCLE_NAMES]
+        g = [geos[f"{mus}_{s}"] for s in SIDES for mus in muscles]
+        if self.balance is not None:
+            self.balance.bind(muscles, float(m.body_mass.sum()) * 9.81)
         self.lumbar = m.actuator("lumbar_extension").id
         self.lumbar_q = m.jnt_qposadr[m.joint("lumbar_extension").id]
         self.torso = m.body("torso").id
@@ -155,21 +204,23 @@ class ReflexController:
         self.in_off = np.array([s * n_sig + in_sig for s in range(2)])  # (2, n_in)
         self.hid_off = np.array([s * SH + units for s in range(2)])  # (2, C·H)
         self.w, self.b, self.c = net.w, net.b, net.c
-        mv = np.zeros((len(conns) * H, N_MUSCLES))  # path weights -> motor neurons
+        nm = self.nm
+        mv = np.zeros((len(conns) * H, nm))  # path weights -> motor neurons
         for k, (_s, j, _lag) in enumerate(conns):
             mv[k * H:(k + 1) * H, j] = net.v[k]
         self.mv = mv
         self.k = 0  # ticks sensed so far
         self.h_done = 0  # interneuron ticks evaluated so far
-        self.gto = GTOFilter(1.0 / t.rate_hz, 2 * N_MUSCLES)
+        self.gto = GTOFilter(1.0 / t.rate_hz, 2 * nm)
+        self.ib_cols = slice(2, 3 * nm, 3)
         self.contact = t.contact
         # per-tick sensed state of the current block, and the block's excitations
-        self.sensed = np.zeros((self.block, 3, 2 * N_MUSCLES))  # length, velocity, force
+        self.sensed = np.zeros((self.block, 3, 2 * nm))  # length, velocity, force
         self.loads = np.zeros((self.block, 2))
-        self.exc_block = np.zeros((self.block, 2, N_MUSCLES))
+        self.exc_block = np.zeros((self.block, 2, nm))
         self.block_start = 0
         if self.balance is not None:
-            self.bal_buf = np.zeros((self.balance.lag + self.block + 1, 3))
+            self.bal_buf = np.zeros((self.balance.lag + self.block + 1, 4))
 
     # ---- the network over a range of ticks --------------------------------------------
     def _push_signals(self, first: int, rates: np.ndarray) -> None:
@@ -185,7 +236,10 @@ class ReflexController:
             return
         ticks = np.arange(self.h_done, upto)
         idx = ((ticks[:, None, None] - self.in_lag) % self.n_buf) * self.sig_row + self.in_off
-        h = np.tanh(self.sig_buf.take(idx) @ self.w + self.b)  # (n, 2, S·H)
+        x = self.sig_buf.take(idx)  # (n, 2, n_inputs): the delayed standardised inputs
+        if self.trace is not None:
+            self.trace["inputs"].append(x)
+        h = np.tanh(x @ self.w + self.b)  # (n, 2, S·H)
         self.hid_buf.reshape(self.n_buf, -1)[ticks % self.n_buf] = h.reshape(len(ticks), -1)
         self.h_done = upto
 
@@ -213,11 +267,12 @@ class ReflexController:
         ib, self.gto.z = signal.lfilter(self.gto.b, self.gto.a, gto_static(-sensed[:, 2]),
                                         axis=0, zi=self.gto.z)
         out = np.empty((n, 2, self.net.topology.n_signals))
-        out[:, :, 0:21:3] = np.maximum(ia, 0.0).reshape(n, 2, -1)
-        out[:, :, 1:21:3] = np.maximum(II_BASE + II_STRETCH_GAIN * d_mm, 0.0).reshape(n, 2, -1)
-        out[:, :, 2:21:3] = ib.reshape(n, 2, -1)
+        nm3 = 3 * self.nm
+        out[:, :, 0:nm3:3] = np.maximum(ia, 0.0).reshape(n, 2, -1)
+        out[:, :, 1:nm3:3] = np.maximum(II_BASE + II_STRETCH_GAIN * d_mm, 0.0).reshape(n, 2, -1)
+        out[:, :, 2:nm3:3] = ib.reshape(n, 2, -1)
         if self.contact:
-            out[:, :, 21] = loads / self.body_weight_n
+            out[:, :, nm3] = loads / self.body_weight_n
         return out
 
     def _next_block(self) -> None:
@@ -230,8 +285,10 @@ class ReflexController:
         self.exc_block = self._motor(k, nb)
         if self.balance is not None:
             ticks = np.arange(k, k + nb) - self.balance.lag
-            self.exc_block = self.exc_block + self.balance.drive(
-                self.bal_buf[ticks % len(self.bal_buf)])
+            drive = self.balance.drive(self.bal_buf[ticks % len(self.bal_buf)])
+            if self.trace is not None:
+                self.trace["balance"].append((k, drive))
+            self.exc_block = self.exc_block + drive
         self.ctrl_block = np.clip(self.exc_block.reshape(nb, -1), 0.01, 1.0)
         self.block_start = k
 
@@ -244,11 +301,11 @@ class ReflexController:
         self.period_steps = self.block * self.every
         if self.history is not None:
             hist, gto_state = self.history
-            ib = hist[:, :, 2:21:3].reshape(len(hist), -1)  # (N, 14): r muscles, l muscles
+            ib = hist[:, :, self.ib_cols].reshape(len(hist), -1)  # (N, 2·nm): r, then l
             self.gto.z[:] = gto_state  # the walk's steady state (the filter is slow, 5 s)
             for k in range(len(hist)):
                 r = hist[k].copy()
-                r[:, 2:21:3] = self.gto.step(ib[k]).reshape(2, -1)
+                r[:, self.ib_cols] = self.gto.step(ib[k]).reshape(2, -1)
                 self.excitation = self._tick(r)
             # muscles start at the activity the network held during the walk (the
             # excitation, filtered by the 10 ms activation, is within a few % of it)

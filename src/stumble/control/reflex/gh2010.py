@@ -55,6 +55,7 @@ DELAY_BY_JOINT_S = {"hip": 0.005, "knee": 0.010, "ankle": 0.020}  # Geyer & Herr
 JOINT_OF = {"HAMS": "hip", "GLU": "hip", "HFL": "hip", "RF": "hip", "VAS": "knee",
             "GAS": "ankle", "SOL": "ankle", "TA": "ankle"}
 SHIPPED = "gh2010.json"  # optimised parameters shipped in stumble/control/reflex/data/
+LEAN_FEATURES = [10, 11, 13]  # bal_ext, bal_flex, lean: the vestibular part of the laws
 
 
 @dataclass(frozen=True)
@@ -152,6 +153,8 @@ class GH2010Controller:
 
     def __init__(self, params: GH2010Params | None = None):
         self.p = params or GH2010Params()
+        self.lean_free: np.ndarray | None = None  # set to anything to also get the laws'
+        # output without their trunk-lean terms after each update
         self.log: list[tuple[str, float]] = []
         self._state = "reflex"
 
@@ -271,6 +274,10 @@ class GH2010Controller:
         phi[..., 12] = load[:, ::-1] * trailing
         phi[..., 13] = (lean - p.lean_ref)[:, None]
         u = np.where(stance[..., None], phi @ self._w_stance, phi @ self._w_swing)
+        if self.lean_free is not None:  # the laws without the trunk-lean terms (labels)
+            phi[..., LEAN_FEATURES] = 0.0
+            v = np.where(stance[..., None], phi @ self._w_stance, phi @ self._w_swing)
+            self.lean_free = np.clip(v.reshape(n, 2 * nm), PRE_ACTIVATION, 1.0)
         return np.clip(u.reshape(n, 2 * nm), PRE_ACTIVATION, 1.0)
 
     # ---- Controller protocol -----------------------------------------------------------

@@ -37,7 +37,6 @@ from scipy.optimize import lsq_linear, minimize
 
 from stumble.body import Body, build
 from stumble.body.muscles import (
-    MUSCLE_NAMES,
     TAU_ACTIVATION_S,
     force_length,
     force_velocity,
@@ -85,14 +84,21 @@ class FitResult:
     report: dict = field(default_factory=dict)
 
 
+def leg_muscles(body: Body) -> tuple[str, ...]:
+    """One leg's muscle names, in actuator order (the body's muscle set)."""
+    return tuple(g.name[:-2] for g in body.muscles if g.name.endswith("_r"))
+
+
 def _coef_matrix(body: Body, side: str) -> tuple[np.ndarray, list]:
-    """(7, 3) tendon coefficients (m/rad) of one leg's muscles on hip, knee, ankle."""
+    """(n_muscles, 3) tendon coefficients (m/rad) of one leg's muscles on hip, knee,
+    ankle."""
     geos = {g.name: g for g in body.muscles}
     names = {"hip": f"hip_flexion_{side}", "knee": f"knee_angle_{side}",
              "ankle": f"ankle_angle_{side}"}
-    cm = np.zeros((len(MUSCLE_NAMES), 3))
+    muscles = leg_muscles(body)
+    cm = np.zeros((len(muscles), 3))
     gs = []
-    for i, mus in enumerate(MUSCLE_NAMES):
+    for i, mus in enumerate(muscles):
         g = geos[f"{mus}_{side}"]
         gs.append(g)
         for joint, c in zip(g.joints, g.coef_m, strict=True):
@@ -143,8 +149,10 @@ def identify(body: Body | None = None, rate_hz: float = 1000.0,
     walk = recorded_walk(body, rate_hz=rate_hz)
     T = len(walk.time_s)
     dt = 1.0 / rate_hz
-    n_sig = 3 * len(MUSCLE_NAMES) + (1 if contact else 0)
-    shape = (2, T, len(MUSCLE_NAMES))
+    nm = len(leg_muscles(body))
+    ib_cols = slice(2, 3 * nm, 3)
+    n_sig = 3 * nm + (1 if contact else 0)
+    shape = (2, T, nm)
     moments, fit, act, exc, force = (np.zeros((2, T, 3)), np.zeros((2, T, 3)),
                                      np.zeros(shape), np.zeros(shape), np.zeros(shape))
     rates = np.zeros((2, T, n_sig))
@@ -173,16 +181,16 @@ def identify(body: Body | None = None, rate_hz: float = 1000.0,
         exc[k] = np.clip(act[k] + TAU_ACTIVATION_S * adot, 0.01, 1.0)
         stretch = l_opt * (ln - 1.0)
         fibre_vel = l_opt * vel / l0
-        rates[k, :, 0:21:3] = spindle_ia(stretch, fibre_vel)
-        rates[k, :, 1:21:3] = spindle_ii(stretch)
-        rates[k, :, 2:21:3] = gto_static(force[k])
+        rates[k, :, 0:3 * nm:3] = spindle_ia(stretch, fibre_vel)
+        rates[k, :, 1:3 * nm:3] = spindle_ii(stretch)
+        rates[k, :, ib_cols] = gto_static(force[k])
         if contact:
-            rates[k, :, 21] = walk.grf[side][:, 2] / (m.body_mass.sum() * 9.81)
+            rates[k, :, 3 * nm] = walk.grf[side][:, 2] / (m.body_mass.sum() * 9.81)
     signals = rates.copy()
-    gto = GTOFilter(dt, 2 * len(MUSCLE_NAMES))
-    ib = gto.periodic(np.concatenate([rates[0, :, 2:21:3], rates[1, :, 2:21:3]], axis=1))
-    signals[0, :, 2:21:3] = ib[:, :7]
-    signals[1, :, 2:21:3] = ib[:, 7:]
+    gto = GTOFilter(dt, 2 * nm)
+    ib = gto.periodic(np.concatenate([rates[0, :, ib_cols], rates[1, :, ib_cols]], axis=1))
+    signals[0, :, ib_cols] = ib[:, :nm]
+    signals[1, :, ib_cols] = ib[:, nm:]
     return Identification(walk.time_s, float(walk.stride_s), moments, fit, act, exc, force,
                           rates, signals, walk)
 
@@ -289,10 +297,13 @@ def errors(net: Network, ident: Identification) -> dict:
 
 def fit(seed: int = 0, iterations: int = ITERATIONS,
         refine_iterations: int = REFINE_ITERATIONS, contact: bool = False,
-        progress=None) -> FitResult:
-    """Identify and train: the whole of seed 003 §III's identification."""
-    ident = identify(contact=contact)
-    net, report = train(ident, Topology(contact=contact), seed=seed, iterations=iterations,
+        progress=None, muscle_set: str = "seed") -> FitResult:
+    """Identify and train: the whole of seed 003 §III's identification, for the body's
+    muscle set (``seed``: the seven of seed 003; ``hfl``: with the iliopsoas)."""
+    body = reflex_body(muscle_set=muscle_set)
+    ident = identify(body, contact=contact)
+    net, report = train(ident, Topology(contact=contact, muscles=leg_muscles(body)),
+                        seed=seed, iterations=iterations,
                         refine_iterations=refine_iterations, progress=progress)
     net.walk_rates = ident.rates
     exc, act = network_activity(net, ident)
@@ -317,10 +328,11 @@ def history_before(walk_rates: np.ndarray, phase: float, samples: int,
                    rate_hz: float = 1000.0) -> tuple[np.ndarray, np.ndarray]:
     """Receptor rates (samples, 2, n_signals; Ib unfiltered) leading up to a gait phase
     (fraction of the stride from right heel strike), oldest first, and the tendon-organ
-    filter's steady-state state (2, 14) just before the first of them."""
+    filter's steady-state state (2, 2·n_muscles) just before the first of them."""
     T = walk_rates.shape[1]
     end = round(phase * T)
     idx = np.arange(end - samples, end) % T
-    ib = np.concatenate([walk_rates[0, :, 2:21:3], walk_rates[1, :, 2:21:3]], axis=1)
+    cols = slice(2, 3 * (walk_rates.shape[2] // 3), 3)
+    ib = np.concatenate([walk_rates[0, :, cols], walk_rates[1, :, cols]], axis=1)
     state = GTOFilter(1.0 / rate_hz, ib.shape[1]).state_at(ib, int(idx[0]))
     return np.transpose(walk_rates[:, idx], (1, 0, 2)), state

@@ -30,16 +30,17 @@ from __future__ import annotations
 import json
 import math
 import zipfile
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from stumble.body.muscles import MUSCLE_NAMES
+from stumble.body.muscles import MUSCLE_NAMES, MUSCLE_SETS
 from stumble.control.reflex.receptors import SIGNALS
 from stumble.errors import InputError
 
-SEGMENTS = ("L2", "L3", "L4", "L5", "S1", "S2")
+SEGMENTS = ("L2", "L3", "L4", "L5", "S1", "S2")  # seed 003 Table I
+ALL_SEGMENTS = ("L1", *SEGMENTS)  # L1 binds only the optional iliopsoas (HFL)
 # Seed 003 Table I: nerve length (m) between each muscle and spinal segment it is bound to.
 NERVE_LENGTH_M: dict[str, dict[str, float]] = {
     "HAMS": {"L5": 0.57, "S1": 0.56, "S2": 0.55},
@@ -49,7 +50,18 @@ NERVE_LENGTH_M: dict[str, dict[str, float]] = {
     "RF": {"L2": 0.57, "L3": 0.55, "L4": 0.53},
     "VAS": {"L2": 0.68, "L3": 0.65, "L4": 0.64},
     "SOL": {"S1": 1.28, "S2": 1.25},
+    # Iliopsoas (HFL, optional; not in Table I): psoas major from the anterior rami of
+    # L1-L3 (lumbar plexus), iliacus from the femoral nerve (L2-L3). Our estimate, no
+    # measured nerve length having been found: the psoas branches leave the roots just
+    # outside their foramina, about 0.13 m from cord segments lying at the T11-L1
+    # vertebrae (the cord ends at the L1-L2 disc); the iliacus branch leaves the femoral
+    # nerve in the iliac fossa, about 0.35 m from the cord (Table I's femoral-nerve paths
+    # to RF are 0.53-0.57 m, RF's motor point some 0.2 m further on); iliopsoas as one
+    # muscle takes their mean, 0.24 m from L2, and Table I's 0.02 m per segment. A
+    # parameter: ``HFL_NERVE_LENGTH_M``.
+    "HFL": {"L1": 0.26, "L2": 0.24, "L3": 0.22},
 }
+HFL_NERVE_LENGTH_M = NERVE_LENGTH_M["HFL"]
 AFFERENT_M_PER_S = 57.6  # human sciatic nerve, muscle afferents (1994, Muscle & Nerve)
 EFFERENT_M_PER_S = 52.4  # human sciatic nerve, motor fibres (same source)
 CONTACT_NERVE_M = {"S1": 1.35, "S2": 1.32}  # sole to S1/S2 (our estimate: SOL's + 7 cm)
@@ -66,41 +78,53 @@ class Topology:
     contact: bool = False
     afferent_m_per_s: float = AFFERENT_M_PER_S
     efferent_m_per_s: float = EFFERENT_M_PER_S
-    muscles: tuple[str, ...] = MUSCLE_NAMES  # per leg, in the model's order
+    muscles: tuple[str, ...] = MUSCLE_NAMES  # one leg's muscles, in actuator order
+
+    @property
+    def segments(self) -> tuple[str, ...]:
+        """The spinal segments bound to these muscles, cranial first."""
+        return tuple(seg for seg in ALL_SEGMENTS
+                     if any(seg in NERVE_LENGTH_M[mus] for mus in self.muscles))
+
+    @property
+    def n_muscles(self) -> int:
+        """Muscles per leg."""
+        return len(self.muscles)
 
     @property
     def n_signals(self) -> int:
         """Signals per leg: 3 per muscle, plus the foot contact when enabled."""
-        return 3 * len(self.muscles) + (1 if self.contact else 0)
+        return 3 * self.n_muscles + (1 if self.contact else 0)
 
     def inputs(self) -> list[tuple[int, int, int]]:
         """(segment index, signal index, afferent delay in samples) of every input."""
         out = []
-        for s, seg in enumerate(SEGMENTS):
+        for s, seg in enumerate(self.segments):
             for j, mus in enumerate(self.muscles):
                 if seg in NERVE_LENGTH_M[mus]:
                     lag = self._samples(NERVE_LENGTH_M[mus][seg] / self.afferent_m_per_s)
                     out += [(s, 3 * j + k, lag) for k in range(len(SIGNALS))]
             if self.contact and seg in CONTACT_NERVE_M:
                 lag = self._samples(CONTACT_NERVE_M[seg] / self.afferent_m_per_s)
-                out.append((s, 3 * len(self.muscles), lag))
+                out.append((s, 3 * self.n_muscles, lag))
         return out
 
     def connections(self) -> list[tuple[int, int, int]]:
         """(segment index, muscle index, efferent delay in samples) of every motor path."""
         out = []
+        segs = self.segments
         for j, mus in enumerate(self.muscles):
             for seg, length in NERVE_LENGTH_M[mus].items():
-                out.append((SEGMENTS.index(seg), j,
-                            self._samples(length / self.efferent_m_per_s)))
+                out.append((segs.index(seg), j, self._samples(length / self.efferent_m_per_s)))
         return out
 
     def path_delays_s(self) -> dict[tuple[str, str, str], float]:
         """Delay (s) of every reflex path (source muscle, segment, target muscle)."""
         out = {}
-        for src, segs in NERVE_LENGTH_M.items():
-            for seg, l_aff in segs.items():
-                for dst, segs2 in NERVE_LENGTH_M.items():
+        for src in self.muscles:
+            for seg, l_aff in NERVE_LENGTH_M[src].items():
+                for dst in self.muscles:
+                    segs2 = NERVE_LENGTH_M[dst]
                     if seg in segs2:
                         out[(src, seg, dst)] = (l_aff / self.afferent_m_per_s
                                                 + segs2[seg] / self.efferent_m_per_s)
@@ -149,20 +173,21 @@ class Network:
         """Small random weights (deterministic for a seed)."""
         rng = np.random.default_rng(seed)
         n_in, H = len(topology.inputs()), topology.hidden
-        fan = np.bincount([s for s, _x, _y in topology.inputs()], minlength=len(SEGMENTS))
-        w = rng.normal(0.0, 1.0, (n_in, len(SEGMENTS) * H))
+        n_seg = len(topology.segments)
+        fan = np.bincount([s for s, _x, _y in topology.inputs()], minlength=n_seg)
+        w = rng.normal(0.0, 1.0, (n_in, n_seg * H))
         seg_of_input = np.array([s for s, _x, _y in topology.inputs()])
         w *= 1.0 / np.sqrt(fan[seg_of_input])[:, None]
         w *= cls._mask(topology)
         v = rng.normal(0.0, 0.3, (len(topology.connections()), H))
-        return cls(topology, w, np.zeros(len(SEGMENTS) * H), v, np.zeros(len(topology.muscles)),
+        return cls(topology, w, np.zeros(n_seg * H), v, np.zeros(topology.n_muscles),
                    np.asarray(mean, float), np.asarray(std, float))
 
     @staticmethod
     def _mask(topology: Topology) -> np.ndarray:
         H = topology.hidden
         ins = topology.inputs()
-        mask = np.zeros((len(ins), len(SEGMENTS) * H))
+        mask = np.zeros((len(ins), len(topology.segments) * H))
         for i, (s, _sig, _lag) in enumerate(ins):
             mask[i, s * H:(s + 1) * H] = 1.0
         return mask
@@ -170,8 +195,8 @@ class Network:
     def with_delay_scale(self, scale: float) -> Network:
         """A copy whose every nerve delay is ``scale`` times as long (slower nerves)."""
         t = self.topology
-        slower = replace(t, afferent_m_per_s=t.afferent_m_per_s / scale,
-                         efferent_m_per_s=t.efferent_m_per_s / scale)
+        slower = Topology(t.rate_hz, t.hidden, t.contact, t.afferent_m_per_s / scale,
+                          t.efferent_m_per_s / scale, t.muscles)
         return Network(slower, self.w, self.b, self.v, self.c, self.mean, self.std,
                        dict(self.info), self.walk_rates)
 
@@ -213,7 +238,7 @@ class Network:
         conns = self.topology.connections()
         hd = np.stack([np.roll(h[:, units[k]], lag, axis=0)
                        for k, (_s, _j, lag) in enumerate(conns)], axis=1)  # (T, C, H)
-        z = np.zeros((len(h), len(MUSCLE_NAMES)))
+        z = np.zeros((len(h), self.topology.n_muscles))
         contrib = np.einsum("tch,ch->tc", hd, self.v)
         for k, (_s, j, _lag) in enumerate(conns):
             z[:, j] += contrib[:, k]
@@ -251,27 +276,37 @@ class Network:
                  path, w=self.w, b=self.b, v=self.v, c=self.c, mean=self.mean, std=self.std,
                  rate_hz=t.rate_hz, hidden=t.hidden, contact=t.contact,
                  afferent_m_per_s=t.afferent_m_per_s, efferent_m_per_s=t.efferent_m_per_s,
-                 muscles=np.array(t.muscles), segments=np.array(SEGMENTS),
+                 muscles=np.array(t.muscles), segments=np.array(t.segments),
                  info=np.array(json.dumps(self.info)),
                  walk_rates=np.zeros(0) if self.walk_rates is None else self.walk_rates)
 
     @classmethod
-    def load(cls, path: str | Path, muscles: tuple[str, ...] = MUSCLE_NAMES) -> Network:
-        """Read a network written by ``save`` for a model of ``muscles`` (per leg, in
-        order); InputError naming the file and the problem if it is not one (see
-        ``read_network_file``: nothing is loaded in full before its names, shapes, types
-        and sizes are checked against the layout its own muscle list implies)."""
+    def load(cls, path: str | Path, muscles: tuple[str, ...] | None = None) -> Network:
+        """Read a network written by ``save``: of any muscle set of the body, or of
+        ``muscles`` when given (per leg, in order); InputError naming the file and the
+        problem if it is not one (``read_network_file``: nothing is loaded in full before
+        its names, shapes, types and sizes are checked against the layout its own muscle
+        list implies)."""
         path = Path(path)
         z = read_network_file(path)
-        t = Topology(float(z["rate_hz"]), int(z["hidden"]), bool(z["contact"]),
-                     float(z["afferent_m_per_s"]), float(z["efferent_m_per_s"]),
-                     tuple(str(s) for s in z["muscles"]))
-        if t.muscles != tuple(muscles):
-            raise InputError(f"{path}: a network of the muscles {', '.join(t.muscles)}; this "
+        names = tuple(str(s) for s in z["muscles"])
+        if names not in MUSCLE_SETS.values():
+            sets = "; ".join(f"{k}: {', '.join(v)}" for k, v in MUSCLE_SETS.items())
+            raise InputError(f"{path}: a network of the muscles {', '.join(names)}, not a "
+                             f"muscle set of the body ({sets})")
+        if muscles is not None and names != tuple(muscles):
+            raise InputError(f"{path}: a network of the muscles {', '.join(names)}; this "
                              f"model has {', '.join(muscles)}")
+        t = Topology(float(z["rate_hz"]), int(z["hidden"]), bool(z["contact"]),
+                     float(z["afferent_m_per_s"]), float(z["efferent_m_per_s"]), names)
         walk = z.get("walk_rates")
         return cls(t, z["w"], z["b"], z["v"], z["c"], z["mean"], z["std"], z["info"],
                    walk if walk is not None and walk.size else None)
+
+    @property
+    def muscle_set(self) -> str:
+        """The body muscle set this network drives (``stumble.body.muscles``)."""
+        return next(k for k, v in MUSCLE_SETS.items() if v == self.topology.muscles)
 
 
 # ---- the network file: checked before anything is loaded in full ---------------------
@@ -412,8 +447,6 @@ def _checked(zf: zipfile.ZipFile, entries: dict, where: str) -> dict:
     if not muscles or unknown or len(set(muscles)) != len(muscles):
         raise InputError(f"{where}: muscles {', '.join(muscles) or '(none)'}: each must be one "
                          f"of {', '.join(NERVE_LENGTH_M)}, once")
-    if tuple(str(s) for s in z["segments"]) != SEGMENTS:
-        raise InputError(f"{where}: segments are not {', '.join(SEGMENTS)}")
     try:
         info = json.loads(str(z["info"]))
     except json.JSONDecodeError:
@@ -421,7 +454,10 @@ def _checked(zf: zipfile.ZipFile, entries: dict, where: str) -> dict:
     if not isinstance(info, dict):
         raise InputError(f"{where}: info is not a JSON object")
     t = Topology(rate, int(hidden), bool(float(z["contact"])), muscles=muscles)
-    S, H = len(SEGMENTS), t.hidden
+    if tuple(str(s) for s in z["segments"]) != t.segments:
+        raise InputError(f"{where}: segments are not {', '.join(t.segments)} (those its "
+                         "muscles are bound to)")
+    S, H = len(t.segments), t.hidden
     want = {"w": (len(t.inputs()), S * H), "b": (S * H,), "v": (len(t.connections()), H),
             "c": (len(muscles),), "mean": (t.n_signals,), "std": (t.n_signals,)}
     for n, shape in want.items():

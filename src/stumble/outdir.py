@@ -1,14 +1,13 @@
-"""Output directories and JSON files: made, checked writable, strict (no NaN/Infinity).
+"""Output directories: made and checked writable before any work starts.
 
-Every command that writes calls ``output_dir`` before its work starts, so a directory it
-cannot write is one line at once, not after a simulation.
+Every command that writes calls ``output_dir`` before it simulates, so a directory it
+cannot write is one line at once, not an error after the simulation. (Strict JSON is
+``stumble.jsonio``.)
 """
 
 from __future__ import annotations
 
 import contextlib
-import json
-import math
 import os
 import tempfile
 from pathlib import Path
@@ -41,22 +40,3 @@ def output_dir(out: Path, what: str = "output directory") -> Path:
         raise InputError(f"cannot create {what} {out}: {e.strerror or e}") from None
     check_writable(out, what)
     return out
-
-
-def finite_or_none(value):
-    """``value`` with every NaN or infinite float (in dicts, lists, tuples) replaced by None."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {k: finite_or_none(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [finite_or_none(v) for v in value]
-    if hasattr(value, "item") and hasattr(value, "dtype") and value.shape == ():  # NumPy
-        return finite_or_none(value.item())
-    return value
-
-
-def write_json(path: Path, value, indent: int | None = 1) -> None:
-    """Write strict JSON: a number that is not finite is written as null."""
-    Path(path).write_text(json.dumps(finite_or_none(value), indent=indent, allow_nan=False)
-                          + "\n")

@@ -1,0 +1,220 @@
+"""Closed-loop identification of the seed's network: DAgger with a reflex expert.
+
+Seed 003 identifies its network from one recorded walk (``identify``); in closed loop
+the body then drifts to states the walk never visited, where the network has never been
+told what to do, and it sinks. DAgger (Ross, Gordon & Bagnell 2011) closes that gap: run
+the network in closed loop, have an expert say at every state the network visits what
+the muscles should have done, add those labelled states to the training data and train
+again; the states come from the network's own walking, so what it learns is what it
+needs. The expert is the Geyer & Herr 2010 walker fitted on this body
+(``stumble.control.reflex.gh2010``): a controller of the same muscles with the same
+kind of afferents.
+
+What the network learns. Its excitation plus the trunk-lean addition
+(``controller.TrunkBalance``, here with the expert's own lean laws and gains) drives
+the muscles; the network is trained towards the expert's excitation *without* its
+trunk-lean terms, so network + addition reproduce the expert. The first pass is pure
+expert (β = 1), later passes hand the body to the network for a growing share of
+``MIX_SEGMENT_S`` segments (β halves each pass). The network keeps the seed's structure,
+delays and identified input scaling; it is trained on the union of the identification
+data (the recorded walk, seed 003's) and every closed-loop pass, by the same squared
+excitation error and L-BFGS as ``identify.train``.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from scipy.optimize import minimize
+
+from stumble.control.reflex.controller import ReflexController, TrunkBalance
+from stumble.control.reflex.gh2010 import GH2010Controller, GH2010Params
+from stumble.control.reflex.network import Network
+from stumble.sim import Context
+
+MIX_SEGMENT_S = 0.1  # the body changes hands between network and expert at most this often
+EPISODE_S = 8.0  # closed-loop walking per episode
+EPISODE_SPEEDS = (1.1, 1.3)  # m/s of the walks played back before each episode
+
+
+class Mixed:
+    """Runs the network and the expert side by side on the same sensors; one of them
+    drives the body in each segment; the expert's output is recorded as labels."""
+
+    name = "reflex"
+    uses_sensors = False
+
+    def __init__(self, student: ReflexController, expert: GH2010Controller, beta: float,
+                 rng: np.random.Generator, segment_s: float = MIX_SEGMENT_S):
+        self.student, self.expert, self.beta, self.rng = student, expert, beta, rng
+        self.segment_s = segment_s
+        self.labels: list[tuple[int, np.ndarray]] = []  # (first tick, (n, 2, nm))
+        self.log = student.log
+
+    def start(self, ctx: Context) -> None:
+        """Start both; the period is the expert's (the network can plan that far)."""
+        self.expert.lean_free = np.zeros(0)
+        self.expert.start(ctx)
+        act = ctx.data.act.copy()
+        self.student.start(ctx)
+        if self.beta >= 1.0:  # the expert drives: it sets the starting activation
+            ctx.data.act[:] = act
+        self.period_steps = self.expert.period_steps
+        self.per_segment = max(1, round(self.segment_s / (self.period_steps
+                                                          * ctx.model.opt.timestep)))
+        self.blocks = 0
+        self.use_expert = True
+
+    def update(self, ctx: Context) -> np.ndarray:
+        """Both plan the next block; the chosen one's plan is returned."""
+        if self.blocks % self.per_segment == 0:
+            self.use_expert = bool(self.rng.random() < self.beta)
+        self.blocks += 1
+        k = self.student.k
+        s_plan = self.student.update(ctx).copy()
+        e_plan = self.expert.update(ctx).copy()
+        nm = self.student.nm
+        self.labels.append((k, self.expert.lean_free.reshape(-1, 2, nm)))
+        return e_plan if self.use_expert else s_plan
+
+    def observe(self, rows: np.ndarray) -> None:
+        """Both store the block's sensor rows."""
+        self.student.observe(rows)
+        self.expert.observe(rows)
+
+    def state(self) -> str:
+        """Which controller drives."""
+        return "expert" if self.use_expert else "network"
+
+
+@dataclass
+class Episode:
+    """One closed-loop pass: the network's inputs per tick and the expert's labels."""
+
+    inputs: np.ndarray  # (T, 2, n_inputs) standardised delayed inputs, per interneuron tick
+    targets: np.ndarray  # (T, 2, nm) expert excitation without trunk-lean terms
+    mask: np.ndarray  # (T,) bool: ticks with a label and a full delay history
+    walked_s: float = 0.0
+
+
+def balance_of(params: GH2010Params, delay_s: float = TrunkBalance.DELAY_S) -> TrunkBalance:
+    """The trunk-lean addition carrying the expert's own lean laws and gains."""
+    return TrunkBalance(params.kp_trunk, params.kd_trunk, params.lean_ref, delay_s,
+                        rectified=True, k_lean=params.k_lean,
+                        stance_load=params.stance_load)
+
+
+def collect(net: Network, params: GH2010Params, beta: float, seed: int,
+            speed_m_per_s: float, duration_s: float = EPISODE_S) -> Episode:
+    """One episode of walking under the mixture, from the played-back walk."""
+    from stumble.analysis import FALL_PELVIS_FRACTION, WalkStop
+    from stumble.control.reflex.identify import history_before
+    from stumble.pipeline import (
+        DEFAULT_CONTACT,
+        WALK_BEFORE_TRIP_S,
+        _phase,
+        _rest_support_foot,
+        _standing_pelvis,
+        _walk,
+    )
+    from stumble.sim import Sensors, run
+
+    body, pb = _walk(1.75, 70.0, "male", DEFAULT_CONTACT, round(speed_m_per_s, 4), 0.001,
+                     True, net.muscle_set)
+    m = body.model
+    import mujoco
+
+    t0 = next(t for t in pb.events.heel_strike_s["r"] if t >= WALK_BEFORE_TRIP_S)
+    d = mujoco.MjData(m)
+    d.qpos[:], d.qvel[:] = pb.state_at(t0)
+    _rest_support_foot(m, d, planar=True)
+    history = history_before(net.walk_rates, _phase(pb, t0), 2 * net.topology.max_lag + 2,
+                             net.topology.rate_hz)
+    student = ReflexController(net, history, balance_of(params), block=5)
+    student.trace = {"inputs": [], "balance": []}
+    mix = Mixed(student, GH2010Controller(params), beta, np.random.default_rng(seed))
+    stop = WalkStop(FALL_PELVIS_FRACTION * _standing_pelvis(body))
+    rec = run(Context(m, d, body, Sensors(), 0.0), mix, duration_s, stop=stop)
+    x = np.concatenate(student.trace["inputs"], axis=0)
+    T, nm = len(x), student.nm
+    y = np.full((T, 2, nm), 0.01)
+    mask = np.zeros(T, bool)
+    lag = int(net.topology.max_lag)
+    for k, lab in mix.labels:
+        n = min(len(lab), T - k)
+        if n > 0:
+            y[k:k + n] = lab[:n]
+            mask[k:k + n] = True
+    first = int(mix.labels[0][0]) if mix.labels else T
+    mask[: first + lag] = False  # the motor paths need a full history of interneurons
+    return Episode(x, np.clip(y, 0.01, 0.99), mask, float(rec.time_s[-1]))
+
+
+def _loss_grad(net: Network, data: list[tuple[np.ndarray, np.ndarray, np.ndarray]]):
+    """Weighted squared excitation error over (inputs (T, n_in), target, weight) sets."""
+    loss, grad, n = 0.0, 0.0, 0.0
+    for xd, tgt, wt in data:
+        u, cache_ = net.forward(xd)
+        err = (u - tgt) * wt[:, None]
+        loss += 0.5 * float((err * (u - tgt)).sum())
+        grad = grad + net.gradient(xd, err, cache_)
+        n += float(wt.sum())
+    return loss / n, grad / n
+
+
+def train_on(net: Network, data, iterations: int = 150) -> tuple[Network, float]:
+    """L-BFGS from the network's weights on the data; returns the trained copy, loss."""
+    net = replace(net, info=dict(net.info))
+    theta0 = net.pack()
+
+    def fun(th):
+        net.unpack(th)
+        return _loss_grad(net, data)
+
+    res = minimize(fun, theta0, jac=True, method="L-BFGS-B",
+                   options={"maxiter": iterations, "maxfun": 2 * iterations})
+    net.unpack(res.x)
+    return net, float(res.fun)
+
+
+@dataclass
+class DaggerResult:
+    """The refined network and what each pass did."""
+
+    network: Network
+    history: list[dict] = field(default_factory=list)
+    wall_time_s: float = 0.0
+
+
+def ident_data(net: Network, ident) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """The identification's periodic data in ``train_on``'s form (both legs)."""
+    return [(net.delayed_inputs(ident.signals[k]), ident.excitation[k],
+             np.ones(ident.excitation.shape[1])) for k in range(2)]
+
+
+def dagger(net: Network, ident, params: GH2010Params, passes: int = 6, seed: int = 0,
+           progress=None, evaluate=None) -> DaggerResult:
+    """Refine ``net`` by DAgger with the GH2010 expert (module docstring)."""
+    t0 = time.perf_counter()
+    base = ident_data(net, ident)
+    data: list = []
+    out = DaggerResult(net)
+    for i in range(passes):
+        beta = 0.5 ** i
+        for j, speed in enumerate(EPISODE_SPEEDS):
+            ep = collect(net, params, beta, seed * 1000 + 10 * i + j, speed)
+            for side in range(2):
+                data.append((ep.inputs[:, side], ep.targets[:, side], ep.mask.astype(float)))
+        net, loss = train_on(net, base + data)
+        net.info["balance"] = balance_of(params).to_info()
+        row = {"pass": i, "beta": beta, "loss": loss, "samples": int(sum(
+            w.sum() for _x, _y, w in data)), "wall_time_s": round(time.perf_counter() - t0, 1)}
+        if evaluate is not None:
+            row.update(evaluate(net))
+        out.history.append(row)
+        if progress is not None:
+            progress(row)
+    out.network, out.wall_time_s = net, time.perf_counter() - t0
+    return out

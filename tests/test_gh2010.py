@@ -1,0 +1,118 @@
+"""Geyer & Herr 2010's reflexes: the laws against the paper's equations, the delays."""
+
+import mujoco
+import numpy as np
+import pytest
+
+from stumble.body import build
+from stumble.control.reflex.delays import DelayLine
+from stumble.control.reflex.gh2010 import GH2010Controller, GH2010Params
+from stumble.sim import Context, Sensors
+
+
+@pytest.fixture(scope="module")
+def bound():
+    """A GH2010 controller bound to the planar body with the iliopsoas."""
+    body = build(planar=True, actuation="muscles", muscle_set="hfl")
+    m = body.model
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    c = GH2010Controller(GH2010Params())
+    c.start(Context(m, d, body, Sensors(), 0.0))
+    return c
+
+
+def _channels(c, F, L, knee, knee_v, load, x, lean, lean_v):
+    """One tick's channel vector: F, L (2, nm); the rest per leg (2,) or scalars."""
+    return np.concatenate([np.ravel(F), np.ravel(L), knee, knee_v, load, x, [lean, lean_v]])
+
+
+def test_stance_and_swing_laws_are_the_papers(bound):
+    c, p, ix = bound, bound.p, bound.idx
+    nm = c.nm
+    rng = np.random.default_rng(3)
+    F = rng.uniform(0.0, 0.6, (2, nm))
+    L = rng.uniform(0.5, 1.2, (2, nm))
+    knee = np.array([0.05, 0.9])  # right nearly straight, left flexed (rad)
+    knee_v = np.array([-1.0, 2.0])  # right extending
+    load = np.array([0.9, 0.0])  # right in stance (body weights), left in swing
+    x_feet = np.array([0.1, 0.4])
+    lean, lean_v = 0.2, -0.3
+    u = c._excitations(_channels(c, F, L, knee, knee_v, load, x_feet, lean, lean_v)[None])
+    u = u.reshape(2, nm)
+    pos = lambda v: max(v, 0.0)  # noqa: E731
+    clip = lambda v: min(max(v, 0.01), 1.0)  # noqa: E731
+    r, left = 0, 1
+    bal = p.kp_trunk * (lean - p.lean_ref) + p.kd_trunk * lean_v
+    share = 1.0  # the right leg carries all the load
+    # stance (right leg), Geyer & Herr 2010
+    assert u[r, ix["SOL"]] == pytest.approx(clip(p.s0 + p.g_sol * F[r, ix["SOL"]]))
+    assert u[r, ix["TA"]] == pytest.approx(clip(
+        p.s0 + p.g_ta * pos(L[r, ix["TA"]] - p.l_off_ta) - p.g_sol_ta * F[r, ix["SOL"]]))
+    assert u[r, ix["GAS"]] == pytest.approx(clip(p.s0 + p.g_gas * F[r, ix["GAS"]]))
+    assert u[r, ix["VAS"]] == pytest.approx(clip(
+        p.s0_vas + p.g_vas * F[r, ix["VAS"]] - p.k_phi * pos(p.phi_off - knee[r])))
+    assert u[r, ix["GLU"]] == pytest.approx(clip(p.s0_bal + pos(bal) * share))
+    assert u[r, ix["HAMS"]] == pytest.approx(clip(p.s0_bal + pos(bal) * share))
+    assert u[r, ix["HFL"]] == pytest.approx(clip(p.s0_bal + pos(-bal) * share))
+    assert u[r, ix["RF"]] == pytest.approx(p.s0)
+    # swing (left leg)
+    assert u[left, ix["HFL"]] == pytest.approx(clip(
+        p.s0 + p.g_hfl * pos(L[left, ix["HFL"]] - p.l_off_hfl)
+        - p.g_ham_hfl * pos(L[left, ix["HAMS"]] - p.l_off_ham) + p.k_lean * (lean - p.lean_ref)))
+    assert u[left, ix["GLU"]] == pytest.approx(clip(p.s0 + p.g_glu * F[left, ix["GLU"]]))
+    assert u[left, ix["HAMS"]] == pytest.approx(clip(p.s0 + p.g_ham * F[left, ix["HAMS"]]))
+    assert u[left, ix["TA"]] == pytest.approx(clip(
+        p.s0 + p.g_ta * pos(L[left, ix["TA"]] - p.l_off_ta)))
+    for name in ("SOL", "GAS", "VAS", "RF"):
+        assert u[left, ix[name]] == pytest.approx(p.s0)
+
+
+def test_the_trailing_leg_of_double_support_shifts_glu_to_hfl(bound):
+    """Double support: the rear leg's GLU loses and its HFL gains k_bw · the front leg's
+    load (body weights), Geyer & Herr 2010."""
+    c, p, ix = bound, bound.p, bound.idx
+    nm = c.nm
+    F, L = np.zeros((2, nm)), np.ones((2, nm))
+    args = (np.full(2, 0.5), np.zeros(2), np.array([0.5, 0.5]))
+    lean = p.lean_ref  # no trunk-lean drive
+    both = c._excitations(_channels(c, F, L, *args, np.array([0.0, 0.3]), lean, 0.0)[None])
+    both = both.reshape(2, nm)
+    assert both[0, ix["GLU"]] == pytest.approx(max(p.s0_bal - p.k_bw * 0.5, 0.01))
+    assert both[0, ix["HFL"]] == pytest.approx(p.s0_bal + p.k_bw * 0.5)
+    assert both[1, ix["GLU"]] == pytest.approx(p.s0_bal)  # the front leg: no shift
+
+
+def test_delays_are_five_ten_and_twenty_ms(bound):
+    """Hip muscles 5 ms, knee (VAS) 10 ms, ankle 20 ms at the 1 ms step (Geyer & Herr
+    2010); the controller plans 5 ms at a time."""
+    c, ix = bound, bound.idx
+    nm = c.nm
+    lags = c.delay.lags
+    assert c.period_steps == 5
+    for name, lag in (("GLU", 5), ("HAMS", 5), ("HFL", 5), ("VAS", 10), ("SOL", 20),
+                      ("GAS", 20), ("TA", 20)):
+        assert lags[ix[name]] == lags[nm + ix[name]] == lag  # force channels, r and l
+        assert lags[2 * nm + ix[name]] == lag  # length channels
+
+
+def test_delay_line_reads_each_channel_at_its_lag():
+    line = DelayLine(np.array([3, 5]), block=3)
+    line.push(np.column_stack([np.arange(10.0), 100 + np.arange(10.0)]))
+    out = line.read(3)  # ticks 10, 11, 12
+    assert out[:, 0].tolist() == [7.0, 8.0, 9.0]
+    assert out[:, 1].tolist() == [105.0, 106.0, 107.0]
+    with pytest.raises(ValueError, match="longer than the shortest lag"):
+        DelayLine(np.array([3, 5]), block=4)
+
+
+def test_params_round_trip_and_refuse_bad_values():
+    from stumble.errors import InputError
+
+    p = GH2010Params(g_sol=0.8)
+    assert GH2010Params.from_json(p.to_json()) == p
+    assert p.with_vector(p.vector()) == p
+    with pytest.raises(InputError, match="unknown GH2010 parameter"):
+        GH2010Params.from_json({"g_nothing": 1.0})
+    with pytest.raises(InputError, match="g_sol must be a finite number"):
+        GH2010Params.from_json({"g_sol": float("nan")})
