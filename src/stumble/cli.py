@@ -166,15 +166,27 @@ def _parser() -> argparse.ArgumentParser:
                        description="The neuromuscular reflex network of seed 003.")
     rsub = r.add_subparsers(dest="reflex_command", metavar="ACTION", parser_class=_Parser,
                             required=True)
-    f = rsub.add_parser("fit", help="identify the network from the recorded walk",
-                        description="Identify the reflex network from walking alone: "
-                        "inverse dynamics, static optimisation, back-propagation. Writes "
-                        "network.npz, fit.json, activity_fit.png, walking_moments.csv and "
-                        "walking_activity.csv to DIR.")
+    f = rsub.add_parser("fit", help="fit a reflex controller",
+                        description="network (default): identify seed 003's network from "
+                        "walking alone (inverse dynamics, static optimisation, "
+                        "back-propagation), then refine it in closed loop until it walks "
+                        "(unless --open-loop); writes network.npz, fit.json, "
+                        "activity_fit.png, walking_moments.csv, walking_activity.csv. "
+                        "gh2010: optimise Geyer & Herr 2010's gains in closed loop "
+                        "(CMA-ES) from the paper's; writes gh2010.json, fit.json, "
+                        "history.jsonl and objective.png. Both write to DIR.")
     f.add_argument("--out", required=True, type=out_dir_arg, metavar="DIR",
                    help="output directory")
+    f.add_argument("--controller", choices=("network", "gh2010"), default="network",
+                   help="which reflex controller to fit (default network)")
     f.add_argument("--seed", type=seed_arg, default=0,
-                   help="initial weights, 0 to 2^63 - 1 (default 0)")
+                   help="initial weights or the evolution strategy's seed, 0 to 2^63 - 1 "
+                   "(default 0)")
+    f.add_argument("--generations", type=int, default=None, metavar="N",
+                   help="gh2010: CMA-ES generations (default 100, as shipped)")
+    f.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="closed-loop fits: worker processes (default: one per core); the "
+                   "result does not depend on it")
     f.add_argument("--iterations", type=int, default=None, metavar="N",
                    help="back-propagation iterations of the seed's schedule (default 1000)")
     f.add_argument("--refine", type=int, default=None, metavar="N",
@@ -474,10 +486,38 @@ def cmd_reflex_walk(args) -> int:
     return 0
 
 
+def cmd_reflex_fit_gh2010(args) -> int:
+    """``stumble reflex fit --controller gh2010``: the closed-loop CMA-ES of its gains."""
+    import os
+
+    from stumble.control.reflex.fit_walk import GH2010_GENERATIONS, fit_gh2010
+    from stumble.outputs import prepare_dir, write_gh2010_fit
+
+    gens = GH2010_GENERATIONS if args.generations is None else args.generations
+    if gens < 1:
+        raise InputError(f"--generations must be at least 1, got {gens}")
+    workers = args.workers or os.cpu_count() or 1
+    if workers < 1:
+        raise InputError(f"--workers must be at least 1, got {workers}")
+    out = prepare_dir(args.out)
+    bar = _Progress("fitting gh2010", sys.stderr.isatty())
+    res = fit_gh2010(seed=args.seed, generations=gens, workers=workers, out=out,
+                     progress=lambda row: bar(row["generation"] + 1, gens))
+    bar.done()
+    written, walk = write_gh2010_fit(out, res)
+    s = walk.summary
+    print(f"gh2010 fitted: objective {res.best_cost:.3f} after {res.evaluations} walks in "
+          f"{res.wall_time_s:.0f} s; a 20 s walk: {s['walked_s']:.1f} s walked at "
+          f"{s['speed_m_per_s']:.2f} m/s; wrote {', '.join(written)} to {out}")
+    return 0
+
+
 def cmd_reflex(args) -> int:
     """``stumble reflex fit``: identify the network and write its files."""
     if args.reflex_command == "walk":
         return cmd_reflex_walk(args)
+    if args.controller == "gh2010":
+        return cmd_reflex_fit_gh2010(args)
     from stumble.control.reflex.identify import ITERATIONS, REFINE_ITERATIONS, fit
     from stumble.outputs import prepare_dir, write_fit
 

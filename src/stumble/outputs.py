@@ -325,3 +325,25 @@ def write_reflex_walk(out: Path, result, video: bool, progress: bool) -> list[st
         else:
             print(f"stumble: {why}", file=sys.stderr)
     return written
+
+
+def write_gh2010_fit(out: Path, res) -> tuple[list[str], object]:
+    """The files of ``stumble reflex fit --controller gh2010`` besides the ones the fit
+    writes as it runs (gh2010.json, history.jsonl): objective.png and fit.json with a
+    20 s walk of the result (``pipeline.simulate_walk``)."""
+    from stumble.control.reflex.gh2010 import load_params
+    from stumble.jsonio import write_json
+    from stumble.pipeline import simulate_walk
+    from stumble.viz.reflex_plots import plot_objective
+
+    params = load_params(out / "gh2010.json")
+    walk = simulate_walk("gh2010", 20.0, params=params)
+    import json
+
+    report = json.loads((out / "gh2010.json").read_text())["fit"]
+    report["walk_20s"] = {k: v for k, v in walk.summary.items() if k != "events"}
+    write_json(out / "fit.json", report)
+    plot_objective(out / "objective.png", res.history,
+                   f"GH2010 closed-loop fit (seed {report['seed']}): objective "
+                   f"{res.best_cost:.3f} after {res.evaluations} walks")
+    return ["gh2010.json", "history.jsonl", "fit.json", "objective.png"], walk

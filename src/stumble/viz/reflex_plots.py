@@ -69,3 +69,29 @@ def plot_muscle_tensions(path: Path, t_trip: np.ndarray, f_trip: np.ndarray,
     fig.tight_layout(rect=(0, 0, 1, 0.97))
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def plot_objective(path: Path, history: list[dict], title: str) -> None:
+    """A closed-loop fit's objective per generation: best so far, the generation's best
+    and median (log scale), and the best's time walked."""
+    gen = [h["generation"] for h in history]
+    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(7.0, 5.5), sharex=True,
+                                  gridspec_kw={"height_ratios": (3, 1)})
+    ax.semilogy(gen, [h["best"] for h in history], "-", color="tab:red", lw=1.8,
+                label="best so far")
+    ax.semilogy(gen, [h["generation_best"] for h in history], ".", color="tab:orange",
+                ms=4, label="generation's best")
+    ax.semilogy(gen, [h["generation_median"] for h in history], "-", color="0.6", lw=0.8,
+                label="generation's median")
+    ax.set_ylabel("objective J")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    walked = [h["terms"].get("walked_s", np.nan) for h in history]
+    ax2.plot(gen, walked, "-", color="tab:blue")
+    ax2.set_ylabel("best walks (s)")
+    ax2.set_xlabel("generation")
+    ax2.grid(alpha=0.3)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

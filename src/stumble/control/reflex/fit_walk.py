@@ -25,7 +25,6 @@ the fit runs.
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import time
@@ -120,6 +119,8 @@ def cma_fit(evaluate: Callable[[np.ndarray], tuple[float, dict]], space: Space,
     Stops after ``generations`` or once the best J is below ``target``."""
     from cmaes import CMA
 
+    from stumble.jsonio import dumps
+
     n = len(space.names)
     opt = CMA(mean=np.zeros(n), sigma=sigma, seed=seed,
               population_size=popsize or 4 + int(3 * math.log(n)))
@@ -156,7 +157,7 @@ def cma_fit(evaluate: Callable[[np.ndarray], tuple[float, dict]], space: Space,
                    "terms": {k2: round(float(v), 4) for k2, v in best.best_terms.items()}}
             best.history.append(row)
             if hist_file is not None:
-                hist_file.write(json.dumps(row) + "\n")
+                hist_file.write(dumps(row) + "\n")
                 hist_file.flush()
             if progress is not None:
                 progress(row)
@@ -173,8 +174,10 @@ def cma_fit(evaluate: Callable[[np.ndarray], tuple[float, dict]], space: Space,
 
 def _write_json(path: Path, obj: dict) -> None:
     """Write strict JSON atomically (a temporary name, then renamed)."""
+    from stumble.jsonio import dumps
+
     tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(json.dumps(obj, indent=1, allow_nan=False))
+    tmp.write_text(dumps(obj, indent=1) + "\n")
     os.replace(tmp, path)
 
 
@@ -224,3 +227,38 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
     terms["walked_s"] = r.summary["walked_s"]
     terms["speed_m_per_s"] = r.summary["speed_m_per_s"]
     return cost, terms
+
+
+GH2010_GENERATIONS = 100  # the shipped fit: 100 generations of 16, a 15 s walk each
+GH2010_POPSIZE = 16
+GH2010_DURATION_S = 15.0
+GH2010_SPEED_M_PER_S = 1.2  # the walk played back before each candidate takes over
+GH2010_SIGMA = 0.5  # initial step, in units of 30 % of each of the paper's values
+
+
+def fit_gh2010(seed: int = 0, generations: int = GH2010_GENERATIONS,
+               popsize: int = GH2010_POPSIZE, duration_s: float = GH2010_DURATION_S,
+               workers: int = 1, out: Path | None = None, progress=None) -> FitResult:
+    """Optimise the GH2010 gains in closed loop from the paper's values (``gh2010_space``),
+    minimising ``walk_cost`` of a ``duration_s`` walk; writes ``gh2010.json`` to ``out``
+    (the best parameters and the fit's figures) when given."""
+    from stumble.control.reflex.gh2010 import GH2010Params
+
+    space = gh2010_space()
+    res = cma_fit(evaluate_walk, space, seed=seed, generations=generations,
+                  popsize=popsize, sigma=GH2010_SIGMA, workers=workers, out=out,
+                  progress=progress, initializer=init_walk_eval,
+                  initargs=("gh2010", duration_s, GH2010_SPEED_M_PER_S, {}))
+    params = GH2010Params(**dict(zip(space.names, map(float, res.best_theta), strict=True)))
+    if out is not None:
+        _write_json(out / "gh2010.json", {
+            "params": params.to_json(),
+            "fit": {"method": "CMA-ES (cmaes package)", "seed": seed,
+                    "generations": len(res.history), "population": popsize,
+                    "evaluations": res.evaluations, "sigma0": GH2010_SIGMA,
+                    "walk_s": duration_s, "start_speed_m_per_s": GH2010_SPEED_M_PER_S,
+                    "cost": res.best_cost, "terms": res.best_terms,
+                    "wall_time_s": round(res.wall_time_s, 1),
+                    "command": f"stumble reflex fit --controller gh2010 --seed {seed} "
+                               f"--generations {generations} --out DIR"}})
+    return res
