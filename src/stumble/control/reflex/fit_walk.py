@@ -221,6 +221,11 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
         params = GH2010Params(**{**_EVAL["base"],
                                  **dict(zip(names, map(float, theta), strict=True))})
         r = simulate_walk("gh2010", _EVAL["duration_s"], _EVAL["speed"], params=params)
+    elif kind == "network":
+        from stumble.control.reflex.network import Network
+
+        net = network_with(Network.load(_EVAL["base"]["network"]), theta)
+        r = simulate_walk("network", _EVAL["duration_s"], _EVAL["speed"], network=net)
     else:
         raise ValueError(kind)
     cost, terms = walk_cost(r.summary, effort_of(r))
@@ -262,3 +267,74 @@ def fit_gh2010(seed: int = 0, generations: int = GH2010_GENERATIONS,
                     "command": f"stumble reflex fit --controller gh2010 --seed {seed} "
                                f"--generations {generations} --out DIR"}})
     return res
+
+
+# ---- the seed's network: a documented subset of its weights ---------------------------
+
+BALANCE_FIT = ("kp_per_rad", "kd_s_per_rad", "lean_ref_rad", "k_lean")
+
+
+def network_space(net) -> Space:
+    """The subset of the network a closed-loop fit changes, as offsets from its weights:
+    per muscle a motor-neuron gain (a factor on its summed input, ``gain_<M>``, start 1)
+    and bias (``bias_<M>``, an offset on c); the foot-contact afferents' weights onto
+    the interneurons of S1 and S2 (``contact_<seg>_<k>``, offsets); and the trunk-lean
+    addition's gains (``TrunkBalance``: k_p, k_d, θ_ref, k_lean)."""
+    from stumble.control.reflex.controller import TrunkBalance
+
+    t = net.topology
+    names, start, scale, lo, hi = [], [], [], [], []
+
+    def add(name, x0, sc, a, b):
+        names.append(name)
+        start.append(x0)
+        scale.append(sc)
+        lo.append(a)
+        hi.append(b)
+
+    for m in t.muscles:
+        add(f"gain_{m}", 1.0, 0.3, 0.0, 5.0)
+    for m in t.muscles:
+        add(f"bias_{m}", 0.0, 1.0, -10.0, 10.0)
+    if t.contact:
+        for i in _contact_rows(net):
+            seg = t.segments[t.inputs()[i][0]]
+            for k in range(t.hidden):
+                add(f"contact_{seg}_{k}", 0.0, 1.0, -10.0, 10.0)
+    bal = TrunkBalance.from_info(net.info)
+    for n, x0 in zip(BALANCE_FIT, (bal.kp, bal.kd, bal.ref, bal.k_lean or 0.5), strict=True):
+        add(f"balance_{n}", x0, max(0.3 * abs(x0), 0.05), -0.5 if n == "lean_ref_rad" else 0.0,
+            10.0)
+    return Space(tuple(names), np.array(start), np.array(scale), np.array(lo), np.array(hi))
+
+
+def _contact_rows(net) -> list[int]:
+    """Indices of the foot-contact inputs among the network's inputs."""
+    t = net.topology
+    return [i for i, (_s, sig, _lag) in enumerate(t.inputs()) if sig == 3 * t.n_muscles]
+
+
+def network_with(net, theta: np.ndarray):
+    """A copy of ``net`` with a ``network_space`` candidate applied."""
+    from dataclasses import replace as _replace
+
+    t = net.topology
+    space = network_space(net)
+    p = dict(zip(space.names, map(float, theta), strict=True))
+    v, c, w = net.v.copy(), net.c.copy(), net.w.copy()
+    for k, (_s, j, _lag) in enumerate(t.connections()):
+        v[k] *= p[f"gain_{t.muscles[j]}"]
+    for j, m in enumerate(t.muscles):
+        c[j] = c[j] * p[f"gain_{m}"] + p[f"bias_{m}"]
+    H = t.hidden
+    for i in _contact_rows(net):
+        s = t.inputs()[i][0]
+        seg = t.segments[s]
+        for k in range(H):
+            w[i, s * H + k] += p[f"contact_{seg}_{k}"]
+    info = dict(net.info)
+    bal = dict(info.get("balance") or {})
+    bal.update({n: p[f"balance_{n}"] for n in BALANCE_FIT})
+    bal.setdefault("rectified", True)
+    info["balance"] = bal
+    return _replace(net, w=w, v=v, c=c, info=info)
