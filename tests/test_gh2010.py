@@ -22,9 +22,12 @@ def bound():
     return c
 
 
-def _channels(c, F, L, knee, knee_v, load, x, lean, lean_v):
-    """One tick's channel vector: F, L (2, nm); the rest per leg (2,) or scalars."""
-    return np.concatenate([np.ravel(F), np.ravel(L), knee, knee_v, load, x, [lean, lean_v]])
+def _laws(c, F, L, knee, knee_v, load, x, lean, lean_v):
+    """The excitations (2, nm) of a steady state: every tap reads these channels (F, L
+    (2, nm); the rest per leg (2,) or scalars)."""
+    c.delay.fill(np.concatenate([np.ravel(F), np.ravel(L), knee, knee_v, load, x,
+                                 [lean_v, lean]]))
+    return c._excitations(c.delay.read(1)).reshape(2, c.nm)
 
 
 def test_stance_and_swing_laws_are_the_papers(bound):
@@ -38,8 +41,7 @@ def test_stance_and_swing_laws_are_the_papers(bound):
     load = np.array([0.9, 0.0])  # right in stance (body weights), left in swing
     x_feet = np.array([0.1, 0.4])
     lean, lean_v = 0.2, -0.3
-    u = c._excitations(_channels(c, F, L, knee, knee_v, load, x_feet, lean, lean_v)[None])
-    u = u.reshape(2, nm)
+    u = _laws(c, F, L, knee, knee_v, load, x_feet, lean, lean_v)
     pos = lambda v: max(v, 0.0)  # noqa: E731
     clip = lambda v: min(max(v, 0.01), 1.0)  # noqa: E731
     r, left = 0, 1
@@ -76,8 +78,7 @@ def test_the_trailing_leg_of_double_support_shifts_glu_to_hfl(bound):
     F, L = np.zeros((2, nm)), np.ones((2, nm))
     args = (np.full(2, 0.5), np.zeros(2), np.array([0.5, 0.5]))
     lean = p.lean_ref  # no trunk-lean drive
-    both = c._excitations(_channels(c, F, L, *args, np.array([0.0, 0.3]), lean, 0.0)[None])
-    both = both.reshape(2, nm)
+    both = _laws(c, F, L, *args, np.array([0.0, 0.3]), lean, 0.0)
     assert both[0, ix["GLU"]] == pytest.approx(max(p.s0_bal - p.k_bw * 0.5, 0.01))
     assert both[0, ix["HFL"]] == pytest.approx(p.s0_bal + p.k_bw * 0.5)
     assert both[1, ix["GLU"]] == pytest.approx(p.s0_bal)  # the front leg: no shift
@@ -87,13 +88,35 @@ def test_delays_are_five_ten_and_twenty_ms(bound):
     """Hip muscles 5 ms, knee (VAS) 10 ms, ankle 20 ms at the 1 ms step (Geyer & Herr
     2010); the controller plans 5 ms at a time."""
     c, ix = bound, bound.idx
-    nm = c.nm
-    lags = c.delay.lags
+    lags, at = c.delay.lags, c.at
     assert c.period_steps == 5
     for name, lag in (("GLU", 5), ("HAMS", 5), ("HFL", 5), ("VAS", 10), ("SOL", 20),
                       ("GAS", 20), ("TA", 20)):
-        assert lags[ix[name]] == lags[nm + ix[name]] == lag  # force channels, r and l
-        assert lags[2 * nm + ix[name]] == lag  # length channels
+        for leg in (0, 1):
+            assert lags[at[("F", leg, ix[name])]] == lags[at[("L", leg, ix[name])]] == lag
+    assert lags[at[("F_sol_ta", 0)]] == 20 and lags[at[("gate", 0, ix["SOL"])]] == 5
+
+
+def test_seed003_wiring_delays_each_law_by_its_table_one_path():
+    """The expert of the network: SOL's own loop through S2 (1.25 m both ways), SOL onto
+    TA through S1, the contact afferents (1.32 m to S2) onto SOL and through L4 (1.43 m)
+    onto VAS, the knee stop as VAS's own loop; no HAMS-onto-HFL law; HFL ungated."""
+    body = build(planar=True, actuation="muscles", muscle_set="hfl")
+    m = body.model
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    c = GH2010Controller(GH2010Params(wiring="seed003"))
+    c.start(Context(m, d, body, Sensors(), 0.0))
+    ix, lags, at = c.idx, c.delay.lags, c.at
+    ms = lambda length_aff, length_eff: round(1000 * (length_aff / 57.6 + length_eff / 52.4))  # noqa: E731
+    assert lags[at[("F", 0, ix["SOL"])]] == ms(1.25, 1.25)
+    assert lags[at[("F_sol_ta", 1)]] == ms(1.28, 1.05)
+    assert lags[at[("gate", 0, ix["SOL"])]] == ms(1.32, 1.25)
+    assert lags[at[("knee", 0)]] == lags[at[("F", 0, ix["VAS"])]] == ms(0.64, 0.64)
+    assert ("L_ham_flex", 0) not in at and ("ds_load", 0) not in at
+    assert lags[at[("gate", 1, ix["VAS"])]] == ms(1.43, 0.64)
+    assert c.gated[ix["VAS"]] and not c.gated[ix["HFL"]] and c.gated[ix["GLU"]]
+    assert c.period_steps == ms(0.22, 0.22)  # HFL's own loop through L3 is the shortest
 
 
 def test_delay_line_reads_each_channel_at_its_lag():

@@ -76,15 +76,18 @@ def test_the_iliopsoas_enters_the_network_through_l1_to_l3():
     assert ("HAMS", "L5", "HFL") not in d
 
 
-def test_contact_afferent_nerves_are_soleus_plus_seven_cm():
-    """The foot-contact afferents' nerve to S1/S2 is documented as SOL's + 7 cm (S2 read
-    1.33 m); at 1 kHz both give the same 23-sample delay."""
+def test_contact_afferent_nerves_follow_the_plantar_nerves_roots():
+    """The foot-contact afferents reach L4-L5 (TA's nerve + 0.35 m) and S1-S2 (SOL's +
+    7 cm); at 1 kHz S1 and S2 both give a 23-sample delay."""
     from stumble.control.reflex.network import CONTACT_NERVE_M
 
-    for seg, length in CONTACT_NERVE_M.items():
-        assert length == pytest.approx(NERVE_LENGTH_M["SOL"][seg] + 0.07)
-    lags = {lag for _s, sig, lag in Topology(contact=True).inputs() if sig == 21}
-    assert lags == {round(1.35 / 57.6 * 1000), round(1.32 / 57.6 * 1000)} == {23}
+    for seg in ("S1", "S2"):
+        assert CONTACT_NERVE_M[seg] == pytest.approx(NERVE_LENGTH_M["SOL"][seg] + 0.07)
+    for seg in ("L4", "L5"):
+        assert CONTACT_NERVE_M[seg] == pytest.approx(NERVE_LENGTH_M["TA"][seg] + 0.35)
+    t = Topology(contact=True)
+    lags = {t.segments[s]: lag for s, sig, lag in t.inputs() if sig == 21}
+    assert lags == {"L4": 25, "L5": 24, "S1": 23, "S2": 23}
 
 
 def test_a_signal_reaches_a_muscle_exactly_after_its_path_delay():

@@ -18,7 +18,7 @@ and the joint-pitch RMSE against a reference motion (Table 2's joints).
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
@@ -27,6 +27,8 @@ from stumble.sim import Recording, Sensors
 
 FALL_PELVIS_FRACTION = 0.55  # pelvis below 55 % of standing hip height: sitting, kneeling
 RECOVERED_AFTER_S = 1.0  # the issue: no fall for 1 s after the recovery step lands
+WALK_ON_S = 3.0  # reflex controllers: recovered = still walking this long after the trip
+WALKING_MIN_M_PER_S = 0.5  # "walking": the COM advanced at least this fast over the last s
 UPRIGHT_DEG = 35.0  # trunk tilt from vertical still called upright (ours)
 BOS_MARGIN_M = 0.05  # base of support grown by this (ours)
 SIDES = ("r", "l")
@@ -66,6 +68,10 @@ class StopRule:
     elevating if the tripped foot's next floor contact (lasting 15 ms) is beyond the
     obstacle's far face ``far_x`` (it passed over), lowering if it touches down short of
     it; the recovery step is then the other leg's next landing.
+
+    ``walk_on_s`` (the reflex controllers, which walk on by themselves): recovered
+    means still walking that long after the trip: not fallen, upright, and the COM
+    advancing at ``WALKING_MIN_M_PER_S`` or more over the last second.
     """
 
     strategy: str | None
@@ -83,11 +89,15 @@ class StopRule:
     _down_s: float = 0.0
     _down_x: float = 0.0
     _airborne_since: float | None = 0.0  # the swing foot is in the air at the trip
+    walk_on_s: float | None = None
+    _com_x: list = field(default_factory=list)
 
     def __call__(self, s: Sensors) -> str:
         if s.segment_on_floor or s.pelvis_height < self.fall_height_m:
             self.fell_s = s.t
             return "fell"
+        if self.walk_on_s is not None:
+            return self._walking_on(s)
         if self.landing_s is None:
             self.landing_s = self._landing(s)
         elif s.t - self.landing_s >= RECOVERED_AFTER_S:
@@ -95,6 +105,21 @@ class StopRule:
                 self.recovered_s = s.t
                 return "recovered"
         return ""
+
+    def _walking_on(self, s: Sensors) -> str:
+        """Recovered once still walking ``walk_on_s`` after the trip (class docstring)."""
+        if self.landing_s is None:
+            self.landing_s = self._landing(s)
+        self._com_x.append((s.t, float(s.com[0])))
+        if s.t < self.walk_on_s:
+            return ""
+        t_back = s.t - 1.0
+        x_back = next(x for t, x in self._com_x if t >= t_back - 1e-9)
+        if (tilt_of(s.torso_z) < UPRIGHT_DEG
+                and s.com[0] - x_back >= WALKING_MIN_M_PER_S * 1.0):
+            self.recovered_s = s.t
+            return "recovered"
+        return "stopped walking"
 
     def _landing(self, s: Sensors) -> float | None:
         """The recovery foot touches the floor in front of the other foot."""
@@ -233,33 +258,28 @@ class WalkStop:
 
 
 def contact_events(time_s: np.ndarray, on_floor: np.ndarray) -> dict[str, dict[str, list]]:
-    """Heel strikes and toe-offs (s) per side from the feet's floor contact (T, 2): a
-    touch-down lasting ``TOUCHDOWN_SAMPLES`` after at least ``MIN_AIRBORNE_S`` in the air,
-    as the force plates would see them (the first contact of a run is not a strike)."""
+    """Heel strikes and toe-offs (s) per side from the feet's floor contact (T, 2), as
+    force plates would see them: contacts lasting at least ``TOUCHDOWN_SAMPLES`` samples,
+    separated by at least ``MIN_AIRBORNE_S`` in the air (shorter gaps are scuffs, shorter
+    touches are brushes); the contact a run starts in has no strike."""
     out = {}
     for k, side in enumerate(SIDES):
-        c = on_floor[:, k].astype(bool)
+        c = np.concatenate([[False], on_floor[:, k].astype(bool), [False]])
+        starts = np.flatnonzero(c[1:] & ~c[:-1])
+        ends = np.flatnonzero(~c[1:] & c[:-1])  # index of the first sample off the floor
+        keep = ends - starts >= TOUCHDOWN_SAMPLES
+        starts, ends = starts[keep], ends[keep]
         hs, to = [], []
-        airborne_since = None if c[0] else time_s[0]
-        i, n = 1, len(c)
-        while i < n:
-            if c[i] and not c[i - 1]:
-                j = i
-                while j < n and c[j]:
-                    j += 1
-                lasting = j - i >= TOUCHDOWN_SAMPLES
-                if lasting and airborne_since is not None and (
-                        time_s[i] - airborne_since >= MIN_AIRBORNE_S):
-                    hs.append(float(time_s[i]))
-                if lasting:
-                    airborne_since = None
-                i = j
-                continue
-            if not c[i] and c[i - 1]:
-                if airborne_since is None:
-                    to.append(float(time_s[i]))
-                airborne_since = time_s[i] if airborne_since is None else airborne_since
-            i += 1
+        for i in range(len(starts)):
+            if i + 1 < len(starts):
+                gap = time_s[starts[i + 1]] - time_s[min(ends[i], len(time_s) - 1)]
+                if gap >= MIN_AIRBORNE_S:
+                    to.append(float(time_s[ends[i]]))
+                    hs.append(float(time_s[starts[i + 1]]))
+            elif ends[i] < len(time_s) and time_s[-1] - time_s[ends[i]] >= MIN_AIRBORNE_S:
+                to.append(float(time_s[ends[i]]))
+        if len(starts) and starts[0] > 0 and (time_s[starts[0]] - time_s[0]) >= MIN_AIRBORNE_S:
+            hs.insert(0, float(time_s[starts[0]]))  # the run started in the air
         out[side] = {"heel_strike_s": hs, "toe_off_s": to}
     return out
 
@@ -312,6 +332,7 @@ def walk_metrics(rec: Recording, model: mujoco.MjModel, reference: dict[str, np.
     walked = float(t[-1]) if len(t) else 0.0
     return {
         "walked_s": round(walked, 4),
+        "distance_m": round(float(x[-1] - x[0]) if len(x) else 0.0, 4),
         "fell": rec.stop_reason == "fell",
         "diverged": rec.diverged,
         "duration_s": duration_s,

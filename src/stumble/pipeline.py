@@ -16,6 +16,7 @@ import numpy as np
 
 from stumble.analysis import (
     FALL_PELVIS_FRACTION,
+    WALK_ON_S,
     StopRule,
     pitch_angles_deg,
     rmse_deg,
@@ -217,7 +218,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     ctx = Context(m, d, body, Sensors(), t0=0.0)
     controller = _controller(sc, strategy, p, network, pb, t_trip, trunk_balance, gh2010)
     stop = StopRule(strategy, sc.side, FALL_PELVIS_FRACTION * _standing_pelvis(body),
-                    far_x=far_x)
+                    far_x=far_x, walk_on_s=WALK_ON_S if reflex else None)
     force_kwargs = {}
     if sc.mechanism == "force":
         toe = f"toes_{sc.side}" if not reflex else f"foot_{sc.side}"

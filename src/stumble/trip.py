@@ -41,6 +41,18 @@ MUSCLE_CONTROLLERS = ("reflex", "gh2010")  # on the planar musculoskeletal body
 MAX_SEED = 2**63 - 1  # seeds are stored as 64-bit integers (study results)
 
 
+GH2010_MAX_STEP_S = 0.001  # the GH2010 gains were fitted at 1 ms (its 5 ms hip delay)
+
+
+def check_gh2010_timestep(timestep_s: float) -> None:
+    """InputError unless the time step is at most 1 ms and divides 1 ms: the GH2010 gains
+    are fitted at 1 ms, and its delays (5, 10, 20 ms) must be whole numbers of steps."""
+    n = round(GH2010_MAX_STEP_S / timestep_s)
+    if timestep_s > GH2010_MAX_STEP_S + 1e-12 or abs(n * timestep_s - GH2010_MAX_STEP_S) > 1e-9:
+        raise InputError(f"the gh2010 controller needs a time step that divides 1 ms (its "
+                         f"gains were fitted at 1 ms), got {1e3 * timestep_s:g} ms")
+
+
 @dataclass(frozen=True)
 class TripForce:
     """SCA 2009 eq. 2-3: backward Gaussian and vertical sine on the swing toe, in N.
@@ -130,6 +142,8 @@ class Scenario:
             from stumble.control.reflex.network import steps_per_tick  # is checked on load)
 
             steps_per_tick(self.timestep_s)
+        if self.controller == "gh2010":
+            check_gh2010_timestep(self.timestep_s)
         return self
 
     @property

@@ -27,7 +27,7 @@ from pathlib import Path
 from stumble.errors import InputError
 from stumble.trip import OBSTACLE_HEIGHT_M, Scenario, TripForce
 
-CONTROLLERS = ("fsm", "reflex")
+CONTROLLERS = ("fsm", "reflex", "gh2010")
 MAX_REPEATS = 100_000
 MAX_RUNS = 10_000_000  # runs in one study: each is a row, its key is checked up front
 
@@ -45,7 +45,8 @@ class Axis:
 # Outer to inner loop: axes that share a walk (body, speed, time step) are outermost, so
 # the runs that reuse one cached walk (``stumble.pipeline._walk``) sit next to each other.
 AXES: dict[str, Axis] = {a.name: a for a in (
-    Axis("controller", "controller", str, "fsm (SCA 2009 state machines) or reflex"),
+    Axis("controller", "controller", str, "fsm (SCA 2009 state machines), reflex (seed 003's "
+         "network) or gh2010 (Geyer & Herr 2010's reflexes)"),
     Axis("height", "height_m", float, "body height in m"),
     Axis("mass", "mass_kg", float, "body mass in kg"),
     Axis("sex", "sex", str, "male or female (de Leva 1996 parameter set)"),
@@ -59,7 +60,7 @@ AXES: dict[str, Axis] = {a.name: a for a in (
     Axis("strategy", "strategy", str, "strategy mode: auto, elevating or lowering"),
     Axis("delay_scale", "delay_scale", float, "response latencies multiplied by this"),
     Axis("strength_scale", "strength_scale", float,
-         "servo torque limits (fsm) or muscle F_max (reflex) multiplied by this"),
+         "servo torque limits (fsm) or muscle F_max (reflex, gh2010) multiplied by this"),
     Axis("duration", "duration_after_trip_s", float, "seconds of physics after the trip at most"),
     Axis("swing", "swing_fraction", float, "trip instant as a fraction of swing, 0.05-0.9"),
     Axis("seed", "seed", int, "0: the recorded walk; others perturb the initial state"),

@@ -53,11 +53,13 @@ class TrunkBalance:
     leg's share of the body's load; with ``rectified`` each gets only its positive part,
     as in Geyer & Herr (extensors [g]+, flexor [−g]+). ``k_lean`` adds their swing law
     for the hip flexor, k_lean (θ − θ_ref), to a leg whose load is below ``stance_load``
-    body weights. Defaults: k_p 1.91 /rad, k_d 0.2 s/rad, θ_ref 0.105 rad as reported in
+    body weights, and ``k_bw`` their double-support law: on the rear leg while both are
+    loaded, GLU −k_bw and the flexor +k_bw times the front leg's load in body weights.
+    Defaults: k_p 1.91 /rad, k_d 0.2 s/rad, θ_ref 0.105 rad as reported in
     reimplementations of Geyer & Herr 2010 (not re-checked against the paper's table),
-    unrectified, no swing term; a closed-loop-refined network carries its own
-    (``from_info``). Lean, pitch rate and loads arrive through one vestibulospinal
-    latency (``delay_s``, our choice 20 ms).
+    unrectified, no swing or double-support term; a closed-loop-refined network carries
+    its own (``from_info``). Lean, pitch rate, loads and feet arrive through one
+    vestibulospinal latency (``delay_s``, our choice 20 ms).
     """
 
     DELAY_S = 0.02  # vestibulospinal latency (our choice)
@@ -65,9 +67,10 @@ class TrunkBalance:
     def __init__(self, kp_per_rad: float = 1.91, kd_s_per_rad: float = 0.2,
                  lean_ref_rad: float = 0.105, delay_s: float = DELAY_S,
                  rate_hz: float = 1000.0, rectified: bool = False, k_lean: float = 0.0,
-                 stance_load: float = 0.1):
+                 stance_load: float = 0.1, k_bw: float = 0.0):
         self.kp, self.kd, self.ref = kp_per_rad, kd_s_per_rad, lean_ref_rad
         self.rectified, self.k_lean, self.stance_load = rectified, k_lean, stance_load
+        self.k_bw = k_bw
         self.lag = max(1, round(delay_s * rate_hz))
         self.weight_n = 686.7  # set by ``bind``
         self.bind(MUSCLE_NAMES)
@@ -76,7 +79,7 @@ class TrunkBalance:
         """The gains, for a network file's ``info`` (the delay is the caller's)."""
         return {"kp_per_rad": self.kp, "kd_s_per_rad": self.kd, "lean_ref_rad": self.ref,
                 "rectified": self.rectified, "k_lean": self.k_lean,
-                "stance_load": self.stance_load}
+                "stance_load": self.stance_load, "k_bw": self.k_bw}
 
     @classmethod
     def from_info(cls, info: dict | None, delay_s: float = DELAY_S,
@@ -95,21 +98,23 @@ class TrunkBalance:
             self.mus[muscles.index(name)] = sign
         self.ext[[muscles.index("GLU"), muscles.index("HAMS")]] = 1.0
         self.flex[muscles.index(self.flexor)] = 1.0
+        self.ds = np.zeros(len(muscles))  # double support: GLU −, flexor +
+        self.ds[muscles.index("GLU")], self.ds[muscles.index(self.flexor)] = -1.0, 1.0
         if weight_n is not None:
             self.weight_n = weight_n
 
     @staticmethod
     def sense(rows: np.ndarray, lay) -> np.ndarray:
-        """(n, 4) lean (rad), pitch rate (rad/s) and the right and left feet's vertical
-        loads (N), from sensor rows (n, nsensordata)."""
+        """(n, 6) lean (rad), pitch rate (rad/s), the right and left feet's vertical loads
+        (N) and their ankles' forward positions (m), from sensor rows (n, nsensordata)."""
         z = rows[:, lay.torso_z]
         fz = -rows[:, lay.foot_force[:, 2]]  # (n, 2) vertical loads r, l
         # forward lean (z axis towards +x), pitch rate about +y
         return np.column_stack([np.arctan2(z[:, 0], z[:, 2]), rows[:, lay.torso_angvel[1]],
-                                fz])
+                                fz, rows[:, lay.foot_pos[:, 0]]])
 
     def drive(self, sensed: np.ndarray) -> np.ndarray:
-        """(n, 2, n_muscles) excitation from (n, 4) delayed lean, rate and loads."""
+        """(n, 2, n_muscles) excitation from (n, 6) delayed lean, rate, loads, ankles."""
         lean = sensed[:, 0] - self.ref
         g = (self.kp * lean + self.kd * sensed[:, 1])[:, None, None]
         fz = sensed[:, 2:4]
@@ -122,6 +127,11 @@ class TrunkBalance:
         if self.k_lean:
             swing = (fz < self.stance_load * self.weight_n)[:, :, None]
             out = out + swing * (self.k_lean * lean)[:, None, None] * self.flex
+        if self.k_bw:
+            on = fz > self.stance_load * self.weight_n
+            x = sensed[:, 4:6]
+            rear = on & on[:, ::-1] & (x < x[:, ::-1])
+            out = out + (self.k_bw * fz[:, ::-1] / self.weight_n * rear)[:, :, None] * self.ds
         return out
 
 
@@ -220,7 +230,7 @@ class ReflexController:
         self.exc_block = np.zeros((self.block, 2, nm))
         self.block_start = 0
         if self.balance is not None:
-            self.bal_buf = np.zeros((self.balance.lag + self.block + 1, 4))
+            self.bal_buf = np.zeros((self.balance.lag + self.block + 1, 6))
 
     # ---- the network over a range of ticks --------------------------------------------
     def _push_signals(self, first: int, rates: np.ndarray) -> None:

@@ -103,7 +103,8 @@ def balance_of(params: GH2010Params, delay_s: float = TrunkBalance.DELAY_S) -> T
     """The trunk-lean addition carrying the expert's own lean laws and gains."""
     return TrunkBalance(params.kp_trunk, params.kd_trunk, params.lean_ref, delay_s,
                         rectified=True, k_lean=params.k_lean,
-                        stance_load=params.stance_load)
+                        stance_load=params.stance_load,
+                        k_bw=params.k_bw if params.wiring == "seed003" else 0.0)
 
 
 def collect(net: Network, params: GH2010Params, beta: float, seed: int,

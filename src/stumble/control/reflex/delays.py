@@ -42,3 +42,35 @@ class DelayLine:
         """(n, channels): each channel at its lag before each of the next n ticks."""
         ticks = self.k + np.arange(n)[:, None] - self.lags[None, :]
         return self.buf[ticks % self.size, self._cols]
+
+
+class DelayTaps:
+    """A ring buffer of per-tick channels read through taps: (channel, lag) pairs, so one
+    signal can reach several reflexes, each after its own path's delay."""
+
+    def __init__(self, channels: int, taps: list[tuple[int, int]]):
+        self.cols = np.array([c for c, _l in taps], dtype=int)
+        self.lags = np.array([lag for _c, lag in taps], dtype=int)
+        if np.any(self.lags < 1):
+            raise ValueError("every lag must be at least one tick")
+        self.block = int(self.lags.min())  # ticks whose reads are all sensed already
+        self.size = int(self.lags.max()) + self.block + 1
+        self.buf = np.zeros((self.size, channels))
+        self.k = 0
+
+    def fill(self, values: np.ndarray) -> None:
+        """A constant history: every past tick sensed ``values``."""
+        self.buf[:] = np.asarray(values, dtype=float)
+
+    def push(self, rows: np.ndarray) -> None:
+        """Store the channels (n, channels) of the next n ticks."""
+        n = len(rows)
+        self.buf[(self.k + np.arange(n)) % self.size] = rows
+        self.k += n
+
+    def read(self, n: int) -> np.ndarray:
+        """(n, taps): each tap's channel at its lag before each of the next n ticks."""
+        if n > self.block:
+            raise ValueError(f"{n} ticks ahead is more than the shortest lag ({self.block})")
+        ticks = self.k + np.arange(n)[:, None] - self.lags[None, :]
+        return self.buf[ticks % self.size, self.cols]

@@ -45,7 +45,7 @@ from importlib import resources
 import numpy as np
 
 from stumble.body.muscles import PRE_ACTIVATION
-from stumble.control.reflex.delays import DelayLine
+from stumble.control.reflex.delays import DelayTaps
 from stumble.errors import InputError
 from stumble.sim import Context
 
@@ -54,8 +54,8 @@ DELAY_BY_JOINT_S = {"hip": 0.005, "knee": 0.010, "ankle": 0.020}  # Geyer & Herr
 # the joint whose delay each muscle's own reflexes use (Geyer & Herr 2010)
 JOINT_OF = {"HAMS": "hip", "GLU": "hip", "HFL": "hip", "RF": "hip", "VAS": "knee",
             "GAS": "ankle", "SOL": "ankle", "TA": "ankle"}
+WIRINGS = ("gh2010", "seed003")
 SHIPPED = "gh2010.json"  # optimised parameters shipped in stumble/control/reflex/data/
-LEAN_FEATURES = [10, 11, 13]  # bal_ext, bal_flex, lean: the vestibular part of the laws
 
 
 @dataclass(frozen=True)
@@ -89,10 +89,11 @@ class GH2010Params:
     g_glu: float = 0.4  # GLU F+ (swing)
     stance_load: float = 0.1  # stance: delayed foot load above this share of body weight
     delay_scale: float = 1.0  # every delay multiplied by this
+    wiring: str = "gh2010"  # "gh2010" or "seed003" (see GH2010Controller)
 
     def free(self) -> list[str]:
-        """Names of the gains a closed-loop fit may change (all but the delay scale)."""
-        return [f.name for f in fields(self) if f.name != "delay_scale"]
+        """Names of the gains a closed-loop fit may change (not the delays, the wiring)."""
+        return [f.name for f in fields(self) if f.name not in ("delay_scale", "wiring")]
 
     def vector(self) -> np.ndarray:
         """The free gains as a vector, in ``free()`` order."""
@@ -103,8 +104,8 @@ class GH2010Params:
         return replace(self, **{n: float(v) for n, v in zip(self.free(), x, strict=True)})
 
     def to_json(self) -> dict:
-        """Plain numbers (for the shipped file and fit reports)."""
-        return {k: float(v) for k, v in asdict(self).items()}
+        """Plain numbers and the wiring (for the shipped file and fit reports)."""
+        return {k: v if isinstance(v, str) else float(v) for k, v in asdict(self).items()}
 
     @classmethod
     def from_json(cls, obj: dict) -> GH2010Params:
@@ -115,7 +116,12 @@ class GH2010Params:
             raise InputError(f"unknown GH2010 parameter(s): {', '.join(bad)}")
         vals = {}
         for k, v in obj.items():
-            if not isinstance(v, int | float) or not np.isfinite(v):
+            if k == "wiring":
+                if v not in WIRINGS:
+                    raise InputError(f"GH2010 wiring {v!r} is not one of {', '.join(WIRINGS)}")
+                vals[k] = v
+                continue
+            if not isinstance(v, int | float) or isinstance(v, bool) or not np.isfinite(v):
                 raise InputError(f"GH2010 parameter {k} must be a finite number, got {v!r}")
             vals[k] = float(v)
         return cls(**vals)
@@ -145,14 +151,51 @@ def shipped_params() -> GH2010Params:
     return GH2010Params.from_json(json.loads(path.read_text())["params"])
 
 
+def seed003_delays_s(muscles: tuple[str, ...]) -> dict:
+    """Path delays (s) of the GH2010 laws through seed 003's nerves (Table I, afferents
+    57.6 m/s, efferents 52.4 m/s): each muscle's own loop (its shortest, over the spinal
+    segments it is bound to), SOL onto TA (through their shared S1), and the foot-contact
+    afferents onto each muscle bound to S1 or S2 (None for a muscle with no such path)."""
+    from stumble.control.reflex.network import (
+        AFFERENT_M_PER_S,
+        CONTACT_NERVE_M,
+        EFFERENT_M_PER_S,
+        NERVE_LENGTH_M,
+    )
+
+    def path(src: dict, dst: dict) -> float | None:
+        shared = [src[s] / AFFERENT_M_PER_S + dst[s] / EFFERENT_M_PER_S
+                  for s in src if s in dst]
+        return min(shared) if shared else None
+
+    own = {m: path(NERVE_LENGTH_M[m], NERVE_LENGTH_M[m]) for m in muscles}
+    gate = {m: path(CONTACT_NERVE_M, NERVE_LENGTH_M[m]) for m in muscles}
+    return {"own": own, "sol_ta": path(NERVE_LENGTH_M["SOL"], NERVE_LENGTH_M["TA"]),
+            "gate": gate}
+
+
 class GH2010Controller:
-    """Geyer & Herr 2010's reflexes driving the planar body's muscles."""
+    """Geyer & Herr 2010's reflexes driving the planar body's muscles.
+
+    ``params.wiring``: ``gh2010`` (the paper's laws and delays, the default), or ``seed003``:
+    the same laws restricted to what seed 003's network can express, on its nerves: each
+    reflex delayed by its path through Table I (``seed003_delays_s``), the stance/swing
+    switch of a muscle by its foot-contact path (``network.CONTACT_NERVE_M``, L4-S2; HFL,
+    which no contact afferent reaches, keeps its swing law in both phases), without the
+    law that needs a path Table I does not have (HAMS onto HFL), and the trunk-lean and
+    double-support laws through the 20 ms latency of the network's addition
+    (``controller.TrunkBalance``), which senses the lean, both feet's loads and where the
+    feet are. It is the expert the network learns from.
+    """
 
     name = "gh2010"
     uses_sensors = False  # reads the sensor rows of each block (``observe``) instead
 
     def __init__(self, params: GH2010Params | None = None):
         self.p = params or GH2010Params()
+        self.wiring = self.p.wiring
+        if self.wiring not in WIRINGS:
+            raise InputError(f"GH2010 wiring {self.wiring!r} is not one of {', '.join(WIRINGS)}")
         self.lean_free: np.ndarray | None = None  # set to anything to also get the laws'
         # output without their trunk-lean terms after each update
         self.log: list[tuple[str, float]] = []
@@ -161,7 +204,7 @@ class GH2010Controller:
     # ---- set-up -----------------------------------------------------------------
     def start(self, ctx: Context) -> None:
         """Bind to the body's muscles and sensors, fill the delays with the present."""
-        m, body, p = ctx.model, ctx.body, self.p
+        m, body = ctx.model, ctx.body
         if not body.muscles:
             raise InputError("the GH2010 controller needs the musculoskeletal body")
         self.lay = body.sensors
@@ -169,35 +212,19 @@ class GH2010Controller:
         names = [g.name[:-2] for g in geos[: len(geos) // 2]]
         self.names = names
         self.nm = len(names)
-        self.idx = {n: i for i, n in enumerate(names)}
-        self.flexor = "HFL" if "HFL" in self.idx else "RF"
+        self.idx = ix = {n: i for i, n in enumerate(names)}
+        self.flexor = "HFL" if "HFL" in ix else "RF"
         self.f_max = np.array([g.f_max_n for g in geos])
         self.l_ref = np.array([g.l_ref_m for g in geos])
         self.l0 = np.array([g.l0_m for g in geos])
         self.weight_n = float(m.body_mass.sum()) * 9.81
         self.act_ids = np.array([m.actuator(g.name).id for g in geos])
         self.act_adr = m.actuator_actadr[self.act_ids]
-        dt = m.opt.timestep
-        lag = {j: max(1, round(d * p.delay_scale / dt)) for j, d in DELAY_BY_JOINT_S.items()}
-        # channels: F (2·nm), l (2·nm), knee flexion (2), its rate (2), load (2), foot x
-        # (2), lean, lean rate
-        muscle_lags = [lag[JOINT_OF[n]] for n in names] * 2
-        lags = (muscle_lags + muscle_lags + [lag["knee"]] * 4 + [lag["hip"]] * 4
-                + [lag["hip"]] * 2)
-        self.period_steps = lag["hip"]
-        self.delay = DelayLine(np.array(lags), self.period_steps)
-        nm2 = 2 * self.nm
-        self.c_f, self.c_l = slice(0, nm2), slice(nm2, 2 * nm2)
-        o = 2 * nm2
-        self.c_knee, self.c_knee_v = slice(o, o + 2), slice(o + 2, o + 4)
-        self.c_load, self.c_x = slice(o + 4, o + 6), slice(o + 6, o + 8)
-        self.c_lean, self.c_lean_v = o + 8, o + 9
-        ix = self.idx
-        self._f_cols = [ix[k] for k in ("SOL", "GAS", "VAS", "GLU", "HAMS")]
-        self._l_cols = [ix["TA"], ix[self.flexor], ix["HAMS"]]
-        self._l_offs = np.array([p.l_off_ta, p.l_off_hfl, p.l_off_ham])
+        self._channel_map()
+        self._build_taps(m.opt.timestep)
         self._w_stance, self._w_swing = self._law_matrices()
         self.delay.fill(self._channels(ctx.data.sensordata[None])[0])
+        self.period_steps = self.delay.block
         self.plan = np.empty((self.period_steps, m.nu))
         lumbar = m.joint("lumbar_extension")  # the upper body held as at the start
         ctx.data.ctrl[m.actuator("lumbar_extension").id] = ctx.data.qpos[lumbar.qposadr[0]]
@@ -205,27 +232,117 @@ class GH2010Controller:
         ctx.data.act[self.act_adr] = u  # muscles start at the reflexes' present output
         self.log.append(("reflex", 0.0))
 
+    def _build_taps(self, dt: float) -> None:
+        """The (channel, lag) reads of every law, for this wiring and time step."""
+        from stumble.control.reflex.controller import TrunkBalance
+
+        p, nm, ix, names = self.p, self.nm, self.idx, self.names
+        ticks = lambda s: max(1, round(s * p.delay_scale / dt))  # noqa: E731
+        joint = {j: ticks(d) for j, d in DELAY_BY_JOINT_S.items()}
+        if self.wiring == "gh2010":
+            own = [joint[JOINT_OF[n]] for n in names]
+            sol_ta, ham_flex = joint["ankle"], joint["hip"]
+            knee = joint["knee"]
+            gate = [joint["hip"]] * nm
+            vest, ds = joint["hip"], joint["hip"]
+            self.gated = np.ones(nm, bool)
+        else:
+            d = seed003_delays_s(tuple(names))
+            own = [ticks(d["own"][n]) for n in names]
+            sol_ta = ticks(d["sol_ta"])
+            ham_flex, ds = None, None  # no such paths in Table I
+            knee = own[ix["VAS"]]  # the knee's angle reaches VAS as its own stretch
+            self.gated = np.array([d["gate"][n] is not None for n in names])
+            gate = [ticks(d["gate"][n]) if d["gate"][n] is not None else own[j]
+                    for j, n in enumerate(names)]  # (an ungated muscle's is never used)
+            vest = ticks(TrunkBalance.DELAY_S)
+        self.lags = {"own": own, "sol_ta": sol_ta, "ham_flex": ham_flex, "knee": knee,
+                     "gate": gate, "vest": vest, "ds": ds}
+        # channels: F (2·nm), L (2·nm), knee flexion (2), its rate (2), load (2, body
+        # weights), foot x (2), lean rate, lean (``_channel_map``)
+        cF, cL = (lambda leg, j: leg * nm + j), (lambda leg, j: 2 * nm + leg * nm + j)
+        o = 4 * nm
+        c_knee, c_knee_v, c_load, c_x = o, o + 2, o + 4, o + 6
+        c_lean_v, c_lean = o + 8, o + 9
+        taps, at = [], {}
+
+        def tap(key, col, lag):
+            at[key] = len(taps)
+            taps.append((col, lag))
+
+        for leg in range(2):
+            for j in range(nm):
+                tap(("F", leg, j), cF(leg, j), own[j])
+                tap(("L", leg, j), cL(leg, j), own[j])
+                tap(("gate", leg, j), c_load + leg, gate[j])
+            tap(("F_sol_ta", leg), cF(leg, ix["SOL"]), sol_ta)
+            if ham_flex is not None:
+                tap(("L_ham_flex", leg), cL(leg, ix["HAMS"]), ham_flex)
+            tap(("knee", leg), c_knee + leg, knee)
+            tap(("knee_v", leg), c_knee_v + leg, knee)
+            tap(("vest_load", leg), c_load + leg, vest)
+            tap(("vest_x", leg), c_x + leg, vest)
+            if ds is not None:
+                tap(("ds_load", leg), c_load + leg, ds)
+                tap(("ds_x", leg), c_x + leg, ds)
+        tap("lean", c_lean, vest)
+        tap("lean_v", c_lean_v, vest)
+        self.at = at
+        self.delay = DelayTaps(c_lean + 1, taps)
+        # gathers for the block's features
+        g = lambda keys: np.array([at[k] for k in keys])  # noqa: E731
+        self._iF = g([("F", leg, j) for leg in range(2) for j in range(nm)])
+        self._iL = g([("L", leg, j) for leg in range(2) for j in range(nm)])
+        self._iGate = g([("gate", leg, j) for leg in range(2) for j in range(nm)])
+        self._iSolTa = g([("F_sol_ta", leg) for leg in range(2)])
+        self._iHamFlex = (g([("L_ham_flex", leg) for leg in range(2)])
+                          if ham_flex is not None else None)
+        self._iKnee = g([("knee", leg) for leg in range(2)])
+        self._iKneeV = g([("knee_v", leg) for leg in range(2)])
+        self._iVestLoad = g([("vest_load", leg) for leg in range(2)])
+        self._iVestX = g([("vest_x", leg) for leg in range(2)])
+        self._iDs = ((g([("ds_load", leg) for leg in range(2)]),
+                      g([("ds_x", leg) for leg in range(2)])) if ds is not None else None)
+        self._iLean, self._iLeanV = at["lean"], at["lean_v"]
+        self._f_cols = [ix[k] for k in ("GAS", "VAS", "GLU", "HAMS")]
+        self._l_cols = [ix["TA"], ix[self.flexor]]
+        self._l_offs = np.array([p.l_off_ta, p.l_off_hfl])
+        self._ext = np.zeros(nm)
+        self._ext[[ix["GLU"], ix["HAMS"]]] = 1.0
+        self._flex = np.zeros(nm)
+        self._flex[ix[self.flexor]] = 1.0
+        self._ds = self._flex - self._ext * (np.arange(nm) == ix["GLU"])
+
+    def _channel_map(self) -> None:
+        """One gather and one affine map from a sensor row to the channels: F (F_max),
+        L (l_opt), knee flexion and its rate, load (body weights), foot x, lean rate; and
+        the torso axis' x and z, of which the lean is the angle."""
+        lay, nm2 = self.lay, 2 * self.nm
+        self._gather = np.concatenate([
+            lay.muscle_force, lay.muscle_length, lay.joint_angle[:, 1],
+            lay.joint_velocity[:, 1], lay.foot_force[:, 2], lay.foot_pos[:, 0],
+            [lay.torso_angvel[1], lay.torso_z[0], lay.torso_z[2]]]).astype(int)
+        w = self.weight_n
+        self._scale = np.concatenate([-1.0 / self.f_max, 1.0 / self.l0, [-1.0] * 4,
+                                      [-1.0 / w] * 2, [1.0] * 5])
+        self._offset = np.concatenate([np.zeros(nm2), 1.0 - self.l_ref / self.l0,
+                                       np.zeros(11)])
+
     def _channels(self, rows: np.ndarray) -> np.ndarray:
         """(n, channels) sensed signals from sensor rows (n, nsensordata)."""
-        lay = self.lay
-        f = -rows[:, lay.muscle_force] / self.f_max
-        ln = 1.0 + (rows[:, lay.muscle_length] - self.l_ref) / self.l0
-        knee = -rows[:, lay.joint_angle[:, 1]]  # flexion positive
-        knee_v = -rows[:, lay.joint_velocity[:, 1]]
-        load = -rows[:, lay.foot_force[:, 2]] / self.weight_n
-        x = rows[:, lay.foot_pos[:, 0]]
-        z = rows[:, lay.torso_z]
-        lean = np.arctan2(z[:, 0], z[:, 2])
-        lean_v = rows[:, lay.torso_angvel[1]]
-        return np.column_stack([f, ln, knee, knee_v, load, x, lean, lean_v])
+        v = rows[:, self._gather] * self._scale + self._offset
+        v[:, -2] = np.arctan2(v[:, -2], v[:, -1])  # forward lean
+        return v[:, :-1]
 
     # ---- the reflex laws ------------------------------------------------------------
     FEATURES = ("one", "F_SOL", "F_GAS", "F_VAS", "F_GLU", "F_HAMS", "L_TA", "L_FLEX", "L_HAMS",
-                "knee_stop", "bal_ext", "bal_flex", "ds", "lean")
+                "knee_stop", "ds")
 
     def _law_matrices(self) -> tuple[np.ndarray, np.ndarray]:
         """(K, nm) weights of the features in stance and in swing: u = Φ·W (the laws of
-        the module docstring, each gain where its muscle and phase take it)."""
+        the module docstring but the trunk-lean ones, each gain where its muscle and
+        phase take it). F_SOL is SOL's own force; onto TA it arrives through its own path
+        (``_excitations``)."""
         p, ix, fi = self.p, self.idx, {f: k for k, f in enumerate(self.FEATURES)}
         st = np.zeros((len(self.FEATURES), self.nm))
         sw = np.zeros_like(st)
@@ -233,56 +350,79 @@ class GH2010Controller:
         flex = self.flexor
         st[fi["F_SOL"], ix["SOL"]] = p.g_sol
         st[fi["L_TA"], ix["TA"]] = p.g_ta
-        st[fi["F_SOL"], ix["TA"]] = -p.g_sol_ta
         st[fi["F_GAS"], ix["GAS"]] = p.g_gas
         st[fi["one"], ix["VAS"]] = p.s0_vas
         st[fi["F_VAS"], ix["VAS"]] = p.g_vas
         st[fi["knee_stop"], ix["VAS"]] = -p.k_phi
         for name in ("GLU", "HAMS", flex):
             st[fi["one"], ix[name]] = p.s0_bal
-        st[fi["bal_ext"], ix["GLU"]] = st[fi["bal_ext"], ix["HAMS"]] = 1.0
-        st[fi["bal_flex"], ix[flex]] = 1.0
         st[fi["ds"], ix["GLU"]], st[fi["ds"], ix[flex]] = -p.k_bw, p.k_bw
         sw[fi["L_FLEX"], ix[flex]] = p.g_hfl
         sw[fi["L_HAMS"], ix[flex]] = -p.g_ham_hfl
-        sw[fi["lean"], ix[flex]] = p.k_lean
         sw[fi["F_GLU"], ix["GLU"]] = p.g_glu
         sw[fi["F_HAMS"], ix["HAMS"]] = p.g_ham
         sw[fi["L_TA"], ix["TA"]] = p.g_ta
+        if self.wiring == "seed003":  # muscles no contact afferent reaches keep one law:
+            for name, j in ix.items():  # VAS its stance law, the flexor its swing law
+                if not self.gated[j] and name == "VAS":
+                    sw[:, j] = st[:, j]
+                elif not self.gated[j] and name == flex:
+                    st[:, j] = sw[:, j]
         return st, sw
 
     def _excitations(self, x: np.ndarray) -> np.ndarray:
-        """Excitations (n, 2·nm) of both legs from delayed channels (n, channels)."""
+        """Excitations (n, 2·nm) of both legs from the block's taps (n, taps)."""
         p, n, nm = self.p, len(x), self.nm
-        F = x[:, self.c_f].reshape(n, 2, nm)
-        L = x[:, self.c_l].reshape(n, 2, nm)
-        knee, knee_v = x[:, self.c_knee], x[:, self.c_knee_v]
-        load, fx = x[:, self.c_load], x[:, self.c_x]
-        lean, lean_v = x[:, self.c_lean], x[:, self.c_lean_v]
-        stance = load > p.stance_load
-        trailing = stance & stance[:, ::-1] & (fx < fx[:, ::-1])
-        total = load.sum(axis=1, keepdims=True)
-        share = load / np.maximum(total, 1e-9)
-        bal = (p.kp_trunk * (lean - p.lean_ref) + p.kd_trunk * lean_v)[:, None]
-        phi = np.empty((n, 2, len(self.FEATURES)))
+        F = x[:, self._iF].reshape(n, 2, nm)
+        L = x[:, self._iL].reshape(n, 2, nm)
+        stance = x[:, self._iGate].reshape(n, 2, nm) > p.stance_load
+        stance |= ~self.gated  # muscles no contact afferent reaches keep one law
+        knee, knee_v = x[:, self._iKnee], x[:, self._iKneeV]
+        phi = np.zeros((n, 2, len(self.FEATURES)))
         phi[..., 0] = 1.0
-        phi[..., 1:6] = F[:, :, self._f_cols]
-        phi[..., 6:9] = np.maximum(L[:, :, self._l_cols] - self._l_offs, 0.0)
+        phi[..., 1] = F[:, :, self.idx["SOL"]]
+        phi[..., 2:6] = F[:, :, self._f_cols]
+        phi[..., 6:8] = np.maximum(L[:, :, self._l_cols] - self._l_offs, 0.0)
+        if self._iHamFlex is not None:
+            phi[..., 8] = np.maximum(x[:, self._iHamFlex] - p.l_off_ham, 0.0)
         phi[..., 9] = np.maximum(p.phi_off - knee, 0.0) * (knee_v < 0.0)
-        phi[..., 10] = np.maximum(bal, 0.0) * share
-        phi[..., 11] = np.maximum(-bal, 0.0) * share
-        phi[..., 12] = load[:, ::-1] * trailing
-        phi[..., 13] = (lean - p.lean_ref)[:, None]
-        u = np.where(stance[..., None], phi @ self._w_stance, phi @ self._w_swing)
+        if self._iDs is not None:
+            load, fx = x[:, self._iDs[0]], x[:, self._iDs[1]]
+            on = load > p.stance_load
+            phi[..., 10] = load[:, ::-1] * (on & on[:, ::-1] & (fx < fx[:, ::-1]))
+        u = np.where(stance, phi @ self._w_stance, phi @ self._w_swing)
+        # SOL onto TA, in stance, through its own path
+        ta = self.idx["TA"]
+        u[:, :, ta] -= p.g_sol_ta * x[:, self._iSolTa] * stance[:, :, ta]
+        reflex = np.clip(u.reshape(n, 2 * nm), PRE_ACTIVATION, 1.0)
         if self.lean_free is not None:  # the laws without the trunk-lean terms (labels)
-            phi[..., LEAN_FEATURES] = 0.0
-            v = np.where(stance[..., None], phi @ self._w_stance, phi @ self._w_swing)
-            self.lean_free = np.clip(v.reshape(n, 2 * nm), PRE_ACTIVATION, 1.0)
-        return np.clip(u.reshape(n, 2 * nm), PRE_ACTIVATION, 1.0)
+            self.lean_free = reflex
+        return np.clip(u.reshape(n, 2 * nm) + self._vestibular(x).reshape(n, 2 * nm),
+                       PRE_ACTIVATION, 1.0)
+
+    def _vestibular(self, x: np.ndarray) -> np.ndarray:
+        """The trunk-lean laws (n, 2, nm): stance hips k_p(θ − θ_ref) + k_d θ̇ rectified,
+        in proportion to each leg's share of the load; the swing flexor k_lean(θ − θ_ref)
+        on a leg below the stance load (``controller.TrunkBalance``, rectified)."""
+        p = self.p
+        lean = x[:, self._iLean] - p.lean_ref
+        g = (p.kp_trunk * lean + p.kd_trunk * x[:, self._iLeanV])[:, None, None]
+        load = x[:, self._iVestLoad]
+        total = load.sum(axis=1, keepdims=True)
+        share = np.where(total > 0.0, load / np.where(total > 0.0, total, 1.0), 0.5)
+        out = (np.maximum(g, 0.0) * self._ext + np.maximum(-g, 0.0) * self._flex)
+        out = out * share[:, :, None]
+        swing = (load < p.stance_load)[:, :, None]
+        out = out + swing * (p.k_lean * lean)[:, None, None] * self._flex
+        if self.wiring == "seed003":  # double support through the addition's senses
+            on, x = ~swing[:, :, 0], x[:, self._iVestX]
+            rear = on & on[:, ::-1] & (x < x[:, ::-1])
+            out = out + (p.k_bw * load[:, ::-1] * rear)[:, :, None] * self._ds
+        return out
 
     # ---- Controller protocol -----------------------------------------------------------
     def update(self, ctx: Context) -> np.ndarray:
-        """The next 5 ms of excitations, from what was sensed at least 5 ms ago."""
+        """The next block's excitations, from what its shortest path has sensed."""
         u = self._excitations(self.delay.read(self.period_steps))
         self.plan[:] = ctx.data.ctrl
         self.plan[:, self.act_ids] = u

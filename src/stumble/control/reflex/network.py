@@ -64,7 +64,12 @@ NERVE_LENGTH_M: dict[str, dict[str, float]] = {
 HFL_NERVE_LENGTH_M = NERVE_LENGTH_M["HFL"]
 AFFERENT_M_PER_S = 57.6  # human sciatic nerve, muscle afferents (1994, Muscle & Nerve)
 EFFERENT_M_PER_S = 52.4  # human sciatic nerve, motor fibres (same source)
-CONTACT_NERVE_M = {"S1": 1.35, "S2": 1.32}  # sole to S1/S2 (our estimate: SOL's + 7 cm)
+# Foot-contact afferents (seed 003 §VI's proposal): the sole's load through the tibial
+# nerve's plantar branches, whose roots are L4-S3 (medial plantar L4-L5, lateral plantar
+# S1-S2). Lengths are our estimate: to S1/S2 SOL's Table I length + 7 cm (SOL's motor
+# point to the sole's nerve), to L4/L5 TA's + 0.35 m (TA's motor point in the upper shank
+# to the sole).
+CONTACT_NERVE_M = {"L4": 1.43, "L5": 1.41, "S1": 1.35, "S2": 1.32}
 HIDDEN_PER_SEGMENT = 6
 RATE_HZ = 1000.0
 

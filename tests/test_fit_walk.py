@@ -1,0 +1,89 @@
+"""The closed-loop walking objective and the seeded evolution strategy."""
+
+import numpy as np
+import pytest
+
+from stumble.analysis import contact_events
+from stumble.control.reflex.fit_walk import (
+    W_FALL,
+    cma_fit,
+    evaluate_walk,
+    gh2010_space,
+    init_walk_eval,
+    network_space,
+    network_with,
+    walk_cost,
+)
+
+
+def _summary(walked=10.0, distance=11.0, rmse=(5.0, 6.0, 7.0), speed=1.1, stance=0.62):
+    return {"walked_s": walked, "duration_s": 10.0, "distance_m": distance,
+            "rmse_deg": dict(zip(("hip_flexion", "knee_angle", "ankle_angle"), rmse,
+                                 strict=True)),
+            "speed_m_per_s": speed, "stance_fraction": stance, "diverged": False}
+
+
+def test_walking_on_beats_falling_and_standing_still():
+    walk, _ = walk_cost(_summary(), effort=0.05)
+    fall, t_fall = walk_cost(_summary(walked=2.5, distance=2.8), effort=0.05)
+    stand, t_stand = walk_cost(_summary(distance=0.3, speed=0.03), effort=0.01)
+    assert walk < 2.0 < fall and walk < stand
+    assert t_fall["fall"] == pytest.approx(W_FALL * 0.75)  # a quarter of the way
+    assert t_stand["fall"] == pytest.approx(W_FALL * 0.97)  # standing covers no way
+
+
+def test_each_joint_beyond_eight_degrees_costs_and_bands_are_free_inside():
+    _base, t0 = walk_cost(_summary(rmse=(7.0, 7.0, 7.0)), effort=0.0)
+    _worse, t1 = walk_cost(_summary(rmse=(7.0, 12.0, 7.0)), effort=0.0)
+    assert t1["track"] - t0["track"] == pytest.approx(
+        (np.sqrt((49 + 144 + 49) / 3) - 7.0) / 10.0 + (12.0 - 8.0) / 2.0)
+    assert t0["speed"] == t0["stance"] == 0.0
+    _, slow = walk_cost(_summary(speed=0.8), effort=0.0)
+    assert slow["speed"] == pytest.approx(((1.0 - 0.8) / 0.1) ** 2)
+
+
+def test_contact_events_need_a_lasting_touch_after_a_flight():
+    t = np.arange(0.0, 2.0, 0.005)
+    on = np.ones((len(t), 2), bool)
+    on[(t > 0.30) & (t < 0.70), 0] = False  # a swing of 0.4 s, then a strike at 0.70
+    on[(t > 1.00) & (t < 1.02), 0] = False  # a 20 ms scuff is no swing
+    on[(t > 1.10) & (t < 1.60), 0] = False  # a swing ...
+    on[(t >= 1.20) & (t < 1.204), 0] = True  # ... with a one-sample brush in it
+    ev = contact_events(t, on)
+    assert ev["r"]["heel_strike_s"] == pytest.approx([0.70, 1.60], abs=0.006)
+    assert ev["r"]["toe_off_s"] == pytest.approx([0.30, 1.10], abs=0.006)
+    assert ev["l"] == {"heel_strike_s": [], "toe_off_s": []}
+
+
+def test_network_subset_starts_at_the_network_itself():
+    from stumble.control.reflex.identify import default_network
+
+    net = default_network()
+    space = network_space(net)
+    same = network_with(net, space.start)
+    assert np.array_equal(same.v, net.v) and np.array_equal(same.c, net.c)
+    assert np.array_equal(same.w, net.w)
+    x = space.start.copy()
+    x[space.names.index("gain_SOL")] = 2.0
+    x[space.names.index("bias_TA")] = 0.5
+    changed = network_with(net, x)
+    sol = net.topology.muscles.index("SOL")
+    assert changed.c[sol] == pytest.approx(2.0 * net.c[sol])
+    assert changed.c[net.topology.muscles.index("TA")] == pytest.approx(
+        net.c[net.topology.muscles.index("TA")] + 0.5)
+
+
+def test_a_fit_is_reproduced_from_its_seed_whatever_the_workers():
+    """Two generations of four 1 s walks: the same seed gives the same history, with one
+    worker or two."""
+    space = gh2010_space()
+    runs = []
+    for workers in (1, 2, 1):
+        res = cma_fit(evaluate_walk, space, seed=5, generations=2, popsize=4, workers=workers,
+                      initializer=init_walk_eval, initargs=("gh2010", 1.0, 1.2, {}))
+        runs.append(([h["best"] for h in res.history], res.best_theta))
+    assert runs[0][0] == runs[1][0] == runs[2][0]
+    assert np.array_equal(runs[0][1], runs[1][1])
+    other = cma_fit(evaluate_walk, space, seed=6, generations=1, popsize=4,
+                    initializer=init_walk_eval, initargs=("gh2010", 1.0, 1.2, {}))
+    assert not np.array_equal(other.best_theta, runs[0][1])
