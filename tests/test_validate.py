@@ -27,15 +27,25 @@ def fake_trip(sc: Scenario, **kw):
         "wall_time_s": 0.001})
 
 
+def fake_walk(kind: str, duration_s: float, **kw):
+    """GH2010 walks 20 s; the network is missing."""
+    if kind == "network":
+        raise InputError("controller 'network' is not available")
+    return SimpleNamespace(summary={
+        "walked_s": duration_s, "speed_m_per_s": 1.02, "stance_fraction": 0.62,
+        "rmse_deg": {"hip_flexion": 4.5, "knee_angle": 9.0, "ankle_angle": 11.0}})
+
+
 @pytest.fixture
 def fake(monkeypatch):
     monkeypatch.setattr(pipeline, "simulate_trip", fake_trip)
+    monkeypatch.setattr(pipeline, "simulate_walk", fake_walk)
     monkeypatch.setattr(validate, "normal_swing_s", lambda: {1.0: 0.42, 1.4: 0.36})
 
 
 def test_the_fixed_study():
     cases = validate.validation_scenarios()
-    assert len(cases) == 24 and len({c for c, _ in cases}) == 24
+    assert len(cases) == 36 and len({c for c, _ in cases}) == 36
     fsm = [sc for c, sc in cases if sc.controller == "fsm"]
     windows = [sc for sc in fsm if sc.mechanism == "obstacle"]
     assert [sc.swing_fraction for sc in windows] == list(validate.WINDOW_SWINGS)
@@ -88,11 +98,18 @@ def test_validate_prints_the_table_and_writes_json(tmp_path, fake, capsys, monke
 
     # the reflex controller and its identification are not there: "not available"
     reflex = [r for r in rows if r["controller"] == "reflex"]
-    assert len(reflex) == 3 + 4 + 2
+    assert len(reflex) == 3 + 4 + 1 + 1 + 2  # windows, durations, recovery, walk, ident.
     assert all(r["agreement"] == "n/a" and r["stumble_text"] == "not available"
                for r in reflex)
     assert "controller 'reflex' is not available" in reflex[0]["note"]
     assert "not available" in text and "n/a" in text
+    # recovery rates and the GH2010 walk: the ankle's 11° is over the 10° criterion
+    assert by[("recovery rate, obstacle trips at 5-75 % of swing, 1.1 m/s", "fsm")][
+        "stumble"] == pytest.approx(1.0)
+    walk = by[("walking 20 s: RMSE against the recorded stride", "gh2010")]
+    assert walk["agreement"] == "no" and "walked 20.0 s" in walk["stumble_text"]
+    stance = by[("walking: stance fraction", "gh2010")]
+    assert stance["stumble"] == 0.62 and stance["agreement"] == "yes"
     # the runs are a study: there, with their rows
     assert (out / "results.parquet").exists()
 

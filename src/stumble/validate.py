@@ -1,6 +1,7 @@
 """``stumble validate``: a fixed, documented study set beside the published figures.
 
-The study (``validation_scenarios``), for each controller (``fsm``, ``reflex``):
+The study (``validation_scenarios``), for each controller (``fsm``, ``reflex``,
+``gh2010``):
 
 - **Strategy windows** (SCA 2009 §3 after Schillings et al. 2000; Murai & Yamane 2011
   §IV.A): obstacle trips (10 cm box) of the left leg at 0.05, 0.15, … 0.75 of swing,
@@ -24,6 +25,15 @@ The study (``validation_scenarios``), for each controller (``fsm``, ``reflex``):
 - **Identification errors** (Murai & Yamane 2011 §V.A): average and maximum error of the
   reflex network's muscle activity identified from walking, from
   ``stumble.control.reflex.identify.fit_summary()``. Agreement: ours is no larger.
+- **Recovery rate**, per controller, over its window trips: the share that recovered
+  (for the reflex controllers: still walking 3 s after the trip). Agreement: at least
+  ``RECOVERY_TARGET`` (this project's criterion, not a published figure).
+- **Reflex walking**, per reflex controller: a 20 s walk from the played-back state
+  (``pipeline.simulate_walk``): time walked and the hip, knee and ankle RMSE against
+  the recorded stride (seed 003 §V.A claims its network walks, "reasonably close to the
+  original motion"; agreement: 20 s walked and every RMSE at most ``WALK_RMSE_DEG``),
+  and the stance fraction beside subject01's force plates (0.633; agreement: within
+  ``STANCE_RANGE``).
 
 24 trips in all; with the state-machine controller about a minute on two cores. The
 runs are a study in ``DIR`` (``DIR/results.parquet``), so running again reuses them.
@@ -44,7 +54,13 @@ from stumble.jsonio import dumps
 from stumble.study.grid import run_key, scenario_fields
 from stumble.trip import Scenario
 
-CONTROLLERS = ("fsm", "reflex")
+CONTROLLERS = ("fsm", "reflex", "gh2010")
+REFLEX_CONTROLLERS = {"reflex": "network", "gh2010": "gh2010"}  # trip name -> walk name
+RECOVERY_TARGET = 0.7  # this project's criterion for a controller's recovery rate
+WALK_S = 20.0  # the reflex walk
+WALK_RMSE_DEG = 10.0  # this project's criterion, per joint, averaged over strides
+STANCE_RANGE = (0.55, 0.70)  # this project's criterion around subject01's 0.633
+SUBJECT_STANCE = 0.633  # subject01's force plates (scripts/fit_reference_gait.py)
 WINDOW_SPEED_M_PER_S = 1.1  # subject01's treadmill speed (the embedded reference gait)
 WINDOW_SWINGS = (0.05, 0.15, 0.25, 0.35, 0.45, 0.55, 0.65, 0.75)
 # (first, last fraction of swing, strategy): SCA 2009 §3 after Schillings et al. 2000;
@@ -110,6 +126,52 @@ def validation_scenarios(controllers=CONTROLLERS) -> list[tuple[str, Scenario]]:
             out.append((f"{ctrl}/duration/{i}", Scenario(
                 swing_fraction=c.swing_fraction, speed_m_per_s=c.speed_m_per_s,
                 mechanism="force" if ctrl == "fsm" else "obstacle", controller=ctrl)))
+    return out
+
+
+def recovery_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
+    """The share of a controller's window trips that recovered."""
+    rows = [by_case[f"{ctrl}/window/{s}"] for s in WINDOW_SWINGS]
+    ran = [r for r in rows if not r.get("error")]
+    figure = "recovery rate, obstacle trips at 5-75 % of swing, 1.1 m/s"
+    pub_text = f"≥ {RECOVERY_TARGET:.0%} (our criterion)"
+    keys = [r["key"] for r in rows]
+    if not ran:
+        return [_row(figure, "stumble", ctrl, RECOVERY_TARGET, pub_text, None,
+                     "not available", "n/a", keys, _why(rows))]
+    k = sum(bool(r.get("recovered")) for r in ran)
+    rate = k / len(ran)
+    return [_row(figure, "stumble", ctrl, RECOVERY_TARGET, pub_text, round(rate, 4),
+                 f"{k}/{len(ran)} ({rate:.0%})", "yes" if rate >= RECOVERY_TARGET else "no",
+                 keys)]
+
+
+def walking_rows(ctrl: str) -> list[dict]:
+    """A reflex controller's 20 s walk: time walked, RMSE per joint, stance fraction."""
+    from stumble.pipeline import simulate_walk
+
+    try:
+        s = simulate_walk(REFLEX_CONTROLLERS[ctrl], WALK_S).summary
+    except Exception as e:
+        why = f"{type(e).__name__}: {e}"
+        return [_row("walking 20 s from the played-back walk", "Murai & Yamane 2011 §V.A",
+                     ctrl, None, "walks", None, "not available", "n/a", note=why)]
+    rm = s["rmse_deg"]
+    rm_text = ("/".join(f"{rm[j]:.1f}" for j in ("hip_flexion", "knee_angle", "ankle_angle"))
+               + " deg") if rm else "no stride"
+    walked = s["walked_s"] >= WALK_S - 1e-6
+    ok = walked and rm and max(rm.values()) <= WALK_RMSE_DEG
+    text = (f"walked {s['walked_s']:.1f} s at {s['speed_m_per_s']:.2f} m/s; RMSE hip/knee/"
+            f"ankle {rm_text}")
+    out = [_row("walking 20 s: RMSE against the recorded stride", "Murai & Yamane 2011 §V.A",
+                ctrl, WALK_RMSE_DEG, f"walks, close to the recording (≤ {WALK_RMSE_DEG:g}° "
+                "per joint, ours)", rm, text, "yes" if ok else "no")]
+    sf = s["stance_fraction"]
+    lo, hi = STANCE_RANGE
+    out.append(_row("walking: stance fraction", "subject01 force plates", ctrl, SUBJECT_STANCE,
+                    f"{SUBJECT_STANCE:.3f} ({lo:.2f}-{hi:.2f}, ours)", sf,
+                    "no stride" if sf is None else f"{sf:.3f}",
+                    "yes" if sf is not None and lo <= sf <= hi else "no"))
     return out
 
 
@@ -301,6 +363,9 @@ def run_validation(out: Path, workers: int | None = None, progress: bool = True,
     for ctrl in controllers:
         rows += window_rows(ctrl, by_case)
         rows += duration_rows(ctrl, by_case, swing)
+        rows += recovery_rows(ctrl, by_case)
+        if ctrl in REFLEX_CONTROLLERS:
+            rows += walking_rows(ctrl)
     rows += identification_rows()
     report = {
         "stumble_version": __version__,
@@ -311,6 +376,9 @@ def run_validation(out: Path, workers: int | None = None, progress: bool = True,
             "duration": "as close to the motion capture as the paper's simulation, or "
                         f"within {RELATIVE_TOLERANCE:.0%} of the motion-capture value",
             "identification": "no larger than the published error",
+            "recovery": f"at least {RECOVERY_TARGET:.0%} of the window trips recovered",
+            "walking": f"{WALK_S:g} s walked, every joint RMSE ≤ {WALK_RMSE_DEG:g}°; stance "
+                       f"fraction within {STANCE_RANGE[0]}-{STANCE_RANGE[1]}",
         },
         "normal_swing_s": {str(k): v for k, v in swing.items()},
         "rows": rows,
@@ -344,8 +412,9 @@ def add_validate_parser(sub) -> None:
     """Register ``stumble validate`` on the ``stumble`` subparsers."""
     p = sub.add_parser(
         "validate", help="a fixed study beside the published figures",
-        description="Run a fixed, documented study (24 trips: strategy windows and "
-        "recovery durations, both controllers) and print one table: figure | source | "
+        description="Run a fixed, documented study (36 trips: strategy windows and "
+        "recovery durations for the three controllers; a 20 s walk of each reflex "
+        "controller) and print one table: figure | source | "
         "published value | stumble | agreement. Writes DIR/validation.json and the "
         "study's DIR/results.parquet. Exit status 0 whatever agrees.")
     from stumble.cli import out_dir_arg
