@@ -193,8 +193,21 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument("--refine", type=int, default=None, metavar="N",
                    help="quasi-Newton refinement iterations after it (default 1500; 0: "
                    "the seed's schedule only)")
-    f.add_argument("--contact-afferents", action="store_true",
-                   help="add foot-contact afferents (the seed's proposed extension)")
+    f.add_argument("--contact-afferents", action=argparse.BooleanOptionalAction,
+                   default=None,
+                   help="network: foot-contact afferents (the seed's proposed extension; "
+                   "default: with them in closed loop, without in --open-loop)")
+    f.add_argument("--muscles", choices=("seed", "hfl"), default=None,
+                   help="network: seed 003's seven muscles per leg, or with the iliopsoas "
+                   "(default: hfl in closed loop, seed in --open-loop)")
+    f.add_argument("--open-loop", action="store_true",
+                   help="network: the seed's identification alone, with no closed-loop "
+                   "refinement (the network of 0.1, for comparison)")
+    f.add_argument("--passes", type=int, default=None, metavar="N",
+                   help="network: closed-loop (DAgger) passes (default 8)")
+    f.add_argument("--wiring", choices=("gh2010", "seed003"), default="gh2010",
+                   help="gh2010: the paper's laws and delays (default), or seed003: the "
+                   "laws the network can express on its nerves (the network's expert)")
     f.add_argument("--no-video", action="store_true",
                    help="skip walking_step.png (the rendered walking step)")
 
@@ -491,10 +504,10 @@ def cmd_reflex_fit_gh2010(args) -> int:
     """``stumble reflex fit --controller gh2010``: the closed-loop CMA-ES of its gains."""
     import os
 
-    from stumble.control.reflex.fit_walk import GH2010_STAGES, fit_gh2010
+    from stumble.control.reflex.fit_walk import GH2010_STAGES, SEED003_STAGES, fit_gh2010
     from stumble.outputs import prepare_dir, write_gh2010_fit
 
-    stages = GH2010_STAGES
+    stages = GH2010_STAGES if args.wiring == "gh2010" else SEED003_STAGES
     if args.generations is not None:  # the same stages, shortened (a quick look)
         if args.generations < 1:
             raise InputError(f"--generations must be at least 1, got {args.generations}")
@@ -507,7 +520,8 @@ def cmd_reflex_fit_gh2010(args) -> int:
     out = prepare_dir(args.out)
     bar = _Progress("fitting gh2010", sys.stderr.isatty())
     res = fit_gh2010(seed=args.seed, stages=stages, workers=workers, out=out,
-                     progress=lambda row: bar(row["generation"] + 1, gens))
+                     progress=lambda row: bar(row["generation"] + 1, gens),
+                     wiring=args.wiring)
     bar.done()
     written, walk = write_gh2010_fit(out, res)
     s = walk.summary
@@ -530,16 +544,42 @@ def cmd_reflex(args) -> int:
     refine = REFINE_ITERATIONS if args.refine is None else args.refine
     if it < 0 or refine < 0 or it + refine == 0:
         raise InputError("--iterations and --refine must be >= 0 and not both 0")
+    closed = not args.open_loop
+    muscles = args.muscles or ("hfl" if closed else "seed")
+    contact = closed if args.contact_afferents is None else args.contact_afferents
+    passes = args.passes
+    if passes is not None and (not closed or passes < 1):
+        raise InputError("--passes is for the closed-loop fit and must be at least 1")
     out = prepare_dir(args.out)
-    bar = _Progress("fitting", sys.stderr.isatty())
+    bar = _Progress("identifying", sys.stderr.isatty())
     result = fit(seed=args.seed, iterations=it, refine_iterations=refine,
-                 contact=args.contact_afferents, progress=bar)
+                 contact=contact, progress=bar, muscle_set=muscles)
     bar.done()
-    written = write_fit(out, result, video=not args.no_video)
     r = result.report
     print(f"identified: average activity error {100 * r['avg_error']:.2f} %, maximum "
           f"{100 * r['max_error']:.1f} % (seed 003: 2.0 %, 36 %) after {r['iterations']} "
-          f"iterations in {r['wall_time_s']:.1f} s; wrote {', '.join(written)} to {out}")
+          f"iterations in {r['wall_time_s']:.1f} s", file=sys.stderr)
+    closed_loop = None
+    if closed:
+        import os
+
+        from stumble.control.reflex.dagger import PASSES, dagger
+        from stumble.control.reflex.gh2010 import shipped_params
+
+        n = passes or PASSES
+        bar = _Progress("closed loop", sys.stderr.isatty())
+        closed_loop = dagger(result.network, result.ident, shipped_params("seed003"), n,
+                             seed=args.seed, workers=args.workers or os.cpu_count() or 1,
+                             progress=lambda row: bar(row["pass"] + 1, n))
+        bar.done()
+    written = write_fit(out, result, video=not args.no_video, closed_loop=closed_loop)
+    if closed_loop is None:
+        print(f"wrote {', '.join(written)} to {out}")
+        return 0
+    best = min(closed_loop.history, key=lambda h: h["cost"]) if closed_loop.history else None
+    what = (f"best pass walks {best['walked_s']:.1f} of 10 s" if best else "no pass")
+    print(f"closed loop: {len(closed_loop.history)} passes in {closed_loop.wall_time_s:.0f} s, "
+          f"{what}; wrote {', '.join(written)} to {out}")
     return 0
 
 

@@ -192,16 +192,24 @@ def write_muscle_tensions(out: Path, result: TripResult) -> None:
         f"({s['strategy'] or 'no strategy'}) vs walking", muscles)
 
 
-def write_fit(out: Path, fit, video: bool = True) -> list[str]:
+def write_fit(out: Path, fit, video: bool = True, closed_loop=None) -> list[str]:
     """The files of ``stumble reflex fit``: network, figures of the fit, walking data, and
-    one walking step under the network (seed 003 Fig. 3) in fit.json and walking_step.png."""
+    one walking step under the network (seed 003 Fig. 3) in fit.json and walking_step.png;
+    with ``closed_loop`` (``dagger.DaggerResult``) the refined network, its passes in
+    fit.json and objective.png."""
     from stumble.control.reflex.walking import write_moments_csv
     from stumble.pipeline import simulate_walking_step
     from stumble.viz.reflex_plots import plot_activity_fit
 
     muscles = fit.network.topology.muscles
-    fit.network.save(out / "network.npz")
-    step = simulate_walking_step(fit.network)
+    net = fit.network if closed_loop is None else closed_loop.network
+    net.save(out / "network.npz")
+    if closed_loop is not None:
+        fit.report["closed_loop"] = {
+            "method": "DAgger with the GH2010 expert on seed 003's wiring "
+                      "(stumble.control.reflex.dagger)",
+            "passes": closed_loop.history, "wall_time_s": round(closed_loop.wall_time_s, 1)}
+    step = simulate_walking_step(net)
     fit.report["walking_step"] = {
         "rmse_deg": step.rmse_deg, "duration_s": round(step.duration_s, 3),
         "fell": step.fell, "start": "right heel strike, subject's speed",
@@ -237,6 +245,11 @@ def write_fit(out: Path, fit, video: bool = True) -> list[str]:
             w.writerow([round(float(p), 1), *[round(float(c[i]), 5) for c in cols]])
     written = ["network.npz", "fit.json", "activity_fit.png", "walking_moments.csv",
                "walking_activity.csv"]
+    if closed_loop is not None and closed_loop.history:
+        from stumble.viz.reflex_plots import plot_passes
+
+        plot_passes(out / "objective.png", closed_loop.history)
+        written.append("objective.png")
     if video and _walking_step_strip(out / "walking_step.png", step):
         written.append("walking_step.png")
     return written

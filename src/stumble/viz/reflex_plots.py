@@ -95,3 +95,24 @@ def plot_objective(path: Path, history: list[dict], title: str) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def plot_passes(path: Path, history: list[dict]) -> None:
+    """The closed-loop refinement of the network per DAgger pass: the walking objective of
+    the network on its own (log scale), how long it walks, and the training loss."""
+    k = [h["pass"] for h in history]
+    fig, (ax, ax2, ax3) = plt.subplots(3, 1, figsize=(7.0, 6.5), sharex=True)
+    ax.semilogy(k, [h["cost"] for h in history], "o-", color="tab:red")
+    ax.set_ylabel("objective J")
+    ax.grid(alpha=0.3, which="both")
+    ax2.plot(k, [h["walked_s"] for h in history], "o-", color="tab:blue")
+    ax2.set_ylabel("walks (s of 10)")
+    ax2.grid(alpha=0.3)
+    ax3.semilogy(k, [h["loss"] for h in history], "o-", color="0.4")
+    ax3.set_ylabel("imitation loss")
+    ax3.set_xlabel("DAgger pass (β halves each pass)")
+    ax3.grid(alpha=0.3, which="both")
+    fig.suptitle("closed-loop refinement of the reflex network", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -58,7 +58,10 @@ class Mixed:
         self.expert.lean_free = np.zeros(0)
         self.expert.start(ctx)
         act = ctx.data.act.copy()
+        self.student.block_request = self.expert.period_steps  # both plan the same block
         self.student.start(ctx)
+        if self.student.block != self.expert.period_steps:
+            raise ValueError(f"the network cannot plan {self.expert.period_steps} ticks ahead")
         if self.beta >= 1.0:  # the expert drives: it sets the starting activation
             ctx.data.act[:] = act
         self.period_steps = self.expert.period_steps
@@ -133,7 +136,7 @@ def collect(net: Network, params: GH2010Params, beta: float, seed: int,
     _rest_support_foot(m, d, planar=True)
     history = history_before(net.walk_rates, _phase(pb, t0), 2 * net.topology.max_lag + 2,
                              net.topology.rate_hz)
-    student = ReflexController(net, history, balance_of(params), block=5)
+    student = ReflexController(net, history, balance_of(params))
     student.trace = {"inputs": [], "balance": []}
     mix = Mixed(student, GH2010Controller(params), beta, np.random.default_rng(seed))
     stop = WalkStop(FALL_PELVIS_FRACTION * _standing_pelvis(body))
@@ -195,27 +198,64 @@ def ident_data(net: Network, ident) -> list[tuple[np.ndarray, np.ndarray, np.nda
              np.ones(ident.excitation.shape[1])) for k in range(2)]
 
 
-def dagger(net: Network, ident, params: GH2010Params, passes: int = 6, seed: int = 0,
-           progress=None, evaluate=None) -> DaggerResult:
-    """Refine ``net`` by DAgger with the GH2010 expert (module docstring)."""
+EVAL_S = 10.0  # each pass's network walks this long (from the 1.2 m/s walk) to be judged
+EVAL_SPEED_M_PER_S = 1.2
+PASSES = 8
+
+
+def _collect_job(args) -> Episode:
+    """One episode (a top-level function for worker processes)."""
+    net, params, beta, seed, speed = args
+    return collect(net, params, beta, seed, speed)
+
+
+def judge(net: Network) -> dict:
+    """The walking objective of the network on its own (``fit_walk.walk_cost``)."""
+    from stumble.control.reflex.fit_walk import effort_of, walk_cost
+    from stumble.pipeline import simulate_walk
+
+    r = simulate_walk("network", EVAL_S, EVAL_SPEED_M_PER_S, network=net)
+    cost, terms = walk_cost(r.summary, effort_of(r))
+    return {"cost": cost, "walked_s": r.summary["walked_s"],
+            "speed_m_per_s": r.summary["speed_m_per_s"], "rmse_deg": r.summary["rmse_deg"],
+            "stance_fraction": r.summary["stance_fraction"], "terms": terms}
+
+
+def dagger(net: Network, ident, params: GH2010Params, passes: int = PASSES, seed: int = 0,
+           workers: int = 1, progress=None) -> DaggerResult:
+    """Refine ``net`` by DAgger with the GH2010 expert (module docstring); each pass's
+    network is judged by ``judge`` and the best of them is returned."""
+    from concurrent.futures import ProcessPoolExecutor
+
     t0 = time.perf_counter()
     base = ident_data(net, ident)
     data: list = []
     out = DaggerResult(net)
-    for i in range(passes):
-        beta = 0.5 ** i
-        for j, speed in enumerate(EPISODE_SPEEDS):
-            ep = collect(net, params, beta, seed * 1000 + 10 * i + j, speed)
-            for side in range(2):
-                data.append((ep.inputs[:, side], ep.targets[:, side], ep.mask.astype(float)))
-        net, loss = train_on(net, base + data)
-        net.info["balance"] = balance_of(params).to_info()
-        row = {"pass": i, "beta": beta, "loss": loss, "samples": int(sum(
-            w.sum() for _x, _y, w in data)), "wall_time_s": round(time.perf_counter() - t0, 1)}
-        if evaluate is not None:
-            row.update(evaluate(net))
-        out.history.append(row)
-        if progress is not None:
-            progress(row)
-    out.network, out.wall_time_s = net, time.perf_counter() - t0
+    best_cost = judge(net)["cost"]
+    pool = ProcessPoolExecutor(workers) if workers > 1 else None
+    try:
+        for i in range(passes):
+            beta = 0.5 ** i
+            jobs = [(net, params, beta, seed * 1000 + 10 * i + j, speed)
+                    for j, speed in enumerate(EPISODE_SPEEDS)]
+            eps = list(pool.map(_collect_job, jobs) if pool else map(_collect_job, jobs))
+            for ep in eps:
+                for side in range(2):
+                    data.append((ep.inputs[:, side], ep.targets[:, side],
+                                 ep.mask.astype(float)))
+            net, loss = train_on(net, base + data)
+            net.info["balance"] = balance_of(params).to_info()
+            row = {"pass": i, "beta": beta, "loss": loss,
+                   "samples": int(sum(w.sum() for _x, _y, w in data)),
+                   "episodes_walked_s": [ep.walked_s for ep in eps], **judge(net),
+                   "wall_time_s": round(time.perf_counter() - t0, 1)}
+            if row["cost"] < best_cost:
+                best_cost, out.network = row["cost"], net
+            out.history.append(row)
+            if progress is not None:
+                progress(row)
+    finally:
+        if pool is not None:
+            pool.shutdown()
+    out.wall_time_s = time.perf_counter() - t0
     return out

@@ -301,27 +301,41 @@ GH2010_SIGMA = 0.5  # initial step, in units of 30 % of each of the paper's valu
 GH2010_SIGMA_TRIPS = 0.3  # the trip stage starts from a walker: smaller steps
 
 
-def fit_gh2010(seed: int = 0, stages=GH2010_STAGES, popsize: int = GH2010_POPSIZE,
-               workers: int = 1, out: Path | None = None, progress=None) -> FitResult:
-    """Optimise the GH2010 gains in closed loop from the paper's values: per stage
-    (generations, walk s, obstacle trips), CMA-ES on ``walk_cost`` plus, for each trip,
-    ``W_TRIP`` times the part of the 3 s after it not walked on; writes ``gh2010.json``
-    to ``out`` (the best parameters and the fit's figures) when given."""
-    from stumble.control.reflex.gh2010 import GH2010Params
+SEED003_STAGES = ((100, 10.0, ()),)  # the network's expert: walking, from the shipped GH2010
 
-    params = GH2010Params()
+
+def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
+               workers: int = 1, out: Path | None = None, progress=None,
+               wiring: str = "gh2010") -> FitResult:
+    """Optimise the GH2010 gains in closed loop: per stage (generations, walk s, obstacle
+    trips), CMA-ES on ``walk_cost`` plus, for each trip, ``W_TRIP`` times the part of the
+    3 s after it not walked on. ``wiring`` ``gh2010`` starts from the paper's values
+    (stages ``GH2010_STAGES``); ``seed003`` (the network's expert) from the shipped
+    ``gh2010`` parameters (``SEED003_STAGES``). Writes ``gh2010.json`` to ``out`` (the
+    best parameters and the fit's figures) when given."""
+    from dataclasses import replace
+
+    from stumble.control.reflex.gh2010 import GH2010Params, shipped_params
+
+    if wiring == "gh2010":
+        params, stages = GH2010Params(), stages or GH2010_STAGES
+    else:
+        params = replace(shipped_params("gh2010"), wiring=wiring)
+        stages = stages or SEED003_STAGES
     total, evaluations, wall, res = 0, 0, 0.0, None
     history: list[dict] = []
     for k, (gens, walk_s, trips) in enumerate(stages):
         space = gh2010_space(params)
+        first = k == 0 and wiring == "gh2010"
         res = cma_fit(evaluate_walk, space, seed=seed + k, generations=gens,
-                      popsize=popsize, sigma=GH2010_SIGMA if k == 0 else GH2010_SIGMA_TRIPS,
+                      popsize=popsize, sigma=GH2010_SIGMA if first else GH2010_SIGMA_TRIPS,
                       workers=workers, out=out, progress=progress,
                       initializer=init_walk_eval,
-                      initargs=("gh2010", walk_s, GH2010_SPEED_M_PER_S, {}, trips),
+                      initargs=("gh2010", walk_s, GH2010_SPEED_M_PER_S,
+                                {"wiring": wiring}, trips),
                       first_generation=total, stage="walk" if not trips else "walk+trips")
-        params = GH2010Params(**dict(zip(space.names, map(float, res.best_theta),
-                                         strict=True)))
+        params = replace(params, **dict(zip(space.names, map(float, res.best_theta),
+                                            strict=True)))
         total += gens
         evaluations += res.evaluations
         wall += res.wall_time_s
@@ -339,8 +353,9 @@ def fit_gh2010(seed: int = 0, stages=GH2010_STAGES, popsize: int = GH2010_POPSIZ
                     "start_speed_m_per_s": GH2010_SPEED_M_PER_S,
                     "cost": res.best_cost, "terms": res.best_terms,
                     "wall_time_s": round(wall, 1),
-                    "command": f"stumble reflex fit --controller gh2010 --seed {seed} "
-                               "--out DIR"}})
+                    "wiring": wiring,
+                    "command": f"stumble reflex fit --controller gh2010 --wiring {wiring} "
+                               f"--seed {seed} --out DIR"}})
     return res
 
 

@@ -55,7 +55,8 @@ DELAY_BY_JOINT_S = {"hip": 0.005, "knee": 0.010, "ankle": 0.020}  # Geyer & Herr
 JOINT_OF = {"HAMS": "hip", "GLU": "hip", "HFL": "hip", "RF": "hip", "VAS": "knee",
             "GAS": "ankle", "SOL": "ankle", "TA": "ankle"}
 WIRINGS = ("gh2010", "seed003")
-SHIPPED = "gh2010.json"  # optimised parameters shipped in stumble/control/reflex/data/
+# optimised parameters shipped in stumble/control/reflex/data/, per wiring
+SHIPPED = {"gh2010": "gh2010.json", "seed003": "gh2010_seed003.json"}
 
 
 @dataclass(frozen=True)
@@ -143,12 +144,14 @@ def load_params(path) -> GH2010Params:
     return GH2010Params.from_json(obj["params"])
 
 
-def shipped_params() -> GH2010Params:
-    """The closed-loop-optimised parameters shipped with stumble (the paper's if none)."""
-    path = resources.files("stumble.control.reflex") / "data" / SHIPPED
+def shipped_params(wiring: str = "gh2010") -> GH2010Params:
+    """The closed-loop-optimised parameters shipped with stumble for a wiring (the
+    paper's if none is shipped)."""
+    path = resources.files("stumble.control.reflex") / "data" / SHIPPED[wiring]
     if not path.is_file():
-        return GH2010Params()
-    return GH2010Params.from_json(json.loads(path.read_text())["params"])
+        return GH2010Params(wiring=wiring)
+    return replace(GH2010Params.from_json(json.loads(path.read_text())["params"]),
+                   wiring=wiring)
 
 
 def seed003_delays_s(muscles: tuple[str, ...]) -> dict:
