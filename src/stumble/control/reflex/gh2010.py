@@ -226,6 +226,8 @@ class GH2010Controller:
         self._channel_map()
         self._build_taps(m.opt.timestep)
         self._w_stance, self._w_swing = self._law_matrices()
+        self._feature_map()
+        self._ungated = ~self.gated
         self.delay.fill(self._channels(ctx.data.sensordata[None])[0])
         self.period_steps = self.delay.block
         self.plan = np.empty((self.period_steps, m.nu))
@@ -338,70 +340,85 @@ class GH2010Controller:
         return v[:, :-1]
 
     # ---- the reflex laws ------------------------------------------------------------
-    FEATURES = ("one", "F_SOL", "F_GAS", "F_VAS", "F_GLU", "F_HAMS", "L_TA", "L_FLEX", "L_HAMS",
-                "knee_stop", "ds")
+    # the features of a leg's laws, in order: F of SOL, GAS, VAS, GLU, HAMS (own paths);
+    # [l − l_off]+ of TA, the flexor, HAMS onto the flexor; the knee stop [φ_off − φ]+
+    # while the knee extends; SOL's F onto TA (its own path); double support (gh2010)
+    FEATURES = ("F_SOL", "F_GAS", "F_VAS", "F_GLU", "F_HAMS", "L_TA", "L_FLEX", "L_HAMS",
+                "knee_stop", "F_SOL_TA", "ds")
 
     def _law_matrices(self) -> tuple[np.ndarray, np.ndarray]:
-        """(K, nm) weights of the features in stance and in swing: u = Φ·W (the laws of
-        the module docstring but the trunk-lean ones, each gain where its muscle and
-        phase take it). F_SOL is SOL's own force; onto TA it arrives through its own path
-        (``_excitations``)."""
-        p, ix, fi = self.p, self.idx, {f: k for k, f in enumerate(self.FEATURES)}
-        st = np.zeros((len(self.FEATURES), self.nm))
+        """(K + 1, nm) weights of the features (and a last row of prestimulations) in
+        stance and in swing: u = [Φ 1]·W, the laws of the module docstring but the
+        trunk-lean ones, each gain where its muscle and phase take it."""
+        p, ix = self.p, self.idx
+        fi = {f: k for k, f in enumerate(self.FEATURES)}
+        one = len(self.FEATURES)
+        st = np.zeros((one + 1, self.nm))
         sw = np.zeros_like(st)
-        st[fi["one"]], sw[fi["one"]] = p.s0, p.s0
+        st[one], sw[one] = p.s0, p.s0
         flex = self.flexor
         st[fi["F_SOL"], ix["SOL"]] = p.g_sol
         st[fi["L_TA"], ix["TA"]] = p.g_ta
+        st[fi["F_SOL_TA"], ix["TA"]] = -p.g_sol_ta
         st[fi["F_GAS"], ix["GAS"]] = p.g_gas
-        st[fi["one"], ix["VAS"]] = p.s0_vas
+        st[one, ix["VAS"]] = p.s0_vas
         st[fi["F_VAS"], ix["VAS"]] = p.g_vas
         st[fi["knee_stop"], ix["VAS"]] = -p.k_phi
         for name in ("GLU", "HAMS", flex):
-            st[fi["one"], ix[name]] = p.s0_bal
+            st[one, ix[name]] = p.s0_bal
         st[fi["ds"], ix["GLU"]], st[fi["ds"], ix[flex]] = -p.k_bw, p.k_bw
         sw[fi["L_FLEX"], ix[flex]] = p.g_hfl
         sw[fi["L_HAMS"], ix[flex]] = -p.g_ham_hfl
         sw[fi["F_GLU"], ix["GLU"]] = p.g_glu
         sw[fi["F_HAMS"], ix["HAMS"]] = p.g_ham
         sw[fi["L_TA"], ix["TA"]] = p.g_ta
-        if self.wiring == "seed003":  # muscles no contact afferent reaches keep one law:
-            for name, j in ix.items():  # VAS its stance law, the flexor its swing law
-                if not self.gated[j] and name == "VAS":
+        if self.wiring == "seed003":
+            st[fi["ds"]] = sw[fi["ds"]] = 0.0  # (through the addition instead)
+            st[fi["L_HAMS"]] = sw[fi["L_HAMS"]] = 0.0  # no such path in Table I
+            for name, j in ix.items():  # muscles no contact afferent reaches keep one
+                if not self.gated[j] and name == "VAS":  # law: VAS its stance law,
                     sw[:, j] = st[:, j]
-                elif not self.gated[j] and name == flex:
+                elif not self.gated[j] and name == flex:  # the flexor its swing law
                     st[:, j] = sw[:, j]
         return st, sw
+
+    def _feature_map(self) -> None:
+        """The gather, sign, offset and floor that turn the taps into the features."""
+        p, ix, at = self.p, self.idx, self.at
+        cols = []
+        for leg in range(2):
+            ham = (at[("L_ham_flex", leg)] if ("L_ham_flex", leg) in at
+                   else at[("L", leg, ix[self.flexor])])  # (a zero weight then)
+            cols.append([at[("F", leg, ix[m])] for m in ("SOL", "GAS", "VAS", "GLU", "HAMS")]
+                        + [at[("L", leg, ix["TA"])], at[("L", leg, ix[self.flexor])], ham,
+                           at[("knee", leg)], at[("F_sol_ta", leg)]])
+        self._phi_idx = np.array(cols)  # (2, 10)
+        self._phi_sign = np.array([1.0] * 8 + [-1.0, 1.0])
+        self._phi_off = np.array([0.0] * 5 + [p.l_off_ta, p.l_off_hfl, p.l_off_ham,
+                                              -p.phi_off, 0.0])
+        self._phi_low = np.array([-np.inf] * 5 + [0.0] * 4 + [-np.inf])
+        self._w_st, self._b_st = self._w_stance[:-1], self._w_stance[-1]
+        self._w_sw, self._b_sw = self._w_swing[:-1], self._w_swing[-1]
+        if self._iDs is None:  # no double-support feature in the reflex part
+            self._w_st, self._w_sw = self._w_st[:-1], self._w_sw[:-1]
 
     def _excitations(self, x: np.ndarray) -> np.ndarray:
         """Excitations (n, 2·nm) of both legs from the block's taps (n, taps)."""
         p, n, nm = self.p, len(x), self.nm
-        F = x[:, self._iF].reshape(n, 2, nm)
-        L = x[:, self._iL].reshape(n, 2, nm)
-        stance = x[:, self._iGate].reshape(n, 2, nm) > p.stance_load
-        stance |= ~self.gated  # muscles no contact afferent reaches keep one law
-        knee, knee_v = x[:, self._iKnee], x[:, self._iKneeV]
-        phi = np.zeros((n, 2, len(self.FEATURES)))
-        phi[..., 0] = 1.0
-        phi[..., 1] = F[:, :, self.idx["SOL"]]
-        phi[..., 2:6] = F[:, :, self._f_cols]
-        phi[..., 6:8] = np.maximum(L[:, :, self._l_cols] - self._l_offs, 0.0)
-        if self._iHamFlex is not None:
-            phi[..., 8] = np.maximum(x[:, self._iHamFlex] - p.l_off_ham, 0.0)
-        phi[..., 9] = np.maximum(p.phi_off - knee, 0.0) * (knee_v < 0.0)
+        v = np.maximum(x[:, self._phi_idx] * self._phi_sign - self._phi_off, self._phi_low)
+        v[..., 8] *= x[:, self._iKneeV] < 0.0  # the knee stop acts while it extends
         if self._iDs is not None:
             load, fx = x[:, self._iDs[0]], x[:, self._iDs[1]]
             on = load > p.stance_load
-            phi[..., 10] = load[:, ::-1] * (on & on[:, ::-1] & (fx < fx[:, ::-1]))
-        u = np.where(stance, phi @ self._w_stance, phi @ self._w_swing)
-        # SOL onto TA, in stance, through its own path
-        ta = self.idx["TA"]
-        u[:, :, ta] -= p.g_sol_ta * x[:, self._iSolTa] * stance[:, :, ta]
-        reflex = np.clip(u.reshape(n, 2 * nm), PRE_ACTIVATION, 1.0)
+            ds = load[:, ::-1] * (on & on[:, ::-1] & (fx < fx[:, ::-1]))
+            v = np.concatenate([v, ds[:, :, None]], axis=2)
+        stance = (x[:, self._iGate].reshape(n, 2, nm) > p.stance_load) | self._ungated
+        u = np.where(stance, v @ self._w_st + self._b_st, v @ self._w_sw + self._b_sw)
+        u = u.reshape(n, 2 * nm)
         if self.lean_free is not None:  # the laws without the trunk-lean terms (labels)
-            self.lean_free = reflex
-        return np.clip(u.reshape(n, 2 * nm) + self._vestibular(x).reshape(n, 2 * nm),
-                       PRE_ACTIVATION, 1.0)
+            self.lean_free = np.clip(u, PRE_ACTIVATION, 1.0)
+        u += self._vestibular(x).reshape(n, 2 * nm)
+        return np.clip(u, PRE_ACTIVATION, 1.0, out=u)
 
     def _vestibular(self, x: np.ndarray) -> np.ndarray:
         """The trunk-lean laws (n, 2, nm): stance hips k_p(θ − θ_ref) + k_d θ̇ rectified,
