@@ -229,7 +229,9 @@ class _Stepper:
         self.m, self.d, self.penalty = m, d, penalty
         self.nstate = mujoco.mj_stateSize(m, _STATE)
         self.state0 = np.zeros((1, self.nstate))
+        self.warm0 = np.zeros((1, m.nv))
         self._pool = mj_rollout.Rollout(nthread=0)
+        self._out: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # rollout outputs per n
         self.physics_s = 0.0
 
     def _single(self, ctrl: np.ndarray | None, force=None) -> np.ndarray:
@@ -269,11 +271,12 @@ class _Stepper:
                 ctrl = np.repeat(d.ctrl[None], n, axis=0)
             ctrl = np.ascontiguousarray(ctrl, dtype=float).reshape(1, n, m.nu)
             mujoco.mj_getState(m, d, self.state0[0], _STATE)
-            states = np.empty((1, n, self.nstate))
-            rows = np.empty((1, n, m.nsensordata))
-            self._pool.rollout_.rollout([m], [d], n, _CTRL, self.state0,
-                                        d.qacc_warmstart[None].copy(), ctrl, states, rows,
-                                        None)
+            self.warm0[0] = d.qacc_warmstart
+            if n not in self._out:  # reused: the caller is done with a block's rows
+                self._out[n] = (np.empty((1, n, self.nstate)), np.empty((1, n, m.nsensordata)))
+            states, rows = self._out[n]
+            self._pool.rollout_.rollout([m], [d], n, _CTRL, self.state0, self.warm0, ctrl,
+                                        states, rows, None)
             states, rows = states[0], rows[0]
         self.physics_s += time.perf_counter() - tic
         return rows, states
