@@ -179,6 +179,7 @@ class Recording:
     diverged: bool = False
     stop_reason: str = ""
     controls: list | None = None  # (first step, ctrl rows, gains) per block, if logged
+    initial_state: np.ndarray | None = None  # full physics state after start, if logged
 
 
 @dataclass
@@ -333,6 +334,10 @@ def run(ctx: Context, controller: Controller, duration_s: float,
         dd.xfrc_applied[force_body, 3:] = np.cross(p - dd.xipos[force_body], f)
 
     controls = [] if log_controls else None
+    initial = None
+    if log_controls:
+        initial = np.zeros(mujoco.mj_stateSize(m, _STATE))
+        mujoco.mj_getState(m, d, initial, _STATE)
     wall0 = time.perf_counter()
     reason = "time"
     step = 0
@@ -405,4 +410,5 @@ def run(ctx: Context, controller: Controller, duration_s: float,
     rec.stop_reason = why or reason
     rec.diverged = rec.stop_reason == "diverged"
     rec.controls = controls
+    rec.initial_state = initial
     return rec

@@ -42,7 +42,7 @@ from stumble.body.muscles import (
     force_velocity,
     passive_force,
 )
-from stumble.control.reflex.network import Network, Topology
+from stumble.control.reflex.network import HIDDEN_PER_SEGMENT, Network, Topology
 from stumble.control.reflex.receptors import GTOFilter, gto_static, spindle_ia, spindle_ii
 
 SIDES = ("r", "l")
@@ -297,12 +297,15 @@ def errors(net: Network, ident: Identification) -> dict:
 
 def fit(seed: int = 0, iterations: int = ITERATIONS,
         refine_iterations: int = REFINE_ITERATIONS, contact: bool = False,
-        progress=None, muscle_set: str = "seed") -> FitResult:
+        progress=None, muscle_set: str = "seed",
+        hidden: int = HIDDEN_PER_SEGMENT) -> FitResult:
     """Identify and train: the whole of seed 003 §III's identification, for the body's
-    muscle set (``seed``: the seven of seed 003; ``hfl``: with the iliopsoas)."""
+    muscle set (``seed``: the seven of seed 003; ``hfl``: with the iliopsoas) and
+    ``hidden`` interneurons per spinal segment."""
     body = reflex_body(muscle_set=muscle_set)
     ident = identify(body, contact=contact)
-    net, report = train(ident, Topology(contact=contact, muscles=leg_muscles(body)),
+    net, report = train(ident, Topology(contact=contact, muscles=leg_muscles(body),
+                                        hidden=hidden),
                         seed=seed, iterations=iterations,
                         refine_iterations=refine_iterations, progress=progress)
     net.walk_rates = ident.rates
