@@ -183,8 +183,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="initial weights or the evolution strategy's seed, 0 to 2^63 - 1 "
                    "(default 0)")
     f.add_argument("--generations", type=int, default=None, metavar="N",
-                   help="gh2010: CMA-ES generations in all (default 120 as shipped: 70 "
-                   "walking, then 50 walking and tripping; fewer shorten both)")
+                   help="gh2010: CMA-ES generations (default as shipped: 110 of 15 s walks "
+                   "for --wiring gh2010, 100 of 10 s walks for seed003)")
     f.add_argument("--workers", type=int, default=None, metavar="N",
                    help="closed-loop fits: worker processes (default: one per core); the "
                    "result does not depend on it")

@@ -110,7 +110,7 @@ def plot_passes(path: Path, history: list[dict]) -> None:
     ax2.grid(alpha=0.3)
     ax3.semilogy(k, [h["loss"] for h in history], "o-", color="0.4")
     ax3.set_ylabel("imitation loss")
-    ax3.set_xlabel("DAgger pass (β halves each pass)")
+    ax3.set_xlabel("DAgger pass (the expert's share β falls each pass)")
     ax3.grid(alpha=0.3, which="both")
     fig.suptitle("closed-loop refinement of the reflex network", fontsize=10)
     fig.tight_layout()

@@ -15,7 +15,8 @@ What the network learns. Its excitation plus the trunk-lean addition
 the muscles; the network is trained towards the expert's excitation *without* its
 trunk-lean terms, so network + addition reproduce the expert. The first pass is pure
 expert (β = 1), later passes hand the body to the network for a growing share of
-``MIX_SEGMENT_S`` segments (β halves each pass). The network keeps the seed's structure,
+``MIX_SEGMENT_S`` segments (β = ``BETA_DECAY`` ** pass): the expert recovers what the
+network starts, and labels it. The network keeps the seed's structure,
 delays and identified input scaling; it is trained on the union of the identification
 data (the recorded walk, seed 003's) and every closed-loop pass, by the same squared
 excitation error and L-BFGS as ``identify.train``.
@@ -34,7 +35,8 @@ from stumble.control.reflex.gh2010 import GH2010Controller, GH2010Params
 from stumble.control.reflex.network import Network
 from stumble.sim import Context
 
-MIX_SEGMENT_S = 0.1  # the body changes hands between network and expert at most this often
+MIX_SEGMENT_S = 0.05  # the body changes hands between network and expert at most this often
+BETA_DECAY = 0.8  # β (the expert's share of segments) is BETA_DECAY ** pass
 EPISODE_S = 8.0  # closed-loop walking per episode
 EPISODE_SPEEDS = (1.1, 1.3)  # m/s of the walks played back before each episode
 
@@ -151,8 +153,11 @@ def collect(net: Network, params: GH2010Params, beta: float, seed: int,
         if n > 0:
             y[k:k + n] = lab[:n]
             mask[k:k + n] = True
+    # before the first label the network ran on the walk's history (no labels); from it
+    # on, every motor path reads interneurons of the history or later: all are traced
     first = int(mix.labels[0][0]) if mix.labels else T
-    mask[: first + lag] = False  # the motor paths need a full history of interneurons
+    assert first >= lag, "the history must cover the longest path"
+    mask[:first] = False
     return Episode(x, np.clip(y, 0.01, 0.99), mask, float(rec.time_s[-1]))
 
 
@@ -168,7 +173,7 @@ def _loss_grad(net: Network, data: list[tuple[np.ndarray, np.ndarray, np.ndarray
     return loss / n, grad / n
 
 
-def train_on(net: Network, data, iterations: int = 150) -> tuple[Network, float]:
+def train_on(net: Network, data, iterations: int = 300) -> tuple[Network, float]:
     """L-BFGS from the network's weights on the data; returns the trained copy, loss."""
     net = replace(net, info=dict(net.info))
     theta0 = net.pack()
@@ -235,7 +240,7 @@ def dagger(net: Network, ident, params: GH2010Params, passes: int = PASSES, seed
     pool = ProcessPoolExecutor(workers) if workers > 1 else None
     try:
         for i in range(passes):
-            beta = 0.5 ** i
+            beta = BETA_DECAY ** i
             jobs = [(net, params, beta, seed * 1000 + 10 * i + j, speed)
                     for j, speed in enumerate(EPISODE_SPEEDS)]
             eps = list(pool.map(_collect_job, jobs) if pool else map(_collect_job, jobs))

@@ -292,9 +292,11 @@ def trip_walked_s(kind: str, swing: float, speed: float, params=None, network=No
     return float(min(s["sim_time_s"], WALK_ON_TRIP_S - 1e-3))
 
 
-# The shipped fit: first walking alone, then walking and tripping (FIT_TRIPS), each
-# stage continuing from the best of the one before; 16 candidates per generation.
-GH2010_STAGES = ((70, 12.0, ()), (50, 8.0, ((0.15, 1.2), (0.6, 1.2), (0.35, 1.0))))
+# The shipped fit: stages of (generations, walk s, obstacle trips), each continuing from
+# the best of the one before; 16 candidates per generation. One stage of walking: a
+# second stage of walking and tripping (0.15 and 0.6 of swing at 1.2 m/s, 0.35 at 1.0,
+# 50 generations) recovered none of the three trips and lost tracking (README).
+GH2010_STAGES = ((110, 15.0, ()),)
 GH2010_POPSIZE = 16
 GH2010_SPEED_M_PER_S = 1.2  # the walk played back before each candidate takes over
 GH2010_SIGMA = 0.5  # initial step, in units of 30 % of each of the paper's values
