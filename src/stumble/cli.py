@@ -169,9 +169,10 @@ def _parser() -> argparse.ArgumentParser:
     f = rsub.add_parser("fit", help="fit a reflex controller",
                         description="network (default): identify seed 003's network from "
                         "walking alone (inverse dynamics, static optimisation, "
-                        "back-propagation), then refine it in closed loop until it walks "
-                        "(unless --open-loop); writes network.npz, fit.json, "
-                        "activity_fit.png, walking_moments.csv, walking_activity.csv. "
+                        "back-propagation), and with --closed-loop refine it in closed "
+                        "loop (DAgger); writes network.npz, fit.json, "
+                        "activity_fit.png, walking_moments.csv, walking_activity.csv "
+                        "(and objective.png). "
                         "gh2010: optimise Geyer & Herr 2010's gains in closed loop "
                         "(CMA-ES) from the paper's; writes gh2010.json, fit.json, "
                         "history.jsonl and objective.png. Both write to DIR.")
@@ -196,15 +197,19 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument("--contact-afferents", action=argparse.BooleanOptionalAction,
                    default=None,
                    help="network: foot-contact afferents (the seed's proposed extension; "
-                   "default: with them in closed loop, without in --open-loop)")
+                   "default: with them for --closed-loop, without otherwise)")
     f.add_argument("--muscles", choices=("seed", "hfl"), default=None,
                    help="network: seed 003's seven muscles per leg, or with the iliopsoas "
-                   "(default: hfl in closed loop, seed in --open-loop)")
-    f.add_argument("--open-loop", action="store_true",
-                   help="network: the seed's identification alone, with no closed-loop "
-                   "refinement (the network of 0.1, for comparison)")
+                   "(default: hfl for --closed-loop, seed otherwise)")
+    loop = f.add_mutually_exclusive_group()
+    loop.add_argument("--open-loop", action="store_true",
+                      help="network: the seed's identification alone (the default, and the "
+                      "shipped network)")
+    loop.add_argument("--closed-loop", action="store_true",
+                      help="network: then refine it in closed loop by DAgger with the "
+                      "seed003-wired GH2010 expert (see the README: it does not walk yet)")
     f.add_argument("--passes", type=int, default=None, metavar="N",
-                   help="network: closed-loop (DAgger) passes (default 8)")
+                   help="network, --closed-loop: DAgger passes (default 8)")
     f.add_argument("--wiring", choices=("gh2010", "seed003"), default="gh2010",
                    help="gh2010: the paper's laws and delays (default), or seed003: the "
                    "laws the network can express on its nerves (the network's expert)")
@@ -544,7 +549,7 @@ def cmd_reflex(args) -> int:
     refine = REFINE_ITERATIONS if args.refine is None else args.refine
     if it < 0 or refine < 0 or it + refine == 0:
         raise InputError("--iterations and --refine must be >= 0 and not both 0")
-    closed = not args.open_loop
+    closed = args.closed_loop
     muscles = args.muscles or ("hfl" if closed else "seed")
     contact = closed if args.contact_afferents is None else args.contact_afferents
     passes = args.passes
@@ -556,9 +561,9 @@ def cmd_reflex(args) -> int:
                  contact=contact, progress=bar, muscle_set=muscles)
     bar.done()
     r = result.report
-    print(f"identified: average activity error {100 * r['avg_error']:.2f} %, maximum "
-          f"{100 * r['max_error']:.1f} % (seed 003: 2.0 %, 36 %) after {r['iterations']} "
-          f"iterations in {r['wall_time_s']:.1f} s", file=sys.stderr)
+    identified = (f"identified: average activity error {100 * r['avg_error']:.2f} %, maximum "
+                  f"{100 * r['max_error']:.1f} % (seed 003: 2.0 %, 36 %) after "
+                  f"{r['iterations']} iterations in {r['wall_time_s']:.1f} s")
     closed_loop = None
     if closed:
         import os
@@ -573,8 +578,8 @@ def cmd_reflex(args) -> int:
                              progress=lambda row: bar(row["pass"] + 1, n))
         bar.done()
     written = write_fit(out, result, video=not args.no_video, closed_loop=closed_loop)
+    print(identified + ("" if closed_loop else f"; wrote {', '.join(written)} to {out}"))
     if closed_loop is None:
-        print(f"wrote {', '.join(written)} to {out}")
         return 0
     best = min(closed_loop.history, key=lambda h: h["cost"]) if closed_loop.history else None
     what = (f"best pass walks {best['walked_s']:.1f} of 10 s" if best else "no pass")
