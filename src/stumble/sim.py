@@ -235,6 +235,18 @@ class _Stepper:
         self._out: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # rollout outputs per n
         self.physics_s = 0.0
 
+    def state_now(self) -> np.ndarray:
+        """The full-physics state now (a new array)."""
+        out = np.zeros(self.nstate)
+        mujoco.mj_getState(self.m, self.d, out, _STATE)
+        return out
+
+    def hold(self, n: int) -> None:
+        """``n`` native steps with the controls held (``mj_step`` with nstep)."""
+        tic = time.perf_counter()
+        mujoco.mj_step(self.m, self.d, n)
+        self.physics_s += time.perf_counter() - tic
+
     def _single(self, ctrl: np.ndarray | None, force=None) -> np.ndarray:
         m, d = self.m, self.d
         if ctrl is not None:
@@ -343,6 +355,14 @@ def run(ctx: Context, controller: Controller, duration_s: float,
     step = 0
     scratch = Sensors()
     now = np.zeros(stepper.nstate)
+    sensordata = d.sensordata
+    # MuJoCo's instability warnings (it resets the state and carries on after them)
+    w_pos, w_vel, w_acc = (d.warning[int(w)] for w in (mujoco.mjtWarning.mjWARN_BADQPOS,
+                                                       mujoco.mjtWarning.mjWARN_BADQVEL,
+                                                       mujoco.mjtWarning.mjWARN_BADQACC))
+
+    def unstable() -> bool:
+        return bool(w_pos.number or w_vel.number or w_acc.number)
 
     def sample(state: np.ndarray, row: np.ndarray) -> str:
         """Record one sample (a full-physics state and its sensor row); the stop rule's
@@ -356,16 +376,21 @@ def run(ctx: Context, controller: Controller, duration_s: float,
             load_log.append(f)
         return stop(scratch.set(lay, row, t, f)) if stop is not None else ""
 
-    def state_now() -> np.ndarray:
+    def sample_now() -> str:
+        """``sample`` of the current state (held controls: no finiteness scan, MuJoCo's
+        warnings say when the state went bad)."""
         mujoco.mj_getState(m, d, now, _STATE)
-        return now
+        t = float(now[0]) - ctx.t0
+        buf.add(t, now, sensordata, controller.state())
+        return stop(scratch.set(lay, sensordata, t)) if stop is not None else ""
 
     # the trip instant itself
-    why = sample(state_now(), d.sensordata)
+    why = sample(stepper.state_now(), sensordata)
     uses_sensors = getattr(controller, "uses_sensors", True)
+    next_rec = rec_every
     while not why and step < n_steps:
         if uses_sensors:
-            decode(lay, d.sensordata, d.time - ctx.t0, ctx.sensors, loads())
+            decode(lay, sensordata, d.time - ctx.t0, ctx.sensors, loads())
         plan = controller.update(ctx)
         n_block = min(period, n_steps - step)
         if controls is not None:
@@ -375,18 +400,19 @@ def run(ctx: Context, controller: Controller, duration_s: float,
         if forcing and d.time - ctx.t0 > force_end_s:
             d.xfrc_applied[force_body] = 0.0
             forcing = False
-        # instants of this block that are recorded
-        first_rec = (step // rec_every + 1) * rec_every
-        rec_at = range(first_rec - step, n_block + 1, rec_every)
+        end = step + n_block
         if plan is None and not forcing and observe is None and penalty is None:
-            done = 0  # held controls: step natively from one sample to the next
-            for k in [*rec_at, n_block]:
-                if k <= done:
-                    continue
-                rows, _ = stepper.advance(k - done, None)
-                done = k
-                if k in rec_at:
-                    why = sample(state_now(), rows[-1])
+            # held controls: step natively from one recorded instant to the next
+            while step < end:
+                nxt = min(next_rec, end)
+                stepper.hold(nxt - step)
+                step = nxt
+                if unstable():
+                    why = "diverged"
+                    break
+                if step == next_rec:
+                    next_rec += rec_every
+                    why = sample_now()
                     if why:
                         break
         else:
@@ -395,13 +421,14 @@ def run(ctx: Context, controller: Controller, duration_s: float,
                                            want_rows=True, want_states=True)
             if observe is not None:
                 observe(rows)
-            for k in rec_at:
+            while next_rec <= end:
+                k, next_rec = next_rec - step, next_rec + rec_every
                 why = sample(states[k - 1], rows[k - 1])
                 if why:
                     break
-        step += n_block
-        if not why and d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0:
-            why = "diverged"
+            step = end
+            if not why and unstable():
+                why = "diverged"
     rec = buf.recording(lay, force_at if trip_force is not None else None,
                         None if load_log is None else np.array(load_log))
     rec.wall_time_s = time.perf_counter() - wall0

@@ -18,6 +18,7 @@ support ankle adds the compensation torque of SCA 2009 eq. 4 during Clearance.
 from __future__ import annotations
 
 import heapq
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -40,8 +41,13 @@ class _Pending:
 
 def pelvis_attitude(data) -> tuple[float, float]:
     """Pelvis tilt (about −y, + posterior) and list (about +x) in the world, rad."""
-    z = data.xmat[1].reshape(3, 3)[:, 2]
-    return float(np.arctan2(-z[0], z[2])), float(np.arctan2(-z[1], z[2]))
+    return attitude_of(data.xmat[1])
+
+
+def attitude_of(xmat: np.ndarray) -> tuple[float, float]:
+    """Tilt and list (rad) of a body from its world rotation matrix (9,), row-major."""
+    zx, zy, zz = float(xmat[2]), float(xmat[5]), float(xmat[8])  # its z axis in the world
+    return math.atan2(-zx, zz), math.atan2(-zy, zz)
 
 
 class TripFSM:
@@ -63,6 +69,7 @@ class TripFSM:
         """Take over at the trip: hold the current pose, schedule the reactions."""
         self.period_steps = max(1, round(1.0 / (CONTROL_HZ * ctx.model.opt.timestep)))
         self.bank = ServoBank(ctx.body)
+        self._cache_views(ctx)
         nu = len(self.bank.names)
         self.mode = np.full(nu, HOLD)
         self.target = self.bank.angles(ctx.data).copy()
@@ -102,6 +109,21 @@ class TripFSM:
         self.trip_point_x = self._toe_x(ctx, self.tripped)
         self._write(ctx)
 
+    def _cache_views(self, ctx: Context) -> None:
+        """Views of the MuJoCo arrays read at every update, and the ids they are read at
+        (name look-ups cost microseconds; MjData's arrays never move)."""
+        m, d = ctx.model, ctx.data
+        self._qpos, self._ctrl = d.qpos, d.ctrl
+        self._xpos, self._site_xpos = d.xpos, d.site_xpos
+        self._pelvis_xmat = d.xmat[m.body("pelvis").id]
+        self._foot_id = {s: m.body(f"foot_{s}").id for s in OTHER}
+        self._toe_sites = {s: np.array([m.site(n).id for n in ctx.body.foot_points[s][-6:]])
+                           for s in OTHER}
+        self._on = {"r": True, "l": True}
+        self._gains_dirty = True
+        self._att_dirty = True
+        self._att: list[tuple[int, bool, float]] = []
+
     def _role_joint(self, key: str) -> str:
         role, joint = key.split(".", 1)
         return f"{joint}_{self.roles[role]}"
@@ -109,6 +131,7 @@ class TripFSM:
     def _set_kp(self, joint: str, kp: float) -> None:
         i = self.bank.index[joint]
         self.kp[i] = kp
+        self._gains_dirty = True
 
     def _set_base_gains(self, recovery: bool) -> None:
         """SCA 2009 §4.5 gains; ×1.5 once recovery starts; upper body high gains."""
@@ -134,6 +157,7 @@ class TripFSM:
                 key = "pro_sup" if name.startswith("pro_sup") else key
                 kp = p.kp_upper[key]
             self.kp[i] = kp
+        self._gains_dirty = True
 
     # ------------------------------------------------------------------ commands
     def _command(self, state: str, key: str, data) -> None:
@@ -143,6 +167,7 @@ class TripFSM:
         value = table[key]
         joint = self._role_joint(key)
         i = self.bank.index[joint]
+        self._att_dirty = True
         if value == "hold":
             self.mode[i], self.target[i] = HOLD, float(data.qpos[self.bank.qadr[i]])
         elif value == "attitude":
@@ -191,22 +216,25 @@ class TripFSM:
         """Run due reactions, take event transitions, refresh attitude and compensation
         (writes ctrl and gains, held until the next update)."""
         s, d, t = ctx.sensors, ctx.data, ctx.sensors.t
-        while self.pending and self.pending[0].time_s <= t:
-            item = heapq.heappop(self.pending)
+        pending = self.pending
+        while pending and pending[0].time_s <= t:
+            item = heapq.heappop(pending)
             self._command(item.state, item.key, d)
+        self._on = on = s.foot_on_floor
         for side in ("r", "l"):
-            if not s.foot_on_floor[side]:
+            if not on[side]:
                 self.left_floor[side] = True
         self._transitions(ctx, t)
         self._write(ctx)
 
     def _transitions(self, ctx: Context, t: float) -> None:
         s, d, st = ctx.sensors, ctx.data, self._state
+        on = self._on
         rec, sup = self.roles["rec"], self.roles["sup"]
         if st == "passive_reaction" and t >= self.t_react:
             self._enter("clearance" if self.strategy == "elevating" else "leg_swap", t)
             self._set_base_gains(recovery=True)
-        elif st == "leg_swap" and s.foot_on_floor[self.tripped] and t > self.t_react + 0.02:
+        elif st == "leg_swap" and on[self.tripped] and t > self.t_react + 0.02:
             self.roles = {**self.roles, "rec": OTHER[self.tripped], "sup": self.tripped}
             self.left_floor = {"r": False, "l": False}
             self._switch("clearance", t, d, targets="clearance_lowering")
@@ -221,22 +249,22 @@ class TripFSM:
                 for key in ("rec.knee_angle", "rec.hip_flexion"):
                     self._command("clearance_extend", key, d)
                 self._extended = True
-            if not s.foot_on_floor[sup] and not s.foot_on_floor[rec]:
+            if not on[sup] and not on[rec]:
                 self._switch("flight", t, d)
             elif (s.com_vel[2] < self.p.fall_vz_m_per_s and t - self.t_state > 0.05
                   and self.left_floor[rec] and self._rec_cleared(ctx)):
                 self._switch("fall", t, d, targets=self._table("fall"))
-            elif (s.foot_on_floor[rec] and self.left_floor[rec] and t - self.t_state > 0.1
+            elif (on[rec] and self.left_floor[rec] and t - self.t_state > 0.1
                   and self._ahead(ctx, rec, sup, 0.0)):
                 self._switch("double_support", t, d, targets=self._table("double_support"))
-        elif st == "flight" and s.foot_on_floor[rec] and self._ahead(ctx, rec, sup, 0.0):
+        elif st == "flight" and on[rec] and self._ahead(ctx, rec, sup, 0.0):
             self._switch("single_support_after_trip", t, d)
             self.left_floor[sup] = True
             self._set_kp(f"hip_flexion_{rec}", self.p.kp_ssat_support_hip)
-        elif (st == "fall" and s.foot_on_floor[rec] and self.left_floor[rec]
+        elif (st == "fall" and on[rec] and self.left_floor[rec]
               and self._ahead(ctx, rec, sup, 0.0)):
             self._switch("double_support", t, d, targets=self._table("double_support"))
-        elif st == "double_support" and not s.foot_on_floor[sup]:
+        elif st == "double_support" and not on[sup]:
             self._switch("single_support_after_trip", t, d)
             self._set_kp(f"hip_flexion_{rec}", self.p.kp_ssat_support_hip)
             self.left_floor[sup] = True
@@ -244,7 +272,7 @@ class TripFSM:
                 self._ahead(ctx, sup, rec, -0.05) or t - self.t_state > self.p.ssat_swing_s):
             self._switch("step_reach", t, d, cancel=False)
             self._set_kp(f"hip_flexion_{rec}", self.p.kp_ssat_support_hip)
-        elif (st == "step_reach" and s.foot_on_floor[sup] and self.left_floor[sup]
+        elif (st == "step_reach" and on[sup] and self.left_floor[sup]
               and self._ahead(ctx, sup, rec, 0.0)):
             # the swing foot has landed in front: it becomes the stance leg (ours: the
             # walk goes on after the recovery, SIMBICON-style, Yin et al. 2007)
@@ -265,81 +293,83 @@ class TripFSM:
 
     def _ahead(self, ctx: Context, a: str, b: str, margin: float) -> bool:
         """Foot ``a`` is more than ``margin`` m ahead of foot ``b``."""
-        m, d = ctx.model, ctx.data
-        return bool(d.xpos[m.body(f"foot_{a}").id, 0]
-                    > d.xpos[m.body(f"foot_{b}").id, 0] + margin)
+        x, ids = self._xpos, self._foot_id
+        return bool(x[ids[a], 0] > x[ids[b], 0] + margin)
 
     def _toe_x(self, ctx: Context, side: str) -> float:
         """World x of a foot's toe tip (front row of its sole points)."""
-        m, d = ctx.model, ctx.data
-        ids = [m.site(n).id for n in ctx.body.foot_points[side][-6:]]
-        return float(d.site_xpos[ids, 0].mean())
+        return float(self._site_xpos[self._toe_sites[side], 0].mean())
 
     def _rec_cleared(self, ctx: Context) -> bool:
         """The recovery foot is ahead of the stance foot and its toe has passed the point
         where the trip stopped the swing foot by ``clear_margin_m`` (the obstacle)."""
-        m, d = ctx.model, ctx.data
         rec, sup = self.roles["rec"], self.roles["sup"]
-        ahead = d.xpos[m.body(f"foot_{rec}").id, 0] > d.xpos[m.body(f"foot_{sup}").id, 0]
-        return bool(ahead and self._toe_x(ctx, rec) > self.trip_point_x + self.p.clear_margin_m)
+        return bool(self._ahead(ctx, rec, sup, 0.0)
+                    and self._toe_x(ctx, rec) > self.trip_point_x + self.p.clear_margin_m)
+
+    def _attitude_joints(self) -> list[tuple[int, bool, float]]:
+        """(actuator, pitch?, sign) of the joints that hold the pelvis attitude now."""
+        if self._att_dirty:
+            self._att = [(int(i), bool(self.mode[i] == ATT_PITCH),
+                          1.0 if self.bank.names[i].endswith("_r") else -1.0)
+                         for i in np.flatnonzero(self.mode >= ATT_PITCH)]
+            self._att_dirty = False
+        return self._att
 
     def _write(self, ctx: Context) -> None:
-        """Attitude targets, compensation torque; write ctrl and gains."""
-        d = ctx.data
-        q = d.qpos[self.bank.qadr]
+        """Attitude targets, compensation torque; write ctrl (and gains, when changed)."""
+        q = self._qpos
+        qadr = self.bank.qadr
         target = self.target.copy()
-        tilt, lst = pelvis_attitude(d)
-        att = self.mode >= ATT_PITCH
-        if att.any():
-            for i in np.flatnonzero(att):
-                name = self.bank.names[i]
-                if self.mode[i] == ATT_PITCH:
-                    target[i] = q[i] + (tilt - self.att_ref[0])
-                else:  # roll: right adduction about +x, left about -x
-                    sign = 1.0 if name.endswith("_r") else -1.0
-                    target[i] = q[i] + sign * (lst - self.att_ref[1])
-        if self._state in ("step_reach", "fall", "flight"):
-            self._place_foot(ctx, target)
-        if self._state in ("clearance", "single_support_after_trip", "step_swing",
-                           "step_reach", "fall", "flight"):
-            self._place_foot_laterally(ctx, target)
-        if self._state == "clearance":
+        tilt, lst = attitude_of(self._pelvis_xmat)
+        d_tilt, d_list = tilt - self.att_ref[0], lst - self.att_ref[1]
+        for i, pitch, sign in self._attitude_joints():
+            # pitch: the hip flexes with the pelvis tilt error; roll: right adduction about
+            # +x, left about -x
+            target[i] = q[qadr[i]] + (d_tilt if pitch else sign * d_list)
+        st = self._state
+        if st in ("step_reach", "fall", "flight"):
+            self._place_foot(ctx, target, tilt)
+        if st in ("clearance", "single_support_after_trip", "step_swing",
+                  "step_reach", "fall", "flight"):
+            self._place_foot_laterally(ctx, target, lst)
+        if st == "clearance":
             i = self.bank.index[f"ankle_angle_{self.roles['sup']}"]
             tau_c = self.kc * (self.p.vz_target_m_per_s - ctx.sensors.com_vel[2])  # eq. 4
             target[i] -= tau_c / max(self.kp[i], 1e-6)  # plantarflexion torque
-        d.ctrl[:] = target
-        self.bank.set_gains(self.kp)
+        self._ctrl[:] = target
+        if self._gains_dirty:
+            self.bank.set_gains(self.kp)
+            self._gains_dirty = False
 
-    def _place_foot(self, ctx: Context, target: np.ndarray) -> None:
+    def _place_foot(self, ctx: Context, target: np.ndarray, tilt: float) -> None:
         """SIMBICON balance feedback (Yin et al. 2007) on the reaching leg's hip: the swing
         thigh's world angle θ = θ_0 + c_d·d + c_v·v, d the COM's offset from the stance
         ankle, v its velocity; sagittal on hip flexion, lateral on hip adduction."""
-        m, d, s = ctx.model, ctx.data, ctx.sensors
+        s = ctx.sensors
         swing, stance = self.roles["rec"], self.roles["sup"]
         if self._state == "step_reach":
             swing, stance = self.roles["sup"], self.roles["rec"]
-        ankle = d.xpos[m.body(f"foot_{stance}").id]
-        dx = s.com[0] - ankle[0]
+        dx = s.com[0] - self._xpos[self._foot_id[stance], 0]
         p = self.p
         i = self.bank.index[f"hip_flexion_{swing}"]
         # the swing thigh's angle in the world (SIMBICON): hip = thigh_world - pelvis tilt
         base = p.reach_thigh_deg if self._state == "step_reach" else p.land_thigh_deg
         thigh = (np.radians(base) + p.balance_cd_rad_per_m * dx
                  + p.balance_cv_rad_s_per_m * s.com_vel[0])
-        target[i] = thigh - pelvis_attitude(d)[0]
+        target[i] = thigh - tilt
 
-    def _place_foot_laterally(self, ctx: Context, target: np.ndarray) -> None:
+    def _place_foot_laterally(self, ctx: Context, target: np.ndarray, lst: float) -> None:
         """SIMBICON coronal feedback: the swing thigh's world roll φ = c_d·dy + c_v·v_y
         (dy the COM's lateral offset from the stance ankle), so the foot lands under a
         COM that drifts sideways. Thigh roll = pelvis list + right adduction
         (− left adduction)."""
-        m, d, s, p = ctx.model, ctx.data, ctx.sensors, self.p
+        s, p = ctx.sensors, self.p
         swing, stance = self.roles["rec"], self.roles["sup"]
         if self._state in ("single_support_after_trip", "step_swing", "step_reach"):
             swing, stance = self.roles["sup"], self.roles["rec"]
-        dy = s.com[1] - d.xpos[m.body(f"foot_{stance}").id, 1]
+        dy = s.com[1] - self._xpos[self._foot_id[stance], 1]
         phi = p.balance_cd_lat_rad_per_m * dy + p.balance_cv_lat_rad_s_per_m * s.com_vel[1]
-        lst = pelvis_attitude(d)[1]
         j = self.bank.index[f"hip_adduction_{swing}"]
         target[j] = (phi - lst) if swing == "r" else (lst - phi)
 
