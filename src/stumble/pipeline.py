@@ -31,8 +31,9 @@ from stumble.body.muscles import DEFAULT_MUSCLE_SET
 from stumble.control.fsm import TripFSM
 from stumble.control.fsm_params import FSMParams
 from stumble.errors import InputError
-from stumble.gait.playback import Playback, walk
+from stumble.gait.playback import Playback
 from stumble.gait.reference import load_reference
+from stumble.gait.walk_cache import walk_cached
 from stumble.sim import Context, Recording, Sensors, run
 from stumble.trip import (
     MUSCLE_CONTROLLERS,
@@ -261,11 +262,12 @@ def _scale_strength(m: mujoco.MjModel, scale: float) -> None:
 def _walk(height_m: float, mass_kg: float, sex: str, contact: str, speed_m_per_s: float,
           timestep_s: float, planar: bool = False, muscle_set: str = DEFAULT_MUSCLE_SET,
           ) -> tuple[Body, Playback]:
-    """The body and its walk before the trip; deterministic, so cached per process."""
+    """The body and its walk before the trip; deterministic, so cached per process (and on
+    disk across processes, ``stumble.gait.walk_cache``)."""
     base = build(planar=planar, height_m=height_m, mass_kg=mass_kg, sex=sex, contact=contact,
                  timestep_s=timestep_s, actuation="muscles" if planar else "servos",
                  muscle_set=muscle_set)
-    return base, walk(base, speed_m_per_s, duration_s=WALK_BEFORE_TRIP_S + 2.5 * 1.6)
+    return base, walk_cached(base, speed_m_per_s, WALK_BEFORE_TRIP_S + 2.5 * 1.6)
 
 
 def _standing_pelvis(body: Body) -> float:

@@ -205,6 +205,7 @@ def plant_feet(body: Body, qpos: np.ndarray, events: gait_events.GaitEvents,
     nr = len(root_q)
     damp = np.diag([1e-9] * nr + [DAMPING] * (len(qa) - nr))
     jacp = np.zeros((3, m.nv))
+    leg_cols, comp_cols = np.ix_(rows, va), np.ix_(rows, comp_v)  # built once: np.ix_ is slow
     data_q = qpos.copy()
     correction = np.zeros(len(qpos))
     dt = float(np.mean(np.diff(time_s)))
@@ -242,8 +243,8 @@ def plant_feet(body: Body, qpos: np.ndarray, events: gait_events.GaitEvents,
             jrows, errs = [], []
             for _s, i, goal in targets:
                 mujoco.mj_jac(m, d, jacp, None, d.site_xpos[i], int(m.site_bodyid[i]))
-                jac = jacp[np.ix_(rows, va)]
-                jac[:, nr:] -= jacp[np.ix_(rows, comp_v)]
+                jac = jacp[leg_cols]
+                jac[:, nr:] -= jacp[comp_cols]
                 jrows.append(jac)
                 errs.append((goal - d.site_xpos[i])[rows])
             jac, err = np.vstack(jrows), np.concatenate(errs)
