@@ -56,7 +56,7 @@ def bare_replay(model: mujoco.MjModel, rec) -> tuple[float, float, mujoco.MjData
     Returns the wall and CPU times (s) and the final data."""
     m = model
     d = mujoco.MjData(m)
-    mujoco.mj_setState(m, d, rec.start_state, _FULL)
+    mujoco.mj_setState(m, d, rec.initial_state, _FULL)
     mujoco.mj_forward(m, d)
     forces = {step: (body, row) for step, body, row in (rec.forces or [])}
     last_forced = max(forces, default=-1)

@@ -4,7 +4,7 @@ Run:  python benchmarks/bench_trip.py [--contact lumped|points|penalty|soft] [--
       [--timestep S] [--duration S] [--cases all|one]
 
 For each case (an elevating and a lowering trip, force and obstacle, at 1.2 m/s, the
-default 6 s of walking on unless ``--duration``), it runs the whole ``simulate_trip``
+scenario's default duration unless ``--duration``), it runs the whole ``simulate_trip``
 ``--repeats`` times after a warm-up (the walk cached, imports done), keeping every
 block's controls, servo gains and trip forces, and replays them on the same model from
 the same first state with a bare loop that does nothing else (``against_raw.bare_replay``:
@@ -39,8 +39,8 @@ def main() -> None:
     ap.add_argument("--contact", default="lumped",
                     choices=("lumped", "points", "penalty", "soft"))
     ap.add_argument("--speed", type=float, default=1.2)
-    ap.add_argument("--timestep", type=float, default=None, help="default: the FSM's (2 ms)")
-    ap.add_argument("--duration", type=float, default=None, help="default: the FSM's (6 s)")
+    ap.add_argument("--timestep", type=float, default=None, help="default: the scenario's")
+    ap.add_argument("--duration", type=float, default=None, help="default: the scenario's")
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--cases", choices=("all", "one"), default="all")
     args = ap.parse_args()
@@ -51,9 +51,10 @@ def main() -> None:
     worst = {"ratio": 0.0, "cpu_ratio": 0.0, "speedup": float("inf"),
              "cpu_speedup": float("inf"), "whole": 0.0}
     for f, mech in CASES[:1] if args.cases == "one" else CASES:
+        given = {k: v for k, v in (("timestep_s", args.timestep),
+                                   ("duration_after_trip_s", args.duration)) if v is not None}
         sc = Scenario(swing_fraction=f, mechanism=mech, speed_m_per_s=args.speed,
-                      contact=args.contact, timestep_s=args.timestep,
-                      duration_after_trip_s=args.duration)
+                      contact=args.contact, **given)
         t = time_against_replay(sc, args.repeats)
         s = t.result.summary
         ratio, speedup = t.trip_s / t.replay_s, s["sim_time_s"] / t.trip_s

@@ -169,7 +169,8 @@ def _phase(pb: Playback, t: float) -> float:
 
 def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
                   reference: dict | None = None, network=None,
-                  trunk_balance: bool = True, gh2010=None) -> TripResult:
+                  trunk_balance: bool = True, gh2010=None,
+                  log_controls: bool = False) -> TripResult:
     """Walk, trip and recover (or fall): the whole pipeline for one scenario.
 
     Controller ``fsm`` (SCA 2009) drives the 3D human; ``reflex`` (seed 003) the planar
@@ -182,7 +183,9 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
 
     ``reference``: optional {"time_s": (T,), "<coordinate>": (T,) deg} of a recorded trip
     (t = 0 the trip; coordinates named as our model: pelvis_tilt, hip_flexion_l, ...)
-    for the joint-pitch RMSE of SCA 2009 Table 2.
+    for the joint-pitch RMSE of SCA 2009 Table 2. ``log_controls``: keep every block's
+    controls, gains and trip forces in the recording (``stumble.sim.run``), for benchmarks
+    that replay them.
     """
     sc = scenario.validated()
     reflex = sc.controller in MUSCLE_CONTROLLERS
@@ -231,7 +234,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     if sc.controller == "reflex":
         _network_every(controller.net, m)
     rec = run(ctx, controller, sc.duration_after_trip_s, stop=stop, penalty=penalty,
-              **force_kwargs)
+              log_controls=log_controls, **force_kwargs)
     strategy = strategy or stop.classified
     summary = _summary(sc, strategy, controller, rec, stop, body, pb, t_trip, reference)
     states = list(controller.log)

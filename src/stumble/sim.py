@@ -175,10 +175,12 @@ class Recording:
     sensordata: np.ndarray | None = None  # (T, nsensordata) the raw sensor rows
     steps: int = 0
     wall_time_s: float = 0.0
-    physics_time_s: float = 0.0  # of which inside MuJoCo
+    cpu_time_s: float = 0.0  # this process' CPU time in the loop (less load-dependent)
+    physics_time_s: float = 0.0  # of which inside MuJoCo (wall)
     diverged: bool = False
     stop_reason: str = ""
     controls: list | None = None  # (first step, ctrl rows, gains) per block, if logged
+    forces: list | None = None  # (step, body, xfrc_applied row) per forced step, if logged
     initial_state: np.ndarray | None = None  # full physics state after start, if logged
 
 
@@ -339,17 +341,19 @@ def run(ctx: Context, controller: Controller, duration_s: float,
     def force_at(t: float) -> np.ndarray:
         return trip_force(t) if trip_force is not None and 0.0 <= t <= force_end_s else no_force
 
+    controls = [] if log_controls else None
+    forces = [] if log_controls else None
+    cpu0 = time.process_time()
+
     def apply_force(dd: mujoco.MjData) -> None:
         f = force_at(dd.time - ctx.t0)
         p = force_point(dd)
         dd.xfrc_applied[force_body, :3] = f
         dd.xfrc_applied[force_body, 3:] = np.cross(p - dd.xipos[force_body], f)
+        if forces is not None:
+            forces.append((round((dd.time - ctx.t0) / dt), force_body,
+                           dd.xfrc_applied[force_body].copy()))
 
-    controls = [] if log_controls else None
-    initial = None
-    if log_controls:
-        initial = np.zeros(mujoco.mj_stateSize(m, _STATE))
-        mujoco.mj_getState(m, d, initial, _STATE)
     wall0 = time.perf_counter()
     reason = "time"
     step = 0
@@ -385,7 +389,8 @@ def run(ctx: Context, controller: Controller, duration_s: float,
         return stop(scratch.set(lay, sensordata, t)) if stop is not None else ""
 
     # the trip instant itself
-    why = sample(stepper.state_now(), sensordata)
+    initial_state = stepper.state_now()
+    why = sample(initial_state, sensordata)
     uses_sensors = getattr(controller, "uses_sensors", True)
     next_rec = rec_every
     while not why and step < n_steps:
@@ -432,10 +437,12 @@ def run(ctx: Context, controller: Controller, duration_s: float,
     rec = buf.recording(lay, force_at if trip_force is not None else None,
                         None if load_log is None else np.array(load_log))
     rec.wall_time_s = time.perf_counter() - wall0
+    rec.cpu_time_s = time.process_time() - cpu0
     rec.physics_time_s = stepper.physics_s
     rec.steps = step
     rec.stop_reason = why or reason
     rec.diverged = rec.stop_reason == "diverged"
     rec.controls = controls
-    rec.initial_state = initial
+    rec.forces = forces
+    rec.initial_state = initial_state if log_controls else None
     return rec
