@@ -183,3 +183,19 @@ def test_soft_mode_has_boxes_that_touch_the_floor():
     d.qpos[2] -= 0.01
     mujoco.mj_forward(m, d)
     assert d.ncon > 0
+
+
+def test_lumped_feet_carry_the_reference_ground_force_through_a_trip():
+    """Vertical ground force per foot over the first second of an elevating force trip,
+    ``lumped`` against the 96-point reference (issue 10: r >= 0.95)."""
+    from stumble.pipeline import simulate_trip
+    from stumble.trip import Scenario
+
+    recs = [simulate_trip(Scenario(swing_fraction=0.2, contact=c,
+                                   duration_after_trip_s=1.0)).recording
+            for c in ("lumped", "points")]
+    n = min(len(r.time_s) for r in recs)
+    for side in range(2):
+        a, b = (r.foot_force[:n, side] for r in recs)
+        assert np.corrcoef(a, b)[0, 1] >= 0.95
+        assert abs(a.max() - b.max()) <= 0.1 * b.max()
