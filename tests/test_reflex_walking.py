@@ -1,0 +1,27 @@
+"""Walking and tripping under the shipped Geyer & Herr 2010 reflexes (closed-loop fitted,
+``stumble/control/reflex/data/gh2010.json``), from the played-back walk. Seed 003's
+network does not walk yet (README "The reflex controllers"); its strategies are tested
+in test_reflex.py."""
+
+import pytest
+
+from stumble.pipeline import simulate_trip, simulate_walk
+from stumble.trip import Scenario
+
+
+def test_gh2010_walks_five_seconds_without_falling():
+    s = simulate_walk("gh2010", 5.0).summary
+    assert not s["fell"] and s["walked_s"] == pytest.approx(5.0)
+    assert s["strides"] >= 3
+    assert 0.9 <= s["speed_m_per_s"] <= 1.4
+    assert 0.55 <= s["stance_fraction"] <= 0.70
+
+
+@pytest.mark.parametrize(("controller", "swing", "strategy"), [
+    ("gh2010", 0.13, "elevating"), ("gh2010", 0.56, "lowering")])
+def test_gh2010_takes_the_seeds_strategies_without_being_told(controller, swing, strategy):
+    """Seed 003's CASE 1 (0.13 of swing) and CASE 2 (0.56), obstacle, 1.2 m/s."""
+    r = simulate_trip(Scenario(controller=controller, mechanism="obstacle",
+                               swing_fraction=swing, speed_m_per_s=1.2))
+    assert r.summary["strategy"] == strategy
+    assert [st["name"] for st in r.summary["states"]] == ["reflex"]  # never switched
