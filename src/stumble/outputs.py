@@ -319,7 +319,7 @@ def write_reflex_walk(out: Path, result, video: bool, progress: bool) -> list[st
     ref = {n: np.degrees(v) for n, v in result.reference.items()}
     rm = s["rmse_deg"]
     title = (f"{s['controller']}: {s['strides']} strides, {s['speed_m_per_s']:.2f} m/s, "
-             f"stance {s['stance_fraction'] or 0:.2f}; RMSE hip {rm.get('hip_flexion', 0):.1f}°"
+             f"stance {s['stance_fraction'] or 0:.2f}\nRMSE hip {rm.get('hip_flexion', 0):.1f}°"
              f" knee {rm.get('knee_angle', 0):.1f}° ankle {rm.get('ankle_angle', 0):.1f}°")
     plot_joint_angles(out / "joint_angles.png", pct, mean, title=title, spread_deg=sd,
                       reference_deg=ref)
