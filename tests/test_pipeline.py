@@ -69,13 +69,15 @@ def test_cli_trip_writes_the_named_files(tmp_path, capsys):
                 "foot_l_on_floor", "trip_force_x_n"):
         assert col in header
     assert (out / "trajectories.png").stat().st_size > 10_000
-    # OpenSim and BVH: 1 s of walk, then the trip (time 0), at the recording's 200 Hz
+    # OpenSim and BVH: 1 s of walk, then the trip (time 0), at the recording's rate (every
+    # 2 steps of 2 ms: 250 Hz)
     from stumble.gait.bvh import read_bvh
     from stumble.gait.readers import read_mot
 
     mot = read_mot(out / "motion.mot")
     n_rec = len((out / "timeseries.csv").read_text().splitlines()) - 1
-    assert mot.n_frames == n_rec + 200 and mot.time_s[200] == pytest.approx(0.0)
+    assert np.diff(mot.time_s) == pytest.approx(0.004)
+    assert mot.n_frames == n_rec + 250 and mot.time_s[250] == pytest.approx(0.0)
     assert mot.time_s[0] == pytest.approx(-1.0)
     assert read_bvh(out / "motion.bvh").n_frames == mot.n_frames
     # the trip's own motion.mot as its reference (OpenSim path names, time 0 the trip):

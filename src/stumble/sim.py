@@ -29,7 +29,7 @@ from mujoco import rollout as mj_rollout
 from stumble.body import Body
 from stumble.body.sensors import SensorLayout
 
-RECORD_HZ = 200.0
+RECORD_HZ = 200.0  # nearest whole number of steps: 250 Hz at 2 ms (every 2 steps)
 CONTROL_HZ = 500.0  # default controller rate; the servos themselves run at every step
 CONTACT_FORCE_MIN_N = 1.0  # a foot with less total normal force is not "on the floor"
 _STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS

@@ -39,6 +39,17 @@ LEGS = ("left", "right")
 CONTROLLERS = ("fsm", "reflex", "gh2010")
 MUSCLE_CONTROLLERS = ("reflex", "gh2010")  # on the planar musculoskeletal body
 MAX_SEED = 2**63 - 1  # seeds are stored as 64-bit integers (study results)
+# Physics step (s) when a scenario names none. The state machines: 2 ms gives the 1 ms
+# outcome (recovered or fell) in all 48 trips of the grid and the same strategy, variant
+# and outcome in 45 (README "Trips"); the reflex controllers keep 1 ms (the network
+# ticks at 1 kHz; GH2010's gains were fitted at 1 ms).
+DEFAULT_TIMESTEP_S = {"fsm": 0.002, "reflex": 0.001, "gh2010": 0.001}
+TIMESTEP_RANGE_S = (0.0002, 0.005)  # any controller
+# The largest step at which each controller is stable (s). The state machines: on four
+# trips the support ankle peaks at 5.7 rad/s at 1 ms, 12 at 2 ms, 48 at 3 ms (chatter;
+# 339 rad/s at 5 ms), so 2 ms. The reflex controllers' own rules (the network's tick,
+# ``check_gh2010_timestep``) are checked in ``Scenario.validated``.
+MAX_TIMESTEP_S = {"fsm": 0.002}
 
 
 GH2010_MAX_STEP_S = 0.001  # the GH2010 gains were fitted at 1 ms (its 5 ms hip delay)
@@ -103,11 +114,20 @@ class Scenario:
     duration_after_trip_s: float = 3.0
     delay_scale: float = 1.0  # multiplies every response latency
     strength_scale: float = 1.0  # multiplies every servo torque limit and muscle F_max
-    timestep_s: float = 0.001  # physics step
+    timestep_s: float | None = None  # physics step; None: the controller's (DEFAULT_TIMESTEP_S)
     force: TripForce = field(default_factory=TripForce)
 
+    def resolved(self) -> Scenario:
+        """The scenario with the controller's default time step if it names none."""
+        if self.timestep_s is not None:
+            return self
+        return replace(self, timestep_s=DEFAULT_TIMESTEP_S.get(self.controller, 0.001))
+
     def validated(self) -> Scenario:
-        """The scenario itself, or InputError naming the first bad field."""
+        """The scenario with its defaults resolved (``resolved``), or InputError naming the
+        first bad field."""
+        if self.timestep_s is None:
+            return self.resolved().validated()
         lo, hi = SWING_RANGE
         if not np.isfinite(self.swing_fraction) or not lo <= self.swing_fraction <= hi:
             raise InputError(f"swing fraction {self.swing_fraction} is outside {lo}-{hi}")
@@ -130,8 +150,13 @@ class Scenario:
             raise InputError(f"delay scale {self.delay_scale} is outside 0.2-5")
         if not 0.1 <= self.strength_scale <= 5.0:
             raise InputError(f"strength scale {self.strength_scale} is outside 0.1-5")
-        if not 0.0002 <= self.timestep_s <= 0.005:
-            raise InputError(f"time step {self.timestep_s} s is outside 0.0002-0.005 s")
+        lo_dt, hi_dt = TIMESTEP_RANGE_S
+        if not np.isfinite(self.timestep_s) or not lo_dt <= self.timestep_s <= hi_dt:
+            raise InputError(f"time step {self.timestep_s} s is outside {lo_dt}-{hi_dt} s")
+        limit = MAX_TIMESTEP_S.get(self.controller)
+        if limit is not None and self.timestep_s > limit + 1e-12:
+            raise InputError(f"time step {self.timestep_s} s is not stable for the "
+                             f"{self.controller} controller (at most {limit} s)")
         if not 0.5 <= self.duration_after_trip_s <= 20.0:
             raise InputError(f"duration {self.duration_after_trip_s} s is outside 0.5-20 s")
         if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or not (
