@@ -58,3 +58,12 @@ def test_trip_time_is_the_requested_fraction_of_swing():
     assert trip_time(ev, "l", 0.5, after_s=1.0) == pytest.approx(1.3 + 0.5 * 0.4)
     with pytest.raises(InputError):
         trip_time(ev, "l", 0.5, after_s=1.5)
+
+
+def test_each_controller_has_its_default_step_and_the_state_machines_refuse_unstable_ones():
+    assert Scenario().validated().timestep_s == 0.002
+    assert Scenario(controller="reflex", mechanism="obstacle").validated().timestep_s == 0.001
+    assert Scenario(controller="gh2010", mechanism="obstacle").validated().timestep_s == 0.001
+    with pytest.raises(InputError, match="not stable for the fsm controller"):
+        Scenario(timestep_s=0.003).validated()
+    assert Scenario(timestep_s=0.001).validated().timestep_s == 0.001
