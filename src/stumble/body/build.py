@@ -357,8 +357,7 @@ def _Layout_spec(planar: bool, timestep_s: float) -> mujoco.MjSpec:
     s.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     s.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC  # friction cones of the point contacts
     s.option.impratio = foot_contact.IMPRATIO
-    if not planar:
-        s.option.tolerance = foot_contact.SOLVER_TOLERANCE_3D
+    s.option.tolerance = foot_contact.SOLVER_TOLERANCE
     s.compiler.degree = False
     tex = s.add_texture(name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D,
                         builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
