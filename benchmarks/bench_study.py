@@ -5,8 +5,10 @@ Run:  python benchmarks/bench_study.py [--swing SPEC] [--speed SPEC] [--workers 
 The study (default: force trips at 8 instants from 0.05 to 0.75 of swing, at 1.0 and
 1.3 m/s, 16 trips) runs end to end as ``stumble study`` runs it, into a fresh directory
 each time: with 1 worker in this process, with N > 1 in a process pool; the best of
-``--repeats`` runs counts. Every run starts with an empty walk cache, so each worker pays
-for its own walks as in a real study.
+``--repeats`` runs counts. Every run starts with an empty in-memory walk cache, so each
+worker loads its own walks as in a real study, from the on-disk cache
+(``stumble.gait.walk_cache``) as a user's second study would (``STUMBLE_CACHE_DIR=off``
+to compute them).
 Parallel efficiency = (trips/s with N workers) / (N × trips/s with 1). The load average
 is printed too: other work on the machine lowers the figures.
 """
@@ -40,14 +42,15 @@ def main() -> None:
     for n in counts:
         wall = float("inf")
         for _ in range(args.repeats):
-            pipeline._walk.cache_clear()  # each run pays for its walks (forks inherit it)
+            pipeline._walk.cache_clear()  # each run loads its walks (forks inherit it)
             with tempfile.TemporaryDirectory() as tmp:
                 t0 = time.perf_counter()
                 res = run_study(scenarios, Path(tmp) / "s", workers=n, progress=False)
                 wall = min(wall, time.perf_counter() - t0)
-        errors = sum(bool(r["error"]) for r in res.rows)
+                rows = list(res.rows)  # read before the directory goes
+        errors = sum(bool(r["error"]) for r in rows)
         rates[n] = len(scenarios) / wall
-        sim = sum(r.get("sim_time_s") or 0.0 for r in res.rows)
+        sim = sum(r.get("sim_time_s") or 0.0 for r in rows)
         print(f"{n} worker(s): {wall:6.1f} s, {rates[n]:.2f} trips/s, "
               f"{sim / wall:.1f} s simulated per s, {errors} errors")
     base = rates.get(1)
