@@ -63,9 +63,12 @@ def _person_args(p: argparse.ArgumentParser) -> None:
                    help="body mass in kg (default 70)")
     p.add_argument("--sex", choices=("male", "female"), default="male",
                    help="de Leva 1996 parameter set (default male)")
-    p.add_argument("--contact", choices=("points", "penalty", "soft"), default="points",
-                   help="foot contact: 96 penalty points per foot resolved by MuJoCo (default), "
-                   "the same law in Python, or MuJoCo soft boxes")
+    from stumble.body.contact import DEFAULT_MODE, MODES
+
+    p.add_argument("--contact", choices=MODES, default=DEFAULT_MODE,
+                   help="foot contact: SCA 2009's penalty law lumped on a few points per foot "
+                   "(lumped, the default), at its 96 points per foot (points, the "
+                   "reference), the same law in Python (penalty), or MuJoCo soft boxes")
 
 
 def _motion_file_args(p: argparse.ArgumentParser) -> None:
