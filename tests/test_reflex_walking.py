@@ -29,3 +29,23 @@ def test_gh2010_takes_the_seeds_strategies_without_being_told(controller, swing,
                                swing_fraction=swing, speed_m_per_s=1.2))
     assert r.summary["strategy"] == strategy
     assert [st["name"] for st in r.summary["states"]] == ["reflex"]  # never switched
+
+
+def test_the_shipped_closed_loop_network_walks_from_the_walk_it_was_judged_on():
+    """`stumble reflex fit --closed-loop --seed 0`, shipped as `--network closed-loop`:
+    5 s from the 1.2 m/s played-back walk, no fall, a human speed and stance."""
+    from stumble.control.reflex.identify import default_network
+
+    net = default_network("closed-loop")
+    assert "HFL" in net.topology.muscles and net.topology.contact
+    s = simulate_walk("network", 5.0, speed_m_per_s=1.2, network=net).summary
+    assert not s["fell"] and s["walked_s"] == pytest.approx(5.0)
+    assert 0.9 <= s["speed_m_per_s"] <= 1.4
+    assert 0.55 <= s["stance_fraction"] <= 0.70
+
+
+def test_cli_names_the_closed_loop_network(tmp_path):
+    from stumble.cli import main
+
+    assert main(["reflex", "walk", "--network", "closed-loop", "--speed", "1.2",
+                 "--duration", "1", "--no-video", "--out", str(tmp_path / "w")]) == 0

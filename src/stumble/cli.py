@@ -129,8 +129,9 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--params", type=Path, metavar="FILE",
                    help="gh2010 controller: a gh2010.json (default: the shipped parameters)")
     t.add_argument("--network", type=Path, metavar="FILE",
-                   help="reflex controller: a network.npz from `stumble reflex fit` "
-                   "(default: the network shipped with stumble)")
+                   help="reflex controller: a network.npz from `stumble reflex fit`, or "
+                   "closed-loop: the shipped closed-loop refinement (default: the shipped "
+                   "open-loop network)")
     t.add_argument("--no-trunk-balance", action="store_true",
                    help="reflex controller: without the stance hips' trunk-lean reflex "
                    "(our addition to seed 003; see the README)")
@@ -230,7 +231,8 @@ def _parser() -> argparse.ArgumentParser:
                     help="network: seed 003's reflex network (default); gh2010: Geyer & "
                     "Herr 2010's reflexes")
     rw.add_argument("--network", type=Path, metavar="FILE",
-                    help="network controller: a network.npz (default: the shipped one)")
+                    help="network controller: a network.npz, or closed-loop: the shipped "
+                    "closed-loop refinement (default: the shipped open-loop network)")
     rw.add_argument("--params", type=Path, metavar="FILE",
                     help="gh2010 controller: a gh2010.json from `stumble reflex fit "
                     "--controller gh2010` (default: the shipped parameters)")
@@ -414,6 +416,16 @@ def cmd_walk(args) -> int:
     return 0
 
 
+def _network_arg(path: Path):
+    """The network of ``--network``: a file, or ``closed-loop``/``open-loop`` (shipped)."""
+    from stumble.control.reflex.identify import NETWORK_NAMES, default_network
+    from stumble.control.reflex.network import Network
+
+    if str(path) in NETWORK_NAMES and not path.exists():
+        return default_network(str(path))
+    return Network.load(path)
+
+
 def cmd_trip(args) -> int:
     """``stumble trip``: one trip, its summary, time series, plots and video."""
     from stumble.outputs import (
@@ -447,9 +459,9 @@ def cmd_trip(args) -> int:
     reference = _load_reference_trip(args, scenario) if args.reference else None
     network = None
     if args.network:
-        from stumble.control.reflex.network import Network, steps_per_tick
+        from stumble.control.reflex.network import steps_per_tick
 
-        network = Network.load(args.network)
+        network = _network_arg(args.network)
         steps_per_tick(scenario.timestep_s, network.topology.rate_hz)
     gh2010 = None
     if args.params:
@@ -486,9 +498,7 @@ def cmd_reflex_walk(args) -> int:
         raise InputError("--params is for --controller gh2010")
     network = params = None
     if args.network:
-        from stumble.control.reflex.network import Network
-
-        network = Network.load(args.network)
+        network = _network_arg(args.network)
     if args.params:
         from stumble.control.reflex.gh2010 import load_params
 
