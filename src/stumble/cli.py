@@ -211,7 +211,7 @@ def _parser() -> argparse.ArgumentParser:
                       "shipped network)")
     loop.add_argument("--closed-loop", action="store_true",
                       help="network: then refine it in closed loop by DAgger with the "
-                      "seed003-wired GH2010 expert (see the README: it does not walk yet)")
+                      "seed003-wired GH2010 expert (shipped as --network closed-loop)")
     f.add_argument("--passes", type=int, default=None, metavar="N",
                    help="network, --closed-loop: DAgger passes (default 8)")
     f.add_argument("--wiring", choices=("gh2010", "seed003"), default="gh2010",
