@@ -146,12 +146,22 @@ def recovery_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
                  keys)]
 
 
-def walking_rows(ctrl: str) -> list[dict]:
-    """A reflex controller's 20 s walk: time walked, RMSE per joint, stance fraction."""
+def walking_rows(ctrl: str, closed_loop: bool = False) -> list[dict]:
+    """A reflex controller's 20 s walk: time walked, RMSE per joint, stance fraction.
+    ``closed_loop``: the shipped closed-loop network (``reflex`` only), from the 1.2 m/s
+    walk it was judged on (``stumble.control.reflex.dagger``)."""
     from stumble.pipeline import simulate_walk
 
+    kind = REFLEX_CONTROLLERS[ctrl]
+    if closed_loop:
+        ctrl = "reflex (closed loop)"
     try:
-        s = simulate_walk(REFLEX_CONTROLLERS[ctrl], WALK_S).summary
+        kw = {}
+        if closed_loop:
+            from stumble.control.reflex.identify import default_network
+
+            kw = {"network": default_network("closed-loop"), "speed_m_per_s": 1.2}
+        s = simulate_walk(kind, WALK_S, **kw).summary
     except Exception as e:
         why = f"{type(e).__name__}: {e}"
         return [_row("walking 20 s from the played-back walk", "Murai & Yamane 2011 §V.A",
@@ -366,6 +376,8 @@ def run_validation(out: Path, workers: int | None = None, progress: bool = True,
         rows += recovery_rows(ctrl, by_case)
         if ctrl in REFLEX_CONTROLLERS:
             rows += walking_rows(ctrl)
+        if ctrl == "reflex":
+            rows += walking_rows(ctrl, closed_loop=True)
     rows += identification_rows()
     report = {
         "stumble_version": __version__,
