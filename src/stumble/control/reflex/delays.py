@@ -12,48 +12,21 @@ from __future__ import annotations
 import numpy as np
 
 
-class DelayLine:
-    """Per-tick values of ``channels`` signals; ``lags`` (ticks) per channel."""
-
-    def __init__(self, lags: np.ndarray, block: int):
-        self.lags = np.asarray(lags, dtype=int)
-        if self.lags.ndim != 1 or np.any(self.lags < 1):
-            raise ValueError("every lag must be at least one tick")
-        if block > int(self.lags.min()):
-            raise ValueError(f"a block of {block} ticks is longer than the shortest lag "
-                             f"({int(self.lags.min())})")
-        self.block = int(block)
-        self.size = int(self.lags.max()) + self.block + 1
-        self.buf = np.zeros((self.size, len(self.lags)))
-        self.k = 0  # ticks stored so far
-        self._cols = np.arange(len(self.lags))
-
-    def fill(self, values: np.ndarray) -> None:
-        """A constant history: every past tick sensed ``values``."""
-        self.buf[:] = np.asarray(values, dtype=float)
-
-    def push(self, rows: np.ndarray) -> None:
-        """Store the values (n, channels) of the next n ticks."""
-        n = len(rows)
-        self.buf[(self.k + np.arange(n)) % self.size] = rows
-        self.k += n
-
-    def read(self, n: int) -> np.ndarray:
-        """(n, channels): each channel at its lag before each of the next n ticks."""
-        ticks = self.k + np.arange(n)[:, None] - self.lags[None, :]
-        return self.buf[ticks % self.size, self._cols]
-
-
 class DelayTaps:
     """A ring buffer of per-tick channels read through taps: (channel, lag) pairs, so one
     signal can reach several reflexes, each after its own path's delay."""
 
-    def __init__(self, channels: int, taps: list[tuple[int, int]]):
+    def __init__(self, channels: int, taps: list[tuple[int, int]], block: int | None = None):
         self.cols = np.array([c for c, _l in taps], dtype=int)
         self.lags = np.array([lag for _c, lag in taps], dtype=int)
-        if np.any(self.lags < 1):
+        if self.lags.ndim != 1 or np.any(self.lags < 1):
             raise ValueError("every lag must be at least one tick")
-        self.block = int(self.lags.min())  # ticks whose reads are all sensed already
+        shortest = int(self.lags.min())
+        if block is not None and block > shortest:
+            raise ValueError(f"a block of {block} ticks is longer than the shortest lag "
+                             f"({shortest})")
+        # ticks read at once: their reads are all sensed already (default: as many as can be)
+        self.block = shortest if block is None else int(block)
         self.size = int(self.lags.max()) + self.block + 1
         self.buf = np.zeros((self.size, channels))
         self.k = 0
@@ -74,3 +47,12 @@ class DelayTaps:
             raise ValueError(f"{n} ticks ahead is more than the shortest lag ({self.block})")
         ticks = self.k + np.arange(n)[:, None] - self.lags[None, :]
         return self.buf[ticks % self.size, self.cols]
+
+
+class DelayLine(DelayTaps):
+    """Per-tick values of ``len(lags)`` signals, each read at its own lag (ticks): the
+    taps of ``DelayTaps`` with one tap per channel, in a block of ``block`` ticks."""
+
+    def __init__(self, lags: np.ndarray, block: int):
+        lags = np.asarray(lags, dtype=int)
+        super().__init__(len(lags), list(enumerate(lags.tolist())), block=block)

@@ -31,9 +31,9 @@ load share; RF, which Geyer & Herr's model does not have, stays at its prestimul
 (without an HFL in the body, RF takes HFL's laws). The shipped, walking parameters come
 from a closed-loop optimisation (``stumble.control.reflex.fit_walk``).
 
-All channels are read from MuJoCo sensor rows through a ``DelayLine``; every delay is at
-least 5 ms, so the controller fixes 5 ms of excitations at a time and the physics loop
-steps them natively.
+All channels are read from MuJoCo sensor rows through ``DelayTaps`` (one signal, several
+reflex paths, each its own lag); every delay is at least 5 ms, so the controller fixes
+5 ms of excitations at a time and the physics loop steps them natively.
 """
 
 from __future__ import annotations
