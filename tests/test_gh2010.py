@@ -22,10 +22,10 @@ def bound():
     return c
 
 
-def _laws(c, F, L, knee, knee_v, load, x, lean, lean_v):
+def _laws(c, F, L, knee, knee_v, load, x, lean, lean_v, touch=(0.0, 0.0)):
     """The excitations (2, nm) of a steady state: every tap reads these channels (F, L
     (2, nm); the rest per leg (2,) or scalars)."""
-    c.delay.fill(np.concatenate([np.ravel(F), np.ravel(L), knee, knee_v, load, x,
+    c.delay.fill(np.concatenate([np.ravel(F), np.ravel(L), knee, knee_v, load, x, touch,
                                  [lean_v, lean]]))
     return c._excitations(c.delay.read(1)).reshape(2, c.nm)
 
@@ -139,3 +139,45 @@ def test_params_round_trip_and_refuse_bad_values():
         GH2010Params.from_json({"g_nothing": 1.0})
     with pytest.raises(InputError, match="g_sol must be a finite number"):
         GH2010Params.from_json({"g_sol": float("nan")})
+
+
+def test_stumble_reflex_excites_the_tripped_legs_flexors_and_the_support_legs_push():
+    """A touch on the left foot's front: after scr_latency_s (65 ms, Eng et al. 1994),
+    left HAMS, TA and HFL and right SOL, GAS and GLU each gain their g_scr, for
+    scr_hold_s after the last sensed touch; with the paper's gains (zero) nothing."""
+    body = build(planar=True, actuation="muscles", muscle_set="hfl", obstacle=(
+        1.0, 0.1, 0.1, 0.14, 0.0))
+    m = body.model
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    gains = dict(g_scr_ham=0.11, g_scr_ta=0.12, g_scr_flex=0.13, g_scr_sol=0.14,
+                 g_scr_gas=0.15, g_scr_glu=0.16)
+    c = GH2010Controller(GH2010Params(**gains, scr_hold_s=0.1))
+    c.start(Context(m, d, body, Sensors(), 0.0))
+    ix, nm = c.idx, c.nm
+    F = np.full((2, nm), 0.2)
+    L = np.full((2, nm), 0.8)
+    args = (F, L, np.array([0.3, 0.3]), np.zeros(2), np.array([0.0, 0.0]),
+            np.array([0.0, 0.3]), 0.1, 0.0)  # both legs in swing: no stance laws
+    quiet = _laws(c, *args)
+    touched = _laws(c, *args, touch=(0.0, 1.0))  # the left foot (index 1) touched
+    du = touched - quiet
+    expect = np.zeros((2, nm))
+    expect[1, [ix["HAMS"], ix["TA"], ix["HFL"]]] = [0.11, 0.12, 0.13]
+    expect[0, [ix["SOL"], ix["GAS"], ix["GLU"]]] = [0.14, 0.15, 0.16]
+    np.testing.assert_allclose(du, expect, atol=1e-12)
+    lag = c.delay.lags[c.at[("touch", 1)]]
+    assert lag == 65  # ticks of 1 ms
+    # the touch ends now: sensed 65 ticks later, the response lasts 100 ticks after that
+    row = np.concatenate([np.ravel(F), np.ravel(L), [0.3, 0.3], [0.0, 0.0], [0.0, 0.0],
+                          [0.0, 0.3], [0.0, 0.0], [0.0, 0.1]])
+    on = []
+    for _ in range(200):
+        c.delay.push(row[None])
+        u = c._excitations(c.delay.read(1)).reshape(2, nm)
+        on.append(u[1, ix["HAMS"]] - quiet[1, ix["HAMS"]] > 0.05)
+    on = np.array(on)
+    assert on[:160].all() and not on[170:].any()
+    paper = GH2010Controller(GH2010Params())
+    paper.start(Context(m, d, body, Sensors(), 0.0))
+    np.testing.assert_allclose(_laws(paper, *args, touch=(0.0, 1.0)), _laws(paper, *args))

@@ -1,7 +1,7 @@
 """Walking and tripping under the shipped Geyer & Herr 2010 reflexes (closed-loop fitted,
-``stumble/control/reflex/data/gh2010.json``), from the played-back walk. Seed 003's
-network does not walk yet (README "The reflex controllers"); its strategies are tested
-in test_reflex.py."""
+``stumble/control/reflex/data/gh2010.json``), from the played-back walk and in their own
+gait, and under the closed-loop network; the open-loop network's strategies are tested in
+test_reflex.py."""
 
 import pytest
 
@@ -25,10 +25,37 @@ def test_gh2010_walks_five_seconds_without_falling(wiring):
     ("gh2010", 0.13, "elevating"), ("gh2010", 0.56, "lowering")])
 def test_gh2010_takes_the_seeds_strategies_without_being_told(controller, swing, strategy):
     """Seed 003's CASE 1 (0.13 of swing) and CASE 2 (0.56), obstacle, 1.2 m/s."""
-    r = simulate_trip(Scenario(controller=controller, mechanism="obstacle",
-                               swing_fraction=swing, speed_m_per_s=1.2))
-    assert r.summary["strategy"] == strategy
-    assert [st["name"] for st in r.summary["states"]] == ["reflex"]  # never switched
+    for start in ("playback", "own"):  # the seed's instants; the same in its own gait
+        r = simulate_trip(Scenario(controller=controller, mechanism="obstacle",
+                                   swing_fraction=swing, speed_m_per_s=1.2, start=start))
+        assert r.summary["strategy"] == strategy, start
+        assert [st["name"] for st in r.summary["states"]] == ["reflex"]  # never switched
+
+
+def test_gh2010_walks_on_untripped_in_its_own_gait_but_not_taking_over_mid_stride():
+    """A trip of no force: taking over at 0.2 of the recording's left swing it falls
+    within 1 s; tripped in its own gait (the default start) it walks on 3 s."""
+    from stumble.trip import TripForce
+
+    none = TripForce(fx_max_n=0.0, fz_max_n=0.0)
+    own = simulate_trip(Scenario(controller="gh2010", mechanism="force", force=none,
+                                 swing_fraction=0.2)).summary
+    assert own["start"] == "own" and own["recovered"] and own["sim_time_s"] == 3.0
+    played = simulate_trip(Scenario(controller="gh2010", mechanism="force", force=none,
+                                    swing_fraction=0.2, start="playback")).summary
+    assert played["fell"] and played["fall_time_s"] < 1.0
+
+
+def test_own_start_trips_at_the_fraction_of_the_walkers_own_swing():
+    s = simulate_trip(Scenario(controller="gh2010", mechanism="obstacle",
+                               swing_fraction=0.3, walk_in_s=3.0)).summary
+    w = s["walk_in"]
+    assert not w["fell"] and w["toe_off_s"] >= 3.0
+    assert 0.4 <= w["swing_s"] <= 0.6 and 1.0 <= w["stride_s"] <= 1.4  # its own gait
+    assert 0.9 <= w["speed_m_per_s"] <= 1.2
+    # the trip comes at 0.3 of the swing, to the controller's 5 ms block
+    assert s["trip_time_s"] - w["toe_off_s"] == pytest.approx(0.3 * w["swing_s"], abs=0.006)
+    assert s["walking_stride_s"] == w["stride_s"]
 
 
 def test_the_shipped_closed_loop_network_walks_from_the_walk_it_was_judged_on():

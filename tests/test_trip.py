@@ -67,3 +67,14 @@ def test_each_controller_has_its_default_step_and_the_state_machines_refuse_unst
     with pytest.raises(InputError, match="not stable for the fsm controller"):
         Scenario(timestep_s=0.003).validated()
     assert Scenario(timestep_s=0.001).validated().timestep_s == 0.001
+
+
+def test_start_own_is_for_walkers_and_the_walk_in_is_bounded():
+    assert Scenario(controller="gh2010").validated().start == "own"
+    assert Scenario(controller="reflex").validated().start == "playback"
+    with pytest.raises(InputError, match="fsm controller does not walk on its own"):
+        Scenario(controller="fsm", start="own").validated()
+    with pytest.raises(InputError, match="start 'walk'"):
+        Scenario(controller="gh2010", start="walk").validated()
+    with pytest.raises(InputError, match="walk-in 1.0 s is outside 2-30 s"):
+        Scenario(controller="gh2010", walk_in_s=1.0).validated()

@@ -257,6 +257,46 @@ class WalkStop:
         return ""
 
 
+@dataclass
+class TripTimer:
+    """Stops a walk at the instant to trip it in its own gait: ``swing_fraction`` of the
+    ``side`` leg's first swing that starts after ``after_s``, that swing's duration taken
+    as the mean of the leg's last two (its toe-off to its heel strike, by floor load); or
+    at a fall (``fall_height_m``, as ``WalkStop``). Swings shorter than
+    ``MIN_AIRBORNE_S`` are scuffs and not counted."""
+
+    side: str
+    swing_fraction: float
+    after_s: float
+    fall_height_m: float
+    fell_s: float | None = None
+    swings_s: list = field(default_factory=list)
+    toe_off_s: float | None = None  # the present swing's toe-off
+    trip_swing_s: float | None = None  # the swing duration the trip instant used
+    _on: bool | None = None
+
+    def __call__(self, s: Sensors) -> str:
+        if s.segment_on_floor or s.pelvis_height < self.fall_height_m:
+            self.fell_s = s.t
+            return "fell"
+        on = s.foot_on_floor[self.side]
+        if self._on is not None and on != self._on:
+            if not on:
+                self.toe_off_s = s.t
+            elif self.toe_off_s is not None:
+                if s.t - self.toe_off_s >= MIN_AIRBORNE_S:
+                    self.swings_s.append(s.t - self.toe_off_s)
+                self.toe_off_s = None
+        self._on = on
+        if (not on and self.toe_off_s is not None and self.toe_off_s >= self.after_s
+                and self.swings_s):
+            swing = float(np.mean(self.swings_s[-2:]))
+            if s.t >= self.toe_off_s + self.swing_fraction * swing:
+                self.trip_swing_s = swing
+                return "trip"
+        return ""
+
+
 def contact_events(time_s: np.ndarray, on_floor: np.ndarray) -> dict[str, dict[str, list]]:
     """Heel strikes and toe-offs (s) per side from the feet's floor contact (T, 2), as
     force plates would see them: contacts lasting at least ``TOUCHDOWN_SAMPLES`` samples,

@@ -158,6 +158,14 @@ def _parser() -> argparse.ArgumentParser:
                    "initial joint angles (SD 0.5 deg) and velocities; deterministic")
     t.add_argument("--duration", type=float, default=3.0, metavar="S",
                    help="seconds of physics after the trip at most (default 3)")
+    t.add_argument("--start", choices=("playback", "own"), default=None,
+                   help="playback: the recorded walk up to the trip instant, the controller "
+                   "from there (the seeds'; default fsm, reflex); own: the controller walks "
+                   "from right heel strike and is tripped in its own gait (default gh2010; "
+                   "reflex controllers only)")
+    t.add_argument("--walk-in", type=float, default=None, metavar="S",
+                   help="--start own: seconds the controller walks before the trip's swing "
+                   "(default 4)")
     t.add_argument("--no-video", action="store_true", help="skip filmstrip.png and trip.mp4")
     _person_args(t)
     from stumble.study.cli import add_study_parser
@@ -452,7 +460,11 @@ def cmd_trip(args) -> int:
                         obstacle_height_m=args.obstacle_height, controller=args.controller,
                         strategy=args.strategy, seed=args.seed, height_m=args.height,
                         mass_kg=args.mass, sex=args.sex, contact=args.contact,
-                        duration_after_trip_s=args.duration).validated()
+                        duration_after_trip_s=args.duration, start=args.start,
+                        **({} if args.walk_in is None else {"walk_in_s": args.walk_in}))
+    scenario = scenario.validated()
+    if args.walk_in is not None and scenario.start != "own":
+        raise InputError("--walk-in is for --start own")
     if args.reference is None and (args.motion_model != "auto" or args.up != "auto"
                                    or args.forward != "auto"):
         raise InputError("--model, --up and --forward apply to a --reference file")
@@ -478,6 +490,11 @@ def cmd_trip(args) -> int:
                *write_motion_files(out, result.body, time_s, qpos, result.recording),
                *write_media(out, result, not args.no_video, sys.stderr.isatty())]
     s = result.summary
+    if s.get("trip_time_s") is None:  # --start own: the walker never reached the trip
+        print(f"no trip: the {s['controller']} walker {s['stop_reason']} "
+              f"({s['walk_in']['walked_s']:.2f} s into its own walk); wrote "
+              f"{', '.join(written)} to {out}")
+        return 0
     outcome = ("diverged" if s["diverged"] else "recovered" if s["recovered"]
                else "fell" if s["fell"] else "did not recover within the time")
     strategy = s["strategy"] or "no"

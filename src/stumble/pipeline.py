@@ -18,6 +18,7 @@ from stumble.analysis import (
     FALL_PELVIS_FRACTION,
     WALK_ON_S,
     StopRule,
+    TripTimer,
     pitch_angles_deg,
     rmse_deg,
     table2_from_coordinates,
@@ -197,22 +198,24 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
                                 network) if reflex else DEFAULT_MUSCLE_SET)
     base, pb = _walk(sc.height_m, sc.mass_kg, sc.sex, sc.contact, sc.speed_m_per_s,
                      sc.timestep_s, reflex, muscle_set)
-    t_trip = trip_time(pb.events, sc.side, sc.swing_fraction, after_s=WALK_BEFORE_TRIP_S)
-    qpos, qvel = pb.state_at(t_trip)
-    obstacle = None
+    own = sc.start == "own"
+    if own:  # the controller takes over at right heel strike and walks to the trip
+        t_start = next(t for t in pb.events.heel_strike_s["r"] if t >= WALK_BEFORE_TRIP_S)
+    else:
+        t_start = trip_time(pb.events, sc.side, sc.swing_fraction, after_s=WALK_BEFORE_TRIP_S)
+    qpos, qvel = pb.state_at(t_start)
     front, low, lane = _toe_front(base, qpos, sc.side)
-    far_x = front + OBSTACLE_GAP_M + OBSTACLE_DEPTH_M  # force trips: a notional obstacle
+    obstacle = None
     if sc.mechanism == "obstacle":
-        if low > sc.obstacle_height_m - 0.01:
-            raise InputError(f"at {sc.swing_fraction} of swing the toe is {low:.3f} m up, "
-                             f"over a {sc.obstacle_height_m} m obstacle")
-        obstacle = (front + OBSTACLE_GAP_M, sc.obstacle_height_m, OBSTACLE_DEPTH_M,
-                    OBSTACLE_WIDTH_M, lane)
-        _check_clear_of_stance(base, qpos, {"l": "r", "r": "l"}[sc.side], obstacle)
+        # own start: built parked under the floor, placed at the trip (``_place_obstacle``)
+        obstacle = ((0.0, sc.obstacle_height_m, OBSTACLE_DEPTH_M, OBSTACLE_WIDTH_M, lane)
+                    if own else _obstacle_at(base, qpos, sc))
     body = build(planar=reflex, height_m=sc.height_m, mass_kg=sc.mass_kg, sex=sc.sex,
                  contact=sc.contact, obstacle=obstacle, timestep_s=sc.timestep_s,
                  actuation="muscles" if reflex else "servos", muscle_set=muscle_set)
     m = body.model
+    if own and obstacle is not None:
+        m.geom_pos[m.geom("obstacle").id, 2] = -1.0  # parked (it touches only the feet)
     d = mujoco.MjData(m)
     d.qpos[:], d.qvel[:] = qpos, qvel
     perturb_initial_state(body, d, sc.seed)
@@ -220,9 +223,26 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
         _rest_support_foot(m, d, reflex)
     _scale_strength(m, sc.strength_scale)
     ctx = Context(m, d, body, Sensors(), t0=0.0)
-    controller = _controller(sc, strategy, p, network, pb, t_trip, trunk_balance, gh2010)
-    stop = StopRule(strategy, sc.side, FALL_PELVIS_FRACTION * _standing_pelvis(body),
-                    far_x=far_x, walk_on_s=WALK_ON_S if reflex else None)
+    controller = _controller(sc, strategy, p, network, pb, t_start, trunk_balance, gh2010)
+    if sc.controller == "reflex":
+        _network_every(controller.net, m)
+    fall_height = FALL_PELVIS_FRACTION * _standing_pelvis(body)
+    walk_in = None
+    if own:
+        timer = TripTimer(sc.side, sc.swing_fraction, sc.walk_in_s, fall_height)
+        walk_rec = run(ctx, controller, sc.walk_in_s + WALK_IN_MARGIN_S, stop=timer)
+        walk_in = _walk_in_summary(walk_rec, timer, sc)
+        if walk_rec.stop_reason != "trip":
+            return _no_trip(sc, controller, walk_rec, walk_in, body, pb)
+        qpos = d.qpos.copy()
+        front, low, lane = _toe_front(body, qpos, sc.side)
+        if sc.mechanism == "obstacle":
+            _place_obstacle(m, d, _obstacle_at(body, qpos, sc, who=f"the {sc.controller} "
+                                               "walker's"))
+        ctx.t0 = float(d.time)
+    far_x = front + OBSTACLE_GAP_M + OBSTACLE_DEPTH_M  # force trips: a notional obstacle
+    stop = StopRule(strategy, sc.side, fall_height, far_x=far_x,
+                    walk_on_s=WALK_ON_S if reflex else None)
     force_kwargs = {}
     if sc.mechanism == "force":
         toe = f"toes_{sc.side}" if not reflex else f"foot_{sc.side}"
@@ -231,12 +251,20 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
         force_kwargs = {"trip_force": sc.force, "force_body": toe_body,
                         "force_point": lambda dd: dd.site_xpos[tip_sites].mean(axis=0)}
     penalty = PenaltyContact.for_body(body) if sc.contact == "penalty" else None
-    if sc.controller == "reflex":
-        _network_every(controller.net, m)
     rec = run(ctx, controller, sc.duration_after_trip_s, stop=stop, penalty=penalty,
-              log_controls=log_controls, **force_kwargs)
+              log_controls=log_controls, resume=own, **force_kwargs)
     strategy = strategy or stop.classified
-    summary = _summary(sc, strategy, controller, rec, stop, body, pb, t_trip, reference)
+    if own:
+        before = ctx.t0 - walk_in["toe_off_s"]
+        stride = walk_in["stride_s"]
+    else:
+        offs = [t for t in pb.events.toe_off_s[sc.side] if t <= t_start]
+        before, stride = (t_start - offs[-1] if offs else None), pb.stride_s
+    summary = _summary(sc, strategy, controller, rec, stop, body, ctx.t0 if own else t_start,
+                       before, stride, reference)
+    summary["start"] = sc.start
+    if walk_in is not None:
+        summary["walk_in"] = walk_in
     states = list(controller.log)
     if reflex:  # one controller, no states: the filmstrip shows the events instead
         if sc.controller == "reflex":
@@ -250,6 +278,64 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
         summary["tripped_foot_down_x_m"] = (None if stop.tripped_down_x is None else
                                             round(stop.tripped_down_x - float(qpos[0]), 4))
     return TripResult(summary, rec, body, pb, sc, states,
+                      controller.net if sc.controller == "reflex" else None)
+
+
+WALK_IN_MARGIN_S = 3.0  # own start: the trip's swing must begin within this after walk_in_s
+
+
+def _obstacle_at(body: Body, qpos: np.ndarray, sc: Scenario, who: str = "the"):
+    """The obstacle box (near face x, height, depth, width, lane y) just ahead of the
+    tripped toe in pose ``qpos``; InputError if the toe is over it or the box would stand
+    under the stance foot."""
+    front, low, lane = _toe_front(body, qpos, sc.side)
+    if low > sc.obstacle_height_m - 0.01:
+        raise InputError(f"at {sc.swing_fraction} of swing {who} toe is {low:.3f} m up, "
+                         f"over a {sc.obstacle_height_m} m obstacle")
+    box = (front + OBSTACLE_GAP_M, sc.obstacle_height_m, OBSTACLE_DEPTH_M,
+           OBSTACLE_WIDTH_M, lane)
+    _check_clear_of_stance(body, qpos, {"l": "r", "r": "l"}[sc.side], box)
+    return box
+
+
+def _place_obstacle(m: mujoco.MjModel, d: mujoco.MjData, box) -> None:
+    """Move the (parked) obstacle box to ``box`` (``_obstacle_at``'s form)."""
+    x0, h, depth, _w, y0 = box
+    m.geom_pos[m.geom("obstacle").id] = [x0 + 0.5 * depth, y0, 0.5 * h]
+    mujoco.mj_forward(m, d)
+
+
+def _walk_in_summary(rec: Recording, timer: TripTimer, sc: Scenario) -> dict:
+    """The controller's own walk before the trip: how long, how fast, its stride."""
+    from stumble.analysis import contact_events
+
+    t = rec.time_s
+    ev = contact_events(t, rec.foot_on_floor)[sc.side]["heel_strike_s"]
+    stride = float(np.mean(np.diff(ev[-3:]))) if len(ev) >= 2 else None
+    late = t >= t[-1] - 2.0 if len(t) else t
+    speed = (float((rec.com[late][-1, 0] - rec.com[late][0, 0])
+                   / max(t[late][-1] - t[late][0], 1e-9)) if late.sum() > 1 else None)
+    r4 = lambda v: None if v is None else round(v, 4)  # noqa: E731
+    return {"walked_s": r4(float(t[-1]) if len(t) else 0.0), "stride_s": r4(stride),
+            "swing_s": r4(timer.trip_swing_s), "toe_off_s": r4(timer.toe_off_s),
+            "speed_m_per_s": r4(speed), "fell": timer.fell_s is not None}
+
+
+def _no_trip(sc: Scenario, controller, rec: Recording, walk_in: dict, body: Body,
+             pb: Playback) -> TripResult:
+    """The result of an own-start walk that fell (or never swung) before the trip."""
+    why = "fell before the trip" if walk_in["fell"] else "no swing to trip"
+    summary = {"controller": sc.controller, "strategy": None, "variant": None,
+               "recovered": False, "fell": walk_in["fell"], "diverged": rec.diverged,
+               "fell_before_trip": walk_in["fell"], "swing_fraction": sc.swing_fraction,
+               "speed_m_per_s": sc.speed_m_per_s, "mechanism": sc.mechanism,
+               "leg": sc.leg, "trip_time_s": None, "stop_reason": why,
+               "sim_time_s": walk_in["walked_s"], "wall_time_s": round(rec.wall_time_s, 4),
+               "steps": rec.steps, "seed": sc.seed, "contact": sc.contact,
+               "delay_scale": sc.delay_scale, "strength_scale": sc.strength_scale,
+               "start": sc.start, "walk_in": walk_in,
+               "states": [{"name": n, "start_s": t} for n, t in controller.log]}
+    return TripResult(summary, rec, body, pb, sc, [("walk", 0.0)],
                       controller.net if sc.controller == "reflex" else None)
 
 
@@ -279,7 +365,11 @@ def _standing_pelvis(body: Body) -> float:
 
 
 def _summary(sc: Scenario, strategy: str, controller, rec: Recording, stop: StopRule,
-             body: Body, pb: Playback, t_trip: float, reference: dict | None) -> dict:
+             body: Body, t_trip: float, swing_before_s: float | None, stride_s: float,
+             reference: dict | None) -> dict:
+    """The trip's figures (README "Outputs"); ``t_trip`` the trip instant on the walk's
+    clock, ``swing_before_s`` how long the tripped foot had been off the floor then,
+    ``stride_s`` the walk's stride."""
     m = body.model
     landing = stop.landing_s
     rec_side = sc.side if strategy == "elevating" else {"r": "l", "l": "r"}[sc.side]
@@ -296,10 +386,8 @@ def _summary(sc: Scenario, strategy: str, controller, rec: Recording, stop: Stop
         other = {"r": "l", "l": "r"}[rec_side]
         step_length = round(float(d.xpos[m.body(f"foot_{rec_side}").id, 0]
                                   - d.xpos[m.body(f"foot_{other}").id, 0]), 4)
-        if strategy == "elevating":
-            offs = [t for t in pb.events.toe_off_s[sc.side] if t <= t_trip]
-            if offs:
-                durations["recovery_step"] = round(t_trip - offs[-1] + landing, 4)
+        if strategy == "elevating" and swing_before_s is not None:
+            durations["recovery_step"] = round(swing_before_s + landing, 4)
         durations["trip_to_recovery_contact"] = round(landing, 4)
     rmse = None
     if reference is not None and strategy is not None:
@@ -337,7 +425,7 @@ def _summary(sc: Scenario, strategy: str, controller, rec: Recording, stop: Stop
         "contact": sc.contact,
         "delay_scale": sc.delay_scale,
         "strength_scale": sc.strength_scale,
-        "walking_stride_s": round(pb.stride_s, 4),
+        "walking_stride_s": None if stride_s is None else round(stride_s, 4),
     }
 
 

@@ -301,12 +301,13 @@ def run(ctx: Context, controller: Controller, duration_s: float,
         trip_force: Callable[[float], np.ndarray] | None = None, force_body: int = -1,
         force_point: Callable[[mujoco.MjData], np.ndarray] | None = None,
         stop: Callable[[Sensors], str] | None = None, penalty=None,
-        log_controls: bool = False) -> Recording:
+        log_controls: bool = False, resume: bool = False) -> Recording:
     """Step physics from the trip for up to ``duration_s``; returns the recording.
 
     ``stop(sensors)`` sees every sample and returns a non-empty reason to stop.
     ``log_controls``: keep every block's controls and servo gains (for benchmarks that
-    replay them on a bare loop).
+    replay them on a bare loop). ``resume``: the controller goes on from an earlier run
+    on the same data (its delays and state kept), not started again.
     """
     m, d, body = ctx.model, ctx.data, ctx.body
     lay = body.sensors
@@ -330,7 +331,8 @@ def run(ctx: Context, controller: Controller, duration_s: float,
     if penalty is not None:
         penalty.apply(d)
     decode(lay, d.sensordata, d.time - ctx.t0, ctx.sensors, loads())
-    controller.start(ctx)
+    if not resume:
+        controller.start(ctx)
     period = max(1, int(getattr(controller, "period_steps", 0)
                         or round(1.0 / (CONTROL_HZ * dt))))
     observe = getattr(controller, "observe", None)

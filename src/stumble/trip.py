@@ -6,6 +6,18 @@ the walking speed and the mechanism:
 - ``force``: the tripping forces of SCA 2009 eq. 2-3 on the swing toe;
 - ``obstacle``: a rigid box on the path, placed so the swing toe strikes it at the
   requested swing fraction; foot and box collide physically and the box stays.
+
+and where the walk before the trip comes from (``start``):
+
+- ``playback``: the recorded walk is played back up to the trip instant and the
+  controller takes over there (SCA 2009 §4.3; seed 003 §IV.B, whose CASE 1 and CASE 2
+  are instants of the recording);
+- ``own``: the controller takes over from the played-back walk at right heel strike,
+  walks ``walk_in_s`` on its own, and the trip comes at the requested fraction of its
+  own next swing of the tripped leg (the fraction of the mean of its last two swings).
+  A walker's response to a trip then starts from its own gait, as a person's does; a
+  reflex walker that takes over at an arbitrary instant of someone else's stride falls
+  without any trip (GH2010, 14 of 15 instants, README "Reflex trips").
 """
 
 from __future__ import annotations
@@ -50,6 +62,14 @@ TIMESTEP_RANGE_S = (0.0002, 0.005)  # any controller
 # 339 rad/s at 5 ms), so 2 ms. The reflex controllers' own rules (the network's tick,
 # ``check_gh2010_timestep``) are checked in ``Scenario.validated``.
 MAX_TIMESTEP_S = {"fsm": 0.002}
+STARTS = ("playback", "own")
+# where each controller's walk before the trip comes from when a scenario names none:
+# the state machines and the seed's network (which cannot walk on from its open-loop
+# identification) from the recording, as their seeds; GH2010 from its own gait
+DEFAULT_START = {"fsm": "playback", "reflex": "playback", "gh2010": "own"}
+WALK_IN_S = 4.0  # own start: seconds walked before the trip's swing (our choice: GH2010's
+# stride settles within two strides of taking over)
+WALK_IN_RANGE_S = (2.0, 30.0)
 
 
 GH2010_MAX_STEP_S = 0.001  # the GH2010 gains were fitted at 1 ms (its 5 ms hip delay)
@@ -115,18 +135,24 @@ class Scenario:
     delay_scale: float = 1.0  # multiplies every response latency
     strength_scale: float = 1.0  # multiplies every servo torque limit and muscle F_max
     timestep_s: float | None = None  # physics step; None: the controller's (DEFAULT_TIMESTEP_S)
+    start: str | None = None  # playback or own (module docstring); None: DEFAULT_START
+    walk_in_s: float = WALK_IN_S  # own start: walked before the trip's swing (s)
     force: TripForce = field(default_factory=TripForce)
 
     def resolved(self) -> Scenario:
-        """The scenario with the controller's default time step if it names none."""
-        if self.timestep_s is not None:
-            return self
-        return replace(self, timestep_s=DEFAULT_TIMESTEP_S.get(self.controller, 0.001))
+        """The scenario with the controller's default time step and start if it names
+        none."""
+        sc = self
+        if sc.timestep_s is None:
+            sc = replace(sc, timestep_s=DEFAULT_TIMESTEP_S.get(sc.controller, 0.001))
+        if sc.start is None:
+            sc = replace(sc, start=DEFAULT_START.get(sc.controller, "playback"))
+        return sc
 
     def validated(self) -> Scenario:
         """The scenario with its defaults resolved (``resolved``), or InputError naming the
         first bad field."""
-        if self.timestep_s is None:
+        if self.timestep_s is None or self.start is None:
             return self.resolved().validated()
         lo, hi = SWING_RANGE
         if not np.isfinite(self.swing_fraction) or not lo <= self.swing_fraction <= hi:
@@ -146,6 +172,14 @@ class Scenario:
         if self.controller in MUSCLE_CONTROLLERS and self.strategy != "auto":
             raise InputError(f"the {self.controller} controller is not told a strategy: it "
                              "emerges (use strategy auto)")
+        if self.start not in STARTS:
+            raise InputError(f"start {self.start!r} is not 'playback' or 'own'")
+        if self.start == "own" and self.controller not in MUSCLE_CONTROLLERS:
+            raise InputError(f"the {self.controller} controller does not walk on its own: "
+                             "use start playback")
+        lo_w, hi_w = WALK_IN_RANGE_S
+        if not np.isfinite(self.walk_in_s) or not lo_w <= self.walk_in_s <= hi_w:
+            raise InputError(f"walk-in {self.walk_in_s} s is outside {lo_w:g}-{hi_w:g} s")
         if not 0.2 <= self.delay_scale <= 5.0:
             raise InputError(f"delay scale {self.delay_scale} is outside 0.2-5")
         if not 0.1 <= self.strength_scale <= 5.0:

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 from stumble.errors import InputError
-from stumble.trip import OBSTACLE_HEIGHT_M, Scenario, TripForce
+from stumble.trip import OBSTACLE_HEIGHT_M, WALK_IN_S, Scenario, TripForce
 
 CONTROLLERS = ("fsm", "reflex", "gh2010")
 MAX_REPEATS = 100_000
@@ -63,6 +63,9 @@ AXES: dict[str, Axis] = {a.name: a for a in (
     Axis("strength_scale", "strength_scale", float,
          "servo torque limits (fsm) or muscle F_max (reflex, gh2010) multiplied by this"),
     Axis("duration", "duration_after_trip_s", float, "seconds of physics after the trip at most"),
+    Axis("start", "start", str, "playback (the recorded walk to the trip) or own (the reflex "
+         "controller's own gait; default gh2010)"),
+    Axis("walk_in", "walk_in_s", float, "start own: seconds walked before the trip's swing"),
     Axis("swing", "swing_fraction", float, "trip instant as a fraction of swing, 0.05-0.9"),
     Axis("seed", "seed", int, "0: the recorded walk; others perturb the initial state"),
 )}
@@ -152,7 +155,9 @@ def normalised(sc: Scenario) -> Scenario:
     the fields that cannot matter set to their defaults."""
     sc = sc.resolved()
     if sc.mechanism == "force" and sc.obstacle_height_m != OBSTACLE_HEIGHT_M:
-        return sc.with_(obstacle_height_m=OBSTACLE_HEIGHT_M)
+        sc = sc.with_(obstacle_height_m=OBSTACLE_HEIGHT_M)
+    if sc.start != "own" and sc.walk_in_s != WALK_IN_S:
+        sc = sc.with_(walk_in_s=WALK_IN_S)
     return sc
 
 

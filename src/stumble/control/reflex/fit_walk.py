@@ -200,21 +200,31 @@ GH2010_FIXED = ("s0", "delay_scale")  # prestimulation floor and delays stay the
 GH2010_BOUNDS = {"l_off_ta": (0.3, 1.5), "l_off_hfl": (0.3, 1.5), "l_off_ham": (0.5, 1.5),
                  "phi_off": (0.0, 0.6), "stance_load": (0.02, 0.5), "lean_ref": (-0.3, 0.4)}
 GAIN_RANGE = (0.2, 5.0)
+# the stumbling corrective reflex (``gh2010.SCR_GAINS``; zero in the paper): fitted only
+# with trips (``stumble_reflex``), each gain in 0-1 (an excitation), steps of at least
+# these
+SCR_BOUNDS = {"g_scr_ham": (0.0, 1.0), "g_scr_ta": (0.0, 1.0), "g_scr_flex": (0.0, 1.0),
+              "g_scr_sol": (0.0, 1.0), "g_scr_gas": (0.0, 1.0), "g_scr_glu": (0.0, 1.0),
+              "scr_hold_s": (0.05, 0.5)}
+SCR_MIN_SCALE = 0.15
 
 
-def gh2010_space(start=None) -> Space:
+def gh2010_space(start=None, stumble_reflex: bool = False) -> Space:
     """The GH2010 gains a fit may change, scaled to about 30 % of the paper's values
-    (or of ``start``'s), each within its bounds."""
+    (or of ``start``'s), each within its bounds; ``stumble_reflex``: with the gains of
+    the stumbling corrective reflex (``SCR_BOUNDS``)."""
     from stumble.control.reflex.gh2010 import GH2010Params
 
     p = start or GH2010Params()
     paper = GH2010Params()
-    names = tuple(n for n in p.free() if n not in GH2010_FIXED)
+    names = tuple(n for n in p.free() if n not in GH2010_FIXED
+                  and (stumble_reflex or n not in SCR_BOUNDS))
     theta = np.array([getattr(p, n) for n in names])
-    scale = np.maximum(0.3 * np.abs(theta), 0.02)
+    scale = np.maximum(0.3 * np.abs(theta), [SCR_MIN_SCALE if n in SCR_BOUNDS else 0.02
+                                             for n in names])
     lo, hi = [], []
     for n in names:
-        a, b = GH2010_BOUNDS.get(n, (GAIN_RANGE[0] * getattr(paper, n),
+        a, b = {**GH2010_BOUNDS, **SCR_BOUNDS}.get(n, (GAIN_RANGE[0] * getattr(paper, n),
                                      GAIN_RANGE[1] * getattr(paper, n)))
         lo.append(a)
         hi.append(b)
@@ -240,7 +250,7 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
     if kind == "gh2010":
         from stumble.control.reflex.gh2010 import GH2010Params
 
-        names = gh2010_space().names
+        names = gh2010_space(stumble_reflex=len(theta) > len(gh2010_space().names)).names
         params = GH2010Params(**{**_EVAL["base"],
                                  **dict(zip(names, map(float, theta), strict=True))})
         r = simulate_walk("gh2010", _EVAL["duration_s"], _EVAL["speed"], params=params)
@@ -274,17 +284,25 @@ WALK_ON_TRIP_S = 3.0  # walked on this long after a trip: recovered (the issue's
 FIT_TRIPS = ((0.15, 1.2), (0.6, 1.2), (0.35, 1.0), (0.65, 1.4))  # (swing, m/s) obstacle
 
 
-def trip_walked_s(kind: str, swing: float, speed: float, params=None, network=None) -> float:
+def trip_walked_s(kind: str, swing: float, speed: float, params=None, network=None,
+                  start: str | None = None) -> float:
     """How long (s, at most ``WALK_ON_TRIP_S``) a reflex walker walks on after a 10 cm
-    obstacle trip, counting a fall, or walking no more, as the end."""
+    obstacle trip (``start``: the scenario's, default the controller's), counting a fall,
+    or walking no more, as the end; a fall before the trip counts as no time."""
+    from stumble.errors import InputError
     from stumble.pipeline import simulate_trip
     from stumble.trip import Scenario
 
     sc = Scenario(controller="reflex" if kind == "network" else kind, mechanism="obstacle",
-                  swing_fraction=swing, speed_m_per_s=speed,
+                  swing_fraction=swing, speed_m_per_s=speed, start=start,
                   duration_after_trip_s=WALK_ON_TRIP_S)
-    r = simulate_trip(sc, network=network, gh2010=params)
+    try:
+        r = simulate_trip(sc, network=network, gh2010=params)
+    except InputError:  # the toe is over the obstacle at that instant of its own swing
+        return 0.0
     s = r.summary
+    if s.get("trip_time_s") is None:  # fell before the trip
+        return 0.0
     if s["recovered"]:
         return WALK_ON_TRIP_S
     if s["stop_reason"] == "stopped walking":  # upright but not walking on: half

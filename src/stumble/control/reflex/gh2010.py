@@ -55,6 +55,16 @@ DELAY_BY_JOINT_S = {"hip": 0.005, "knee": 0.010, "ankle": 0.020}  # Geyer & Herr
 JOINT_OF = {"HAMS": "hip", "GLU": "hip", "HFL": "hip", "RF": "hip", "VAS": "knee",
             "GAS": "ankle", "SOL": "ankle", "TA": "ankle"}
 WIRINGS = ("gh2010", "seed003")
+# The stumbling corrective reflex, our addition to Geyer & Herr 2010 (off in the paper's
+# parameters). Song & Geyer 2017 (Front. Comput. Neurosci. 11:15) found their reflex walker's
+# responses to whole-body disturbances too weak and proposed "location-specific cutaneous
+# reflexes"; a touch on the front of the swing foot is such a reflex, the stumbling
+# corrective response (Schillings et al. 2000; Eng et al. 1994): the tripped leg's
+# hamstrings (BF at 64 ms, Eng et al. 1994), TA and hip flexor, and the support leg's
+# plantarflexors and gluteus (Pijnappels et al. 2005). One pathway at every phase: which
+# strategy follows is left to the mechanics. The touch is the foot's contact with the
+# obstacle (the only thing that touches a foot but the floor), read through a delay tap.
+SCR_GAINS = ("g_scr_ham", "g_scr_ta", "g_scr_flex", "g_scr_sol", "g_scr_gas", "g_scr_glu")
 # optimised parameters shipped in stumble/control/reflex/data/, per wiring
 SHIPPED = {"gh2010": "gh2010.json", "seed003": "gh2010_seed003.json"}
 
@@ -89,12 +99,29 @@ class GH2010Params:
     g_ham: float = 0.65  # HAM F+ (swing)
     g_glu: float = 0.4  # GLU F+ (swing)
     stance_load: float = 0.1  # stance: delayed foot load above this share of body weight
+    # the stumbling corrective reflex (``STUMBLE_REFLEX``; not in Geyer & Herr 2010, whose
+    # gains are these zeros): a touch on a foot's front, after scr_latency_s, excites for
+    # scr_hold_s that leg's HAMS, TA and hip flexor and the other leg's SOL, GAS and GLU
+    scr_latency_s: float = 0.065  # s; Eng et al. 1994 (seed 003 §IV.A): BF 64 ms after a trip
+    scr_hold_s: float = 0.15  # s, how long one touch's response lasts (our choice)
+    g_scr_ham: float = 0.0
+    g_scr_ta: float = 0.0
+    g_scr_flex: float = 0.0
+    g_scr_sol: float = 0.0  # the other (support) leg: Pijnappels et al. 2005
+    g_scr_gas: float = 0.0
+    g_scr_glu: float = 0.0
     delay_scale: float = 1.0  # every delay multiplied by this
     wiring: str = "gh2010"  # "gh2010" or "seed003" (see GH2010Controller)
 
     def free(self) -> list[str]:
         """Names of the gains a closed-loop fit may change (not the delays, the wiring)."""
-        return [f.name for f in fields(self) if f.name not in ("delay_scale", "wiring")]
+        return [f.name for f in fields(self)
+                if f.name not in ("delay_scale", "wiring", "scr_latency_s")]
+
+    @property
+    def stumble_reflex(self) -> bool:
+        """Whether any gain of the stumbling corrective reflex is on."""
+        return any(getattr(self, n) for n in SCR_GAINS)
 
     def vector(self) -> np.ndarray:
         """The free gains as a vector, in ``free()`` order."""
@@ -264,11 +291,11 @@ class GH2010Controller:
         self.lags = {"own": own, "sol_ta": sol_ta, "ham_flex": ham_flex, "knee": knee,
                      "gate": gate, "vest": vest, "ds": ds}
         # channels: F (2·nm), L (2·nm), knee flexion (2), its rate (2), load (2, body
-        # weights), foot x (2), lean rate, lean (``_channel_map``)
+        # weights), foot x (2), obstacle touches (2), lean rate, lean (``_channel_map``)
         cF, cL = (lambda leg, j: leg * nm + j), (lambda leg, j: 2 * nm + leg * nm + j)
         o = 4 * nm
-        c_knee, c_knee_v, c_load, c_x = o, o + 2, o + 4, o + 6
-        c_lean_v, c_lean = o + 8, o + 9
+        c_knee, c_knee_v, c_load, c_x, c_touch = o, o + 2, o + 4, o + 6, o + 8
+        c_lean_v, c_lean = o + 10, o + 11
         taps, at = [], {}
 
         def tap(key, col, lag):
@@ -290,6 +317,7 @@ class GH2010Controller:
             if ds is not None:
                 tap(("ds_load", leg), c_load + leg, ds)
                 tap(("ds_x", leg), c_x + leg, ds)
+            tap(("touch", leg), c_touch + leg, ticks(p.scr_latency_s))
         tap("lean", c_lean, vest)
         tap("lean_v", c_lean_v, vest)
         self.at = at
@@ -309,6 +337,19 @@ class GH2010Controller:
         self._iDs = ((g([("ds_load", leg) for leg in range(2)]),
                       g([("ds_x", leg) for leg in range(2)])) if ds is not None else None)
         self._iLean, self._iLeanV = at["lean"], at["lean_v"]
+        self._iTouch = g([("touch", leg) for leg in range(2)])
+        self._scr = p.stumble_reflex
+        self._scr_hold = max(1, round(p.scr_hold_s * p.delay_scale / dt))
+        self._scr_since = np.full(2, np.inf)  # ticks since each foot's last (sensed) touch
+        w = np.zeros((2, 2, nm))  # (touched leg, leg, muscle)
+        for leg in range(2):
+            for name, gain in (("HAMS", p.g_scr_ham), ("TA", p.g_scr_ta),
+                               (self.flexor, p.g_scr_flex)):
+                w[leg, leg, ix[name]] += gain
+            for name, gain in (("SOL", p.g_scr_sol), ("GAS", p.g_scr_gas),
+                               ("GLU", p.g_scr_glu)):
+                w[leg, 1 - leg, ix[name]] += gain
+        self._w_scr = w
         self._f_cols = [ix[k] for k in ("GAS", "VAS", "GLU", "HAMS")]
         self._l_cols = [ix["TA"], ix[self.flexor]]
         self._l_offs = np.array([p.l_off_ta, p.l_off_hfl])
@@ -323,15 +364,18 @@ class GH2010Controller:
         L (l_opt), knee flexion and its rate, load (body weights), foot x, lean rate; and
         the torso axis' x and z, of which the lean is the angle."""
         lay, nm2 = self.lay, 2 * self.nm
+        touch = lay.obstacle_found  # a model without an obstacle: never touched
         self._gather = np.concatenate([
             lay.muscle_force, lay.muscle_length, lay.joint_angle[:, 1],
             lay.joint_velocity[:, 1], lay.foot_force[:, 2], lay.foot_pos[:, 0],
+            lay.foot_found if touch is None else touch,
             [lay.torso_angvel[1], lay.torso_z[0], lay.torso_z[2]]]).astype(int)
         w = self.weight_n
         self._scale = np.concatenate([-1.0 / self.f_max, 1.0 / self.l0, [-1.0] * 4,
-                                      [-1.0 / w] * 2, [1.0] * 5])
+                                      [-1.0 / w] * 2, [1.0] * 2,
+                                      [0.0 if touch is None else 1.0] * 2, [1.0] * 3])
         self._offset = np.concatenate([np.zeros(nm2), 1.0 - self.l_ref / self.l0,
-                                       np.zeros(11)])
+                                       np.zeros(13)])
 
     def _channels(self, rows: np.ndarray) -> np.ndarray:
         """(n, channels) sensed signals from sensor rows (n, nsensordata)."""
@@ -418,7 +462,22 @@ class GH2010Controller:
         if self.lean_free is not None:  # the laws without the trunk-lean terms (labels)
             self.lean_free = np.clip(u, PRE_ACTIVATION, 1.0)
         u += self._vestibular(x).reshape(n, 2 * nm)
+        if self._scr:
+            u += self._stumble(x).reshape(n, 2 * nm)
         return np.clip(u, PRE_ACTIVATION, 1.0, out=u)
+
+    def _stumble(self, x: np.ndarray) -> np.ndarray:
+        """The stumbling corrective reflex (n, 2, nm): for ``scr_hold_s`` after each
+        sensed touch of a foot (``SCR_GAINS``)."""
+        touched = x[:, self._iTouch] > 0.0  # (n, 2)
+        n = len(x)
+        k = np.arange(n)[:, None]
+        last = np.where(touched, k, -1)
+        last = np.maximum.accumulate(last, axis=0)  # the latest touch in the block so far
+        since = np.where(last >= 0, k - last, self._scr_since + 1 + k)
+        self._scr_since = since[-1].astype(float)
+        on = (since < self._scr_hold).astype(float)  # (n, 2)
+        return np.einsum("nt,tlm->nlm", on, self._w_scr)
 
     def _vestibular(self, x: np.ndarray) -> np.ndarray:
         """The trunk-lean laws (n, 2, nm): stance hips k_p(θ − θ_ref) + k_d θ̇ rectified,
