@@ -144,15 +144,16 @@ def test_params_round_trip_and_refuse_bad_values():
 def test_stumble_reflex_excites_the_tripped_legs_flexors_and_the_support_legs_push():
     """A touch on the left foot's front: after scr_latency_s (65 ms, Eng et al. 1994),
     left HAMS, TA and HFL and right SOL, GAS and GLU each gain their g_scr, for
-    scr_hold_s after the last sensed touch; with the paper's gains (zero) nothing."""
+    scr_hold_s after the last sensed touch, and left VAS from scr_vas_after_s after that
+    for as long; with the paper's gains (zero) nothing."""
     body = build(planar=True, actuation="muscles", muscle_set="hfl", obstacle=(
         1.0, 0.1, 0.1, 0.14, 0.0))
     m = body.model
     d = mujoco.MjData(m)
     mujoco.mj_forward(m, d)
     gains = dict(g_scr_ham=0.11, g_scr_ta=0.12, g_scr_flex=0.13, g_scr_sol=0.14,
-                 g_scr_gas=0.15, g_scr_glu=0.16)
-    c = GH2010Controller(GH2010Params(**gains, scr_hold_s=0.1))
+                 g_scr_gas=0.15, g_scr_glu=0.16, g_scr_vas=0.17)
+    c = GH2010Controller(GH2010Params(**gains, scr_hold_s=0.1, scr_vas_after_s=0.05))
     c.start(Context(m, d, body, Sensors(), 0.0))
     ix, nm = c.idx, c.nm
     F = np.full((2, nm), 0.2)
@@ -171,13 +172,15 @@ def test_stumble_reflex_excites_the_tripped_legs_flexors_and_the_support_legs_pu
     # the touch ends now: sensed 65 ticks later, the response lasts 100 ticks after that
     row = np.concatenate([np.ravel(F), np.ravel(L), [0.3, 0.3], [0.0, 0.0], [0.0, 0.0],
                           [0.0, 0.3], [0.0, 0.0], [0.0, 0.1]])
-    on = []
-    for _ in range(200):
+    on, vas = [], []
+    for _ in range(260):
         c.delay.push(row[None])
         u = c._excitations(c.delay.read(1)).reshape(2, nm)
         on.append(u[1, ix["HAMS"]] - quiet[1, ix["HAMS"]] > 0.05)
-    on = np.array(on)
+        vas.append(u[1, ix["VAS"]] - quiet[1, ix["VAS"]] > 0.05)
+    on, vas = np.array(on), np.array(vas)
     assert on[:160].all() and not on[170:].any()
+    assert not vas[:60].any() and vas[120:210].all() and not vas[220:].any()
     paper = GH2010Controller(GH2010Params())
     paper.start(Context(m, d, body, Sensors(), 0.0))
     np.testing.assert_allclose(_laws(paper, *args, touch=(0.0, 1.0)), _laws(paper, *args))

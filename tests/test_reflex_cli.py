@@ -62,6 +62,9 @@ def test_reflex_trip_with_a_fitted_network(tmp_path):
     (["trip", "--network", "x.npz"], "for --controller reflex"),
     (["trip", "--controller", "reflex", "--network", "missing.npz"], "does not exist"),
     (["reflex", "fit", "--iterations", "0", "--refine", "0"], "not both 0"),
+    (["trip", "--start", "own"], "fsm controller does not walk on its own"),
+    (["trip", "--controller", "reflex", "--walk-in", "3"], "--walk-in is for --start own"),
+    (["trip", "--controller", "gh2010", "--walk-in", "1"], "walk-in 1.0 s is outside 2-30 s"),
 ])
 def test_reflex_errors_are_one_line(tmp_path, capsys, argv, message):
     assert main([*argv, "--out", str(tmp_path / "o")]) == 2
@@ -101,3 +104,13 @@ def test_a_network_whose_tick_the_time_step_does_not_divide(tmp_path, capsys):
                  "--out", str(tmp_path / "o")]) == 2
     assert "ticks every 0.333333 ms: the time step (1 ms) must divide it" in \
         capsys.readouterr().err
+
+
+def test_a_gh2010_trip_in_its_own_gait_from_the_command_line(tmp_path, capsys):
+    out = tmp_path / "own"
+    assert main(["trip", "--controller", "gh2010", "--swing", "0.13", "--walk-in", "2.5",
+                 "--duration", "1", "--no-video", "--out", str(out)]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    assert s["start"] == "own" and s["strategy"] == "elevating"
+    assert s["walk_in"]["toe_off_s"] >= 2.5 and 1.0 <= s["walk_in"]["stride_s"] <= 1.4
+    assert "elevating strategy" in capsys.readouterr().out

@@ -205,7 +205,8 @@ GAIN_RANGE = (0.2, 5.0)
 # these
 SCR_BOUNDS = {"g_scr_ham": (0.0, 1.0), "g_scr_ta": (0.0, 1.0), "g_scr_flex": (0.0, 1.0),
               "g_scr_sol": (0.0, 1.0), "g_scr_gas": (0.0, 1.0), "g_scr_glu": (0.0, 1.0),
-              "scr_hold_s": (0.05, 0.5)}
+              "g_scr_vas": (0.0, 1.0), "scr_hold_s": (0.05, 0.5),
+              "scr_vas_after_s": (0.0, 0.4)}
 SCR_MIN_SCALE = 0.15
 
 
@@ -322,37 +323,52 @@ GH2010_SIGMA_TRIPS = 0.3  # the trip stage starts from a walker: smaller steps
 
 
 SEED003_STAGES = ((100, 10.0, ()),)  # the network's expert: walking, from the shipped GH2010
+# The trip stage (``fit_gh2010(trips=True)``): from the walking fit, the GH2010 gains and
+# the stumbling corrective reflex's on a 10 s walk and four obstacle trips in the walker's
+# own gait (``Scenario.start`` own), two per strategy window and one per start speed
+TRIP_STAGES = ((60, 10.0, ((0.1, 1.2), (0.3, 1.0), (0.6, 1.4), (0.72, 1.2))),)
+TRIP_SIGMA = 0.4
+SCR_START = 0.2  # every gain of the stumbling corrective reflex starts here
 
 
 def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                workers: int = 1, out: Path | None = None, progress=None,
-               wiring: str = "gh2010") -> FitResult:
+               wiring: str = "gh2010", trips: bool = False, start=None) -> FitResult:
     """Optimise the GH2010 gains in closed loop: per stage (generations, walk s, obstacle
     trips), CMA-ES on ``walk_cost`` plus, for each trip, ``W_TRIP`` times the part of the
     3 s after it not walked on. ``wiring`` ``gh2010`` starts from the paper's values
     (stages ``GH2010_STAGES``); ``seed003`` (the network's expert) from the shipped
-    ``gh2010`` parameters (``SEED003_STAGES``). Writes ``gh2010.json`` to ``out`` (the
-    best parameters and the fit's figures) when given."""
+    ``gh2010`` parameters (``SEED003_STAGES``). ``trips``: the trip stage
+    (``TRIP_STAGES``) from ``start`` (default the shipped walking fit), with the
+    stumbling corrective reflex's gains (from ``SCR_START``). Writes ``gh2010.json`` to
+    ``out`` (the best parameters and the fit's figures) when given."""
     from dataclasses import replace
 
-    from stumble.control.reflex.gh2010 import GH2010Params, shipped_params
+    from stumble.control.reflex.gh2010 import SCR_GAINS, GH2010Params, shipped_params
 
-    if wiring == "gh2010":
+    if trips:
+        params = start or shipped_params("gh2010", walking_only=True)
+        params = replace(params, **{n: getattr(params, n) or SCR_START for n in SCR_GAINS})
+        stages = stages or TRIP_STAGES
+    elif wiring == "gh2010":
         params, stages = GH2010Params(), stages or GH2010_STAGES
     else:
-        params = replace(shipped_params("gh2010"), wiring=wiring)
+        params = replace(shipped_params("gh2010", walking_only=True), wiring=wiring)
         stages = stages or SEED003_STAGES
     total, evaluations, wall, res = 0, 0, 0.0, None
     history: list[dict] = []
+    with_trips = trips
     for k, (gens, walk_s, trips) in enumerate(stages):
-        space = gh2010_space(params)
+        space = gh2010_space(params, stumble_reflex=with_trips)
         first = k == 0 and wiring == "gh2010"
+        sigma = (TRIP_SIGMA if with_trips else GH2010_SIGMA if first else GH2010_SIGMA_TRIPS)
+        fixed = {n: v for n, v in params.to_json().items() if n not in space.names}
         res = cma_fit(evaluate_walk, space, seed=seed + k, generations=gens,
-                      popsize=popsize, sigma=GH2010_SIGMA if first else GH2010_SIGMA_TRIPS,
+                      popsize=popsize, sigma=sigma,
                       workers=workers, out=out, progress=progress,
                       initializer=init_walk_eval,
                       initargs=("gh2010", walk_s, GH2010_SPEED_M_PER_S,
-                                {"wiring": wiring}, trips),
+                                fixed if with_trips else {"wiring": wiring}, trips),
                       first_generation=total, stage="walk" if not trips else "walk+trips")
         params = replace(params, **dict(zip(space.names, map(float, res.best_theta),
                                             strict=True)))
@@ -369,13 +385,16 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                                 "trips": [{"swing_fraction": a, "speed_m_per_s": b}
                                           for a, b in t]} for g, w, t in stages],
                     "population": popsize, "evaluations": evaluations,
-                    "sigma0": [GH2010_SIGMA, GH2010_SIGMA_TRIPS],
+                    "sigma0": [TRIP_SIGMA] if with_trips else [GH2010_SIGMA,
+                                                               GH2010_SIGMA_TRIPS],
+                    "from": "the shipped walking fit" if with_trips and start is None else
+                            "--params" if with_trips else "the paper",
                     "start_speed_m_per_s": GH2010_SPEED_M_PER_S,
                     "cost": res.best_cost, "terms": res.best_terms,
                     "wall_time_s": round(wall, 1),
                     "wiring": wiring,
                     "command": f"stumble reflex fit --controller gh2010 --wiring {wiring} "
-                               f"--seed {seed} --out DIR"}})
+                               f"{'--trips ' if with_trips else ''}--seed {seed} --out DIR"}})
     return res
 
 

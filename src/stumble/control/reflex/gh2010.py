@@ -64,9 +64,11 @@ WIRINGS = ("gh2010", "seed003")
 # plantarflexors and gluteus (Pijnappels et al. 2005). One pathway at every phase: which
 # strategy follows is left to the mechanics. The touch is the foot's contact with the
 # obstacle (the only thing that touches a foot but the floor), read through a delay tap.
-SCR_GAINS = ("g_scr_ham", "g_scr_ta", "g_scr_flex", "g_scr_sol", "g_scr_gas", "g_scr_glu")
+SCR_GAINS = ("g_scr_ham", "g_scr_ta", "g_scr_flex", "g_scr_sol", "g_scr_gas", "g_scr_glu",
+             "g_scr_vas")
 # optimised parameters shipped in stumble/control/reflex/data/, per wiring
 SHIPPED = {"gh2010": "gh2010.json", "seed003": "gh2010_seed003.json"}
+SHIPPED_WALKING: dict[str, str] = {}  # the walking fits, where the shipped one has trips
 
 
 @dataclass(frozen=True)
@@ -110,6 +112,9 @@ class GH2010Params:
     g_scr_sol: float = 0.0  # the other (support) leg: Pijnappels et al. 2005
     g_scr_gas: float = 0.0
     g_scr_glu: float = 0.0
+    g_scr_vas: float = 0.0  # the tripped leg's knee extensor, scr_vas_after_s later
+    scr_vas_after_s: float = 0.1  # s after the flexors' onset (our choice; Eng et al.
+    # 1994's lowering response is a knee extensor's, RF, 50-100 ms after the trip)
     delay_scale: float = 1.0  # every delay multiplied by this
     wiring: str = "gh2010"  # "gh2010" or "seed003" (see GH2010Controller)
 
@@ -171,10 +176,14 @@ def load_params(path) -> GH2010Params:
     return GH2010Params.from_json(obj["params"])
 
 
-def shipped_params(wiring: str = "gh2010") -> GH2010Params:
+def shipped_params(wiring: str = "gh2010", walking_only: bool = False) -> GH2010Params:
     """The closed-loop-optimised parameters shipped with stumble for a wiring (the
-    paper's if none is shipped)."""
-    path = resources.files("stumble.control.reflex") / "data" / SHIPPED[wiring]
+    paper's if none is shipped); ``walking_only``: the walking fit the trip stage starts
+    from (``SHIPPED_WALKING``), where one is shipped apart."""
+    name = SHIPPED[wiring]
+    if walking_only and wiring in SHIPPED_WALKING:
+        name = SHIPPED_WALKING[wiring]
+    path = resources.files("stumble.control.reflex") / "data" / name
     if not path.is_file():
         return GH2010Params(wiring=wiring)
     return replace(GH2010Params.from_json(json.loads(path.read_text())["params"]),
@@ -350,6 +359,10 @@ class GH2010Controller:
                                ("GLU", p.g_scr_glu)):
                 w[leg, 1 - leg, ix[name]] += gain
         self._w_scr = w
+        self._scr_vas_after = round(p.scr_vas_after_s * p.delay_scale / dt)
+        self._w_scr_vas = np.zeros((2, 2, nm))
+        for leg in range(2):
+            self._w_scr_vas[leg, leg, ix["VAS"]] = p.g_scr_vas
         self._f_cols = [ix[k] for k in ("GAS", "VAS", "GLU", "HAMS")]
         self._l_cols = [ix["TA"], ix[self.flexor]]
         self._l_offs = np.array([p.l_off_ta, p.l_off_hfl])
@@ -468,7 +481,8 @@ class GH2010Controller:
 
     def _stumble(self, x: np.ndarray) -> np.ndarray:
         """The stumbling corrective reflex (n, 2, nm): for ``scr_hold_s`` after each
-        sensed touch of a foot (``SCR_GAINS``)."""
+        sensed touch of a foot (``SCR_GAINS``), the knee extensor from
+        ``scr_vas_after_s`` after it for as long."""
         touched = x[:, self._iTouch] > 0.0  # (n, 2)
         n = len(x)
         k = np.arange(n)[:, None]
@@ -477,7 +491,10 @@ class GH2010Controller:
         since = np.where(last >= 0, k - last, self._scr_since + 1 + k)
         self._scr_since = since[-1].astype(float)
         on = (since < self._scr_hold).astype(float)  # (n, 2)
-        return np.einsum("nt,tlm->nlm", on, self._w_scr)
+        late = ((since >= self._scr_vas_after)
+                & (since < self._scr_vas_after + self._scr_hold)).astype(float)
+        return (np.einsum("nt,tlm->nlm", on, self._w_scr)
+                + np.einsum("nt,tlm->nlm", late, self._w_scr_vas))
 
     def _vestibular(self, x: np.ndarray) -> np.ndarray:
         """The trunk-lean laws (n, 2, nm): stance hips k_p(θ − θ_ref) + k_d θ̇ rectified,
