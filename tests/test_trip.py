@@ -76,5 +76,5 @@ def test_start_own_is_for_walkers_and_the_walk_in_is_bounded():
         Scenario(controller="fsm", start="own").validated()
     with pytest.raises(InputError, match="start 'walk'"):
         Scenario(controller="gh2010", start="walk").validated()
-    with pytest.raises(InputError, match="walk-in 1.0 s is outside 2-30 s"):
+    with pytest.raises(InputError, match=r"walk-in 1\.0 s is outside 2-30 s"):
         Scenario(controller="gh2010", walk_in_s=1.0).validated()

@@ -204,7 +204,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     else:
         t_start = trip_time(pb.events, sc.side, sc.swing_fraction, after_s=WALK_BEFORE_TRIP_S)
     qpos, qvel = pb.state_at(t_start)
-    front, low, lane = _toe_front(base, qpos, sc.side)
+    front, _low, lane = _toe_front(base, qpos, sc.side)
     obstacle = None
     if sc.mechanism == "obstacle":
         # own start: built parked under the floor, placed at the trip (``_place_obstacle``)
@@ -235,7 +235,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
         if walk_rec.stop_reason != "trip":
             return _no_trip(sc, controller, walk_rec, walk_in, body, pb)
         qpos = d.qpos.copy()
-        front, low, lane = _toe_front(body, qpos, sc.side)
+        front = _toe_front(body, qpos, sc.side)[0]
         if sc.mechanism == "obstacle":
             _place_obstacle(m, d, _obstacle_at(body, qpos, sc, who=f"the {sc.controller} "
                                                "walker's"))
