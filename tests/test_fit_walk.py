@@ -87,3 +87,23 @@ def test_a_fit_is_reproduced_from_its_seed_whatever_the_workers():
     other = cma_fit(evaluate_walk, space, seed=6, generations=1, popsize=4,
                     initializer=init_walk_eval, initargs=("gh2010", 1.0, 1.2, {}))
     assert not np.array_equal(other.best_theta, runs[0][1])
+
+
+def test_the_trip_stage_fits_the_stumbling_reflex_from_the_walking_fit(tmp_path):
+    """One generation of four candidates, each a 2 s walk and a trip in its own gait:
+    the space adds the stumbling corrective reflex, which starts on, and the result says
+    how to reproduce it."""
+    import json
+
+    from stumble.control.reflex.fit_walk import SCR_BOUNDS, fit_gh2010
+    from stumble.control.reflex.gh2010 import SCR_GAINS, load_params
+
+    assert not set(SCR_BOUNDS) & set(gh2010_space().names)  # walking fits: not in it
+    res = fit_gh2010(seed=2, stages=((1, 2.0, ((0.1, 1.2),)),), popsize=4, trips=True,
+                     out=tmp_path)
+    assert set(SCR_BOUNDS) <= set(res.space.names)
+    assert "trip_0.1_1.2" in res.best_terms
+    fitted = load_params(tmp_path / "gh2010.json")
+    assert all(getattr(fitted, n) > 0.0 for n in SCR_GAINS)
+    fit = json.loads((tmp_path / "gh2010.json").read_text())["fit"]
+    assert "--trips" in fit["command"] and fit["from"] == "the shipped walking fit"

@@ -222,6 +222,12 @@ def _parser() -> argparse.ArgumentParser:
                       "seed003-wired GH2010 expert (shipped as --network closed-loop)")
     f.add_argument("--passes", type=int, default=None, metavar="N",
                    help="network, --closed-loop: DAgger passes (default 8)")
+    f.add_argument("--trips", action="store_true",
+                   help="gh2010: the trip stage: from the shipped walking fit (or --params "
+                   "FILE), its gains and the stumbling corrective reflex's on a 10 s walk "
+                   "and four obstacle trips in its own gait (60 generations)")
+    f.add_argument("--params", type=Path, default=None, metavar="FILE",
+                   help="gh2010 --trips: the gh2010.json to start from")
     f.add_argument("--wiring", choices=("gh2010", "seed003"), default="gh2010",
                    help="gh2010: the paper's laws and delays (default), or seed003: the "
                    "laws the network can express on its nerves (the network's expert)")
@@ -539,10 +545,25 @@ def cmd_reflex_fit_gh2010(args) -> int:
     """``stumble reflex fit --controller gh2010``: the closed-loop CMA-ES of its gains."""
     import os
 
-    from stumble.control.reflex.fit_walk import GH2010_STAGES, SEED003_STAGES, fit_gh2010
+    from stumble.control.reflex.fit_walk import (
+        GH2010_STAGES,
+        SEED003_STAGES,
+        TRIP_STAGES,
+        fit_gh2010,
+    )
     from stumble.outputs import prepare_dir, write_gh2010_fit
 
-    stages = GH2010_STAGES if args.wiring == "gh2010" else SEED003_STAGES
+    if args.trips and args.wiring != "gh2010":
+        raise InputError("--trips is for --wiring gh2010")
+    if args.params is not None and not args.trips:
+        raise InputError("--params is for --trips (the fit to start from)")
+    start = None
+    if args.params is not None:
+        from stumble.control.reflex.gh2010 import load_params
+
+        start = load_params(args.params)
+    stages = (TRIP_STAGES if args.trips else GH2010_STAGES if args.wiring == "gh2010"
+              else SEED003_STAGES)
     if args.generations is not None:  # the same stages, shortened (a quick look)
         if args.generations < 1:
             raise InputError(f"--generations must be at least 1, got {args.generations}")
@@ -556,7 +577,7 @@ def cmd_reflex_fit_gh2010(args) -> int:
     bar = _Progress("fitting gh2010", sys.stderr.isatty())
     res = fit_gh2010(seed=args.seed, stages=stages, workers=workers, out=out,
                      progress=lambda row: bar(row["generation"] + 1, gens),
-                     wiring=args.wiring)
+                     wiring=args.wiring, trips=args.trips, start=start)
     bar.done()
     written, walk = write_gh2010_fit(out, res)
     s = walk.summary
@@ -572,6 +593,8 @@ def cmd_reflex(args) -> int:
         return cmd_reflex_walk(args)
     if args.controller == "gh2010":
         return cmd_reflex_fit_gh2010(args)
+    if args.trips or args.params is not None:
+        raise InputError("--trips and --params are for --controller gh2010")
     from stumble.control.reflex.identify import ITERATIONS, REFINE_ITERATIONS, fit
     from stumble.outputs import prepare_dir, write_fit
 

@@ -204,7 +204,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     else:
         t_start = trip_time(pb.events, sc.side, sc.swing_fraction, after_s=WALK_BEFORE_TRIP_S)
     qpos, qvel = pb.state_at(t_start)
-    front, _low, lane = _toe_front(base, qpos, sc.side)
+    front, low, lane = _toe_front(base, qpos, sc.side)
     obstacle = None
     if sc.mechanism == "obstacle":
         # own start: built parked under the floor, placed at the trip (``_place_obstacle``)
@@ -235,7 +235,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
         if walk_rec.stop_reason != "trip":
             return _no_trip(sc, controller, walk_rec, walk_in, body, pb)
         qpos = d.qpos.copy()
-        front = _toe_front(body, qpos, sc.side)[0]
+        front, low, _lane = _toe_front(body, qpos, sc.side)
         if sc.mechanism == "obstacle":
             _place_obstacle(m, d, _obstacle_at(body, qpos, sc, who=f"the {sc.controller} "
                                                "walker's"))
@@ -263,6 +263,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     summary = _summary(sc, strategy, controller, rec, stop, body, ctx.t0 if own else t_start,
                        before, stride, reference)
     summary["start"] = sc.start
+    summary["toe_height_at_trip_m"] = round(low, 4)  # the tripped foot's lowest point
     if walk_in is not None:
         summary["walk_in"] = walk_in
     states = list(controller.log)
