@@ -48,10 +48,18 @@ def trip_motion(result: TripResult, before_s: float = WALK_SHOWN_S) -> tuple[np.
     """Times (s, 0 at the trip) and qpos of a trip with ``before_s`` of its walk before it.
 
     The walk is the playback at the recording's sample interval, so the whole motion is
-    uniformly sampled (for BVH)."""
+    uniformly sampled (for BVH); a trip in the controller's own gait (start own) shows
+    the end of that walk, and a walk that never reached the trip all of it."""
     rec = result.recording
-    dt = float(np.mean(np.diff(rec.time_s))) if len(rec.time_s) > 1 else 0.005
     t_trip = result.summary["trip_time_s"]
+    if t_trip is None:  # start own, no trip: the walk itself
+        return rec.time_s, rec.qpos
+    own = result.walk_recording
+    if own is not None:
+        t = own.time_s - t_trip
+        keep = (t >= -before_s - 1e-9) & (t < -1e-9)
+        return np.concatenate([t[keep], rec.time_s]), np.vstack([own.qpos[keep], rec.qpos])
+    dt = float(np.mean(np.diff(rec.time_s))) if len(rec.time_s) > 1 else 0.005
     k = int(np.floor(min(before_s, t_trip - result.playback.time_s[0]) / dt + 1e-9))
     t_walk = -dt * np.arange(k, 0, -1)
     walk_q = [result.playback.state_at(t_trip + t)[0] for t in t_walk]
@@ -119,10 +127,13 @@ def write_media(out: Path, result: TripResult, video: bool, progress: bool) -> l
     title = (f"{s['strategy']} ({s['variant']}), {s['mechanism']} trip at "
              f"{s['swing_fraction']:.2f} of swing, {s['speed_m_per_s']} m/s: "
              f"{'recovered' if s['recovered'] else 'fell' if s['fell'] else 'no recovery'}")
+    tripped = s["trip_time_s"] is not None
+    if not tripped:  # start own: the walk never reached the trip
+        title = f"no trip: the {s['controller']} walker {s['stop_reason']}"
     plot_trajectories(out / "trajectories.png", result.body.model, rec.time_s, rec.qpos,
                       result.scenario.side, s["strategy"], result.states, title)
     written = ["trajectories.png"]
-    if result.scenario.controller in ("reflex", "gh2010"):
+    if result.scenario.controller in ("reflex", "gh2010") and tripped:
         write_muscle_tensions(out, result)
         written.append("muscle_tensions.png")
     if not video:
@@ -177,7 +188,14 @@ def write_muscle_tensions(out: Path, result: TripResult) -> None:
     net = result.network or default_network()
     t_walk = np.arange(TENSION_WINDOW_S[0], TENSION_WINDOW_S[1], 0.002)
     f_walk = np.full((len(t_walk), 2, len(muscles)), np.nan)
-    if net.walk_rates is not None and net.topology.muscles == muscles:
+    own = result.walk_recording
+    if own is not None and s.get("walking_stride_s"):  # its own walk, one stride earlier
+        t0 = s["trip_time_s"] - s["walking_stride_s"]
+        for col, row in enumerate(ids):
+            for j, a in enumerate(row):
+                f_walk[:, col, j] = np.interp(t0 + t_walk, own.time_s,
+                                              -own.actuator_force[:, a])
+    elif net.walk_rates is not None and net.topology.muscles == muscles:
         T = net.walk_rates.shape[1]
         phase = _phase(result.playback, s["trip_time_s"]) + t_walk / result.playback.stride_s
         k = np.round(phase * T).astype(int) % T

@@ -59,6 +59,7 @@ class TripResult:
     scenario: Scenario
     states: list[tuple[str, float]] = field(default_factory=list)
     network: object = None  # the reflex network that ran (reflex controller only)
+    walk_recording: Recording | None = None  # start own: the controller's walk to the trip
 
 
 def _toe_front(body: Body, qpos: np.ndarray, side: str) -> tuple[float, float, float]:
@@ -279,7 +280,8 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
         summary["tripped_foot_down_x_m"] = (None if stop.tripped_down_x is None else
                                             round(stop.tripped_down_x - float(qpos[0]), 4))
     return TripResult(summary, rec, body, pb, sc, states,
-                      controller.net if sc.controller == "reflex" else None)
+                      controller.net if sc.controller == "reflex" else None,
+                      walk_rec if own else None)
 
 
 WALK_IN_MARGIN_S = 3.0  # own start: the trip's swing must begin within this after walk_in_s
