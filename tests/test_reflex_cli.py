@@ -114,3 +114,18 @@ def test_a_gh2010_trip_in_its_own_gait_from_the_command_line(tmp_path, capsys):
     assert s["start"] == "own" and s["strategy"] == "elevating"
     assert s["walk_in"]["toe_off_s"] >= 2.5 and 1.0 <= s["walk_in"]["stride_s"] <= 1.4
     assert "elevating strategy" in capsys.readouterr().out
+
+
+def test_the_closed_loop_network_tripped_in_its_own_gait_writes_uniform_motion(tmp_path):
+    """Its 17 ms blocks put the trip off the 5 ms sample grid of its walk: the walk shown
+    before the trip is resampled, so motion.bvh (uniform frames) is written."""
+    out = tmp_path / "net"
+    assert main(["trip", "--controller", "reflex", "--network", "closed-loop", "--start",
+                 "own", "--walk-in", "2", "--swing", "0.15", "--duration", "0.5",
+                 "--no-video", "--out", str(out)]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    assert s["start"] == "own" and s["walk_in"]["toe_off_s"] >= 2.0
+    from stumble.gait.bvh import read_bvh
+
+    bvh = read_bvh(out / "motion.bvh")
+    assert bvh.frame_time_s > 0 and bvh.n_frames > 100

@@ -54,12 +54,15 @@ def trip_motion(result: TripResult, before_s: float = WALK_SHOWN_S) -> tuple[np.
     t_trip = result.summary["trip_time_s"]
     if t_trip is None:  # start own, no trip: the walk itself
         return rec.time_s, rec.qpos
-    own = result.walk_recording
-    if own is not None:
-        t = own.time_s - t_trip
-        keep = (t >= -before_s - 1e-9) & (t < -1e-9)
-        return np.concatenate([t[keep], rec.time_s]), np.vstack([own.qpos[keep], rec.qpos])
     dt = float(np.mean(np.diff(rec.time_s))) if len(rec.time_s) > 1 else 0.005
+    own = result.walk_recording
+    if own is not None:  # its samples need not fall on the trip's grid: interpolated
+        t = own.time_s - t_trip
+        k = int(np.floor(min(before_s, -t[0]) / dt + 1e-9))
+        t_walk = -dt * np.arange(k, 0, -1)
+        walk_q = np.stack([np.interp(t_walk, t, own.qpos[:, j])
+                           for j in range(own.qpos.shape[1])], axis=1)
+        return np.concatenate([t_walk, rec.time_s]), np.vstack([walk_q, rec.qpos])
     k = int(np.floor(min(before_s, t_trip - result.playback.time_s[0]) / dt + 1e-9))
     t_walk = -dt * np.arange(k, 0, -1)
     walk_q = [result.playback.state_at(t_trip + t)[0] for t in t_walk]
