@@ -127,7 +127,8 @@ def _parser() -> argparse.ArgumentParser:
                    "musculoskeletal human; gh2010: Geyer & Herr 2010's reflexes on that "
                    "body (the reflex controllers' strategy emerges)")
     t.add_argument("--params", type=Path, metavar="FILE",
-                   help="gh2010 controller: a gh2010.json (default: the shipped parameters)")
+                   help="gh2010 controller: a gh2010.json, or walk: the shipped walking fit "
+                   "(default: the shipped trip fit)")
     t.add_argument("--network", type=Path, metavar="FILE",
                    help="reflex controller: a network.npz from `stumble reflex fit`, or "
                    "closed-loop: the shipped closed-loop refinement (default: the shipped "
@@ -249,7 +250,8 @@ def _parser() -> argparse.ArgumentParser:
                     "closed-loop refinement (default: the shipped open-loop network)")
     rw.add_argument("--params", type=Path, metavar="FILE",
                     help="gh2010 controller: a gh2010.json from `stumble reflex fit "
-                    "--controller gh2010` (default: the shipped parameters)")
+                    "--controller gh2010`, or walk: the shipped walking fit (default: the "
+                    "shipped trip fit)")
     rw.add_argument("--duration", type=_positive("duration"), default=20.0, metavar="S",
                     help="seconds to walk at most (default 20)")
     rw.add_argument("--speed", type=float, default=None, metavar="V",
@@ -557,11 +559,22 @@ def cmd_reflex_fit_gh2010(args) -> int:
         raise InputError("--trips is for --wiring gh2010")
     if args.params is not None and not args.trips:
         raise InputError("--params is for --trips (the fit to start from)")
-    start = None
+    start = start_fit = None
     if args.params is not None:
+        import json
+
         from stumble.control.reflex.gh2010 import load_params
 
         start = load_params(args.params)
+        if str(args.params) == "walk":
+            from importlib import resources
+
+            from stumble.control.reflex.gh2010 import SHIPPED_WALKING
+
+            src = resources.files("stumble.control.reflex") / "data" / SHIPPED_WALKING["gh2010"]
+        else:
+            src = args.params
+        start_fit = json.loads(src.read_text()).get("fit")
     stages = (TRIP_STAGES if args.trips else GH2010_STAGES if args.wiring == "gh2010"
               else SEED003_STAGES)
     if args.generations is not None:  # the same stages, shortened (a quick look)
@@ -577,7 +590,8 @@ def cmd_reflex_fit_gh2010(args) -> int:
     bar = _Progress("fitting gh2010", sys.stderr.isatty())
     res = fit_gh2010(seed=args.seed, stages=stages, workers=workers, out=out,
                      progress=lambda row: bar(row["generation"] + 1, gens),
-                     wiring=args.wiring, trips=args.trips, start=start)
+                     wiring=args.wiring, trips=args.trips, start=start,
+                     start_fit=start_fit)
     bar.done()
     written, walk = write_gh2010_fit(out, res)
     s = walk.summary

@@ -333,14 +333,16 @@ SCR_START = 0.2  # every gain of the stumbling corrective reflex starts here
 
 def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                workers: int = 1, out: Path | None = None, progress=None,
-               wiring: str = "gh2010", trips: bool = False, start=None) -> FitResult:
+               wiring: str = "gh2010", trips: bool = False, start=None,
+               start_fit: dict | None = None) -> FitResult:
     """Optimise the GH2010 gains in closed loop: per stage (generations, walk s, obstacle
     trips), CMA-ES on ``walk_cost`` plus, for each trip, ``W_TRIP`` times the part of the
     3 s after it not walked on. ``wiring`` ``gh2010`` starts from the paper's values
     (stages ``GH2010_STAGES``); ``seed003`` (the network's expert) from the shipped
     ``gh2010`` parameters (``SEED003_STAGES``). ``trips``: the trip stage
-    (``TRIP_STAGES``) from ``start`` (default the shipped walking fit), with the
-    stumbling corrective reflex's gains (from ``SCR_START``). Writes ``gh2010.json`` to
+    (``TRIP_STAGES``) from ``start`` (default the shipped walking fit; ``start_fit``: how
+    ``start`` was found, recorded with the result), with the stumbling corrective reflex's
+    gains (from ``SCR_START`` where they are off). Writes ``gh2010.json`` to
     ``out`` (the best parameters and the fit's figures) when given."""
     from dataclasses import replace
 
@@ -387,8 +389,9 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                     "population": popsize, "evaluations": evaluations,
                     "sigma0": [TRIP_SIGMA] if with_trips else [GH2010_SIGMA,
                                                                GH2010_SIGMA_TRIPS],
-                    "from": "the shipped walking fit" if with_trips and start is None else
-                            "--params" if with_trips else "the paper",
+                    "from": ("the shipped walking fit" if with_trips and start is None else
+                             {"params": "--params", "its_fit": start_fit} if with_trips
+                             else "the paper"),
                     "start_speed_m_per_s": GH2010_SPEED_M_PER_S,
                     "cost": res.best_cost, "terms": res.best_terms,
                     "wall_time_s": round(wall, 1),

@@ -68,7 +68,8 @@ SCR_GAINS = ("g_scr_ham", "g_scr_ta", "g_scr_flex", "g_scr_sol", "g_scr_gas", "g
              "g_scr_vas")
 # optimised parameters shipped in stumble/control/reflex/data/, per wiring
 SHIPPED = {"gh2010": "gh2010.json", "seed003": "gh2010_seed003.json"}
-SHIPPED_WALKING: dict[str, str] = {}  # the walking fits, where the shipped one has trips
+# the walking fit the shipped GH2010 trip fit started from (``--params walk``)
+SHIPPED_WALKING: dict[str, str] = {"gh2010": "gh2010_walk.json"}
 
 
 @dataclass(frozen=True)
@@ -161,9 +162,12 @@ class GH2010Params:
 
 
 def load_params(path) -> GH2010Params:
-    """Parameters from a ``gh2010.json`` (a fit's result); InputError if it is not one."""
+    """Parameters from a ``gh2010.json`` (a fit's result), or ``walk``: the shipped
+    walking fit (``SHIPPED_WALKING``); InputError if it is not one."""
     from pathlib import Path
 
+    if str(path) == "walk":
+        return shipped_params("gh2010", walking_only=True)
     path = Path(path)
     if not path.is_file():
         raise InputError(f"GH2010 parameter file {path} does not exist or is not a file")
