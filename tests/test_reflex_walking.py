@@ -25,9 +25,15 @@ def test_gh2010_walks_five_seconds_without_falling(wiring):
     ("gh2010", 0.13, "elevating"), ("gh2010", 0.56, "lowering")])
 def test_gh2010_takes_the_seeds_strategies_without_being_told(controller, swing, strategy):
     """Seed 003's CASE 1 (0.13 of swing) and CASE 2 (0.56), obstacle, 1.2 m/s."""
-    for start in ("playback", "own"):  # the seed's instants; the same in its own gait
+    from stumble.control.reflex.gh2010 import shipped_params
+
+    # the seed's instants of the recording, with the walking fit (the trip fit takes
+    # neither strategy at 0.56 from the recording: its foot is not down before the fall);
+    # the same fractions of its own swing, with the shipped trip fit
+    for start, params in (("playback", shipped_params(walking_only=True)), ("own", None)):
         r = simulate_trip(Scenario(controller=controller, mechanism="obstacle",
-                                   swing_fraction=swing, speed_m_per_s=1.2, start=start))
+                                   swing_fraction=swing, speed_m_per_s=1.2, start=start),
+                          gh2010=params)
         assert r.summary["strategy"] == strategy, start
         assert [st["name"] for st in r.summary["states"]] == ["reflex"]  # never switched
 
@@ -44,6 +50,16 @@ def test_gh2010_walks_on_untripped_in_its_own_gait_but_not_taking_over_mid_strid
     played = simulate_trip(Scenario(controller="gh2010", mechanism="force", force=none,
                                     swing_fraction=0.2, start="playback")).summary
     assert played["fell"] and played["fall_time_s"] < 1.0
+
+
+@pytest.mark.parametrize("swing", [0.05, 0.25])
+def test_gh2010_recovers_from_early_swing_trips_in_its_own_gait(swing):
+    """The shipped trip fit, a 10 cm obstacle, 1.2 m/s start: elevating, still walking
+    3 s after the trip (README "The strategies emerge": 15 of the 45 trips recover)."""
+    s = simulate_trip(Scenario(controller="gh2010", mechanism="obstacle",
+                               swing_fraction=swing)).summary
+    assert s["strategy"] == "elevating" and s["recovered"] and not s["fell"]
+    assert s["sim_time_s"] == pytest.approx(3.0)
 
 
 def test_own_start_trips_at_the_fraction_of_the_walkers_own_swing():
