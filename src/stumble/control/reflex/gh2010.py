@@ -351,7 +351,8 @@ class GH2010Controller:
                       g([("ds_x", leg) for leg in range(2)])) if ds is not None else None)
         self._iLean, self._iLeanV = at["lean"], at["lean_v"]
         self._iTouch = g([("touch", leg) for leg in range(2)])
-        self._scr = p.stumble_reflex
+        # (a model without an obstacle is never touched: nothing to add)
+        self._scr = p.stumble_reflex and self.lay.obstacle_found is not None
         self._scr_hold = max(1, round(p.scr_hold_s * p.delay_scale / dt))
         self._scr_since = np.full(2, np.inf)  # ticks since each foot's last (sensed) touch
         w = np.zeros((2, 2, nm))  # (touched leg, leg, muscle)
