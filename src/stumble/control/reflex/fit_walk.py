@@ -236,11 +236,12 @@ _EVAL: dict = {}
 
 
 def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dict,
-                   trips: tuple = ()) -> None:
+                   trips: tuple = (), stumble_reflex: bool = False) -> None:
     """Worker set-up: what ``evaluate_walk`` simulates: a walk, and the obstacle trips
-    ``trips`` ((swing fraction, speed) pairs) the walker must walk on from."""
+    ``trips`` ((swing fraction, speed) pairs) the walker must walk on from; GH2010
+    candidates in ``gh2010_space(stumble_reflex=...)``."""
     _EVAL.update(kind=kind, duration_s=duration_s, speed=speed_m_per_s, base=base,
-                 trips=tuple(trips))
+                 trips=tuple(trips), stumble_reflex=stumble_reflex)
 
 
 def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
@@ -251,7 +252,7 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
     if kind == "gh2010":
         from stumble.control.reflex.gh2010 import GH2010Params
 
-        names = gh2010_space(stumble_reflex=len(theta) > len(gh2010_space().names)).names
+        names = gh2010_space(stumble_reflex=_EVAL.get("stumble_reflex", False)).names
         params = GH2010Params(**{**_EVAL["base"],
                                  **dict(zip(names, map(float, theta), strict=True))})
         r = simulate_walk("gh2010", _EVAL["duration_s"], _EVAL["speed"], params=params)
@@ -342,7 +343,9 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     ``gh2010`` parameters (``SEED003_STAGES``). ``trips``: the trip stage
     (``TRIP_STAGES``) from ``start`` (default the shipped walking fit; ``start_fit``: how
     ``start`` was found, recorded with the result), with the stumbling corrective reflex's
-    gains (from ``SCR_START`` where they are off). Writes ``gh2010.json`` to
+    gains: each at zero in ``start`` (never fitted, or fitted to its lower bound) restarts
+    at ``SCR_START``, so that a later stage explores it again (the shipped second stage
+    restarted the hip flexor's, zero after the first). Writes ``gh2010.json`` to
     ``out`` (the best parameters and the fit's figures) when given."""
     from dataclasses import replace
 
@@ -370,7 +373,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                       workers=workers, out=out, progress=progress,
                       initializer=init_walk_eval,
                       initargs=("gh2010", walk_s, GH2010_SPEED_M_PER_S,
-                                fixed if with_trips else {"wiring": wiring}, trips),
+                                fixed if with_trips else {"wiring": wiring}, trips,
+                                with_trips),
                       first_generation=total, stage="walk" if not trips else "walk+trips")
         params = replace(params, **dict(zip(space.names, map(float, res.best_theta),
                                             strict=True)))
