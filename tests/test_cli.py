@@ -171,6 +171,11 @@ def _one_line_error(r: subprocess.CompletedProcess, *words: str) -> None:
     (["walk", "--out", "OUT", "--speed", "2.5"], ["speed", "2.5"]),
     (["walk", "--out", "OUT", "--speed", "0.2"], ["speed"]),
     (["walk", "--out", "OUT", "--gait", "missing.mot"], ["missing.mot"]),
+    (["reflex", "fit", "--controller", "gh2010", "--trip-set", "wide", "--out", "OUT"],
+     ["--trip-set is for --trips"]),
+    (["reflex", "fit", "--controller", "gh2010", "--scr-phase", "foot", "--out", "OUT"],
+     ["--scr-phase is for --trips"]),
+    (["reflex", "fit", "--scr-phase", "foot", "--out", "OUT"], ["--controller gh2010"]),
 ])
 def test_bad_input_is_one_line_and_non_zero(tmp_path, args, words):
     args = [str(tmp_path / "o") if a == "OUT" else a for a in args]

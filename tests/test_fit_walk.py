@@ -95,15 +95,25 @@ def test_the_trip_stage_fits_the_stumbling_reflex_from_the_walking_fit(tmp_path)
     how to reproduce it."""
     import json
 
-    from stumble.control.reflex.fit_walk import SCR_BOUNDS, fit_gh2010
+    from stumble.control.reflex.fit_walk import SCR_BOUNDS, SCR_EXTENSION, fit_gh2010
     from stumble.control.reflex.gh2010 import SCR_GAINS, load_params
 
     assert not set(SCR_BOUNDS) & set(gh2010_space().names)  # walking fits: not in it
     res = fit_gh2010(seed=2, stages=((1, 2.0, ((0.1, 1.2),)),), popsize=4, trips=True,
                      out=tmp_path)
-    assert set(SCR_BOUNDS) <= set(res.space.names)
+    # the same response at every phase (the walking fit's ``any``): no extension set
+    assert set(SCR_BOUNDS) - set(SCR_EXTENSION) == set(res.space.names) & set(SCR_BOUNDS)
     assert "trip_0.1_1.2" in res.best_terms
     fitted = load_params(tmp_path / "gh2010.json")
-    assert all(getattr(fitted, n) > 0.0 for n in SCR_GAINS)
+    assert all(getattr(fitted, n) > 0.0 for n in SCR_GAINS if n not in SCR_EXTENSION)
+    assert all(getattr(fitted, n) == 0.0 for n in SCR_EXTENSION)
     fit = json.loads((tmp_path / "gh2010.json").read_text())["fit"]
     assert "--trips" in fit["command"] and fit["from"] == "the shipped walking fit"
+    # by the foot's phase: the extension set is fitted too, and the command says so
+    res = fit_gh2010(seed=2, stages=((1, 2.0, ((0.1, 1.2),)),), popsize=4, trips=True,
+                     out=tmp_path, scr_phase="foot")
+    assert set(SCR_BOUNDS) <= set(res.space.names)
+    fitted = load_params(tmp_path / "gh2010.json")
+    assert fitted.scr_phase == "foot" and all(getattr(fitted, n) > 0.0 for n in SCR_GAINS)
+    fit = json.loads((tmp_path / "gh2010.json").read_text())["fit"]
+    assert "--scr-phase foot" in fit["command"] and fit["scr_phase"] == "foot"

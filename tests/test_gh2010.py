@@ -184,3 +184,57 @@ def test_stumble_reflex_excites_the_tripped_legs_flexors_and_the_support_legs_pu
     paper = GH2010Controller(GH2010Params())
     paper.start(Context(m, d, body, Sensors(), 0.0))
     np.testing.assert_allclose(_laws(paper, *args, touch=(0.0, 1.0)), _laws(paper, *args))
+
+
+def test_stumble_reflex_by_foot_phase_reverses_with_where_the_foot_was():
+    """``scr_phase`` foot: a touch with the tripped foot behind the other gives the
+    flexion set (HAMS, TA, HFL); ahead of it, the extension set (RF, SOL, GLU: Eng et al.
+    1994's lowering muscles); the support leg's push in both; the phase held from the
+    touch's onset however the feet move after it; ``any``: both sets at every phase."""
+    body = build(planar=True, actuation="muscles", muscle_set="hfl", obstacle=(
+        1.0, 0.1, 0.1, 0.14, 0.0))
+    m = body.model
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    gains = dict(g_scr_ham=0.11, g_scr_ta=0.12, g_scr_flex=0.13, g_scr_sol=0.14,
+                 g_scr_gas=0.15, g_scr_glu=0.16, g_scr_ext_rf=0.21, g_scr_ext_sol=0.22,
+                 g_scr_ext_glu=0.23, g_scr_ext_ham=0.24)
+
+    def response(phase, x_left, then=None):
+        c = GH2010Controller(GH2010Params(**gains, scr_phase=phase, scr_hold_s=0.3))
+        c.start(Context(m, d, body, Sensors(), 0.0))
+        nm = c.nm
+        F, L = np.full((2, nm), 0.2), np.full((2, nm), 0.8)
+        args = (F, L, np.array([0.3, 0.3]), np.zeros(2), np.zeros(2),
+                np.array([0.0, x_left]), 0.1, 0.0)
+        quiet = _laws(c, *args)
+        c._touched[:] = False  # (``_laws`` fills the delays: the touch starts now)
+        c._scr_since[:] = np.inf
+        du = _laws(c, *args, touch=(0.0, 1.0)) - quiet
+        if then is not None:  # the foot passes the other, the touch goes on: held
+            row = np.concatenate([np.ravel(F), np.ravel(L), [0.3, 0.3], np.zeros(2),
+                                  np.zeros(2), [0.0, then], [0.0, 1.0], [0.0, 0.1]])
+            for _ in range(80):
+                c.delay.push(row[None])
+                u = c._excitations(c.delay.read(1)).reshape(2, nm)
+            du = u - quiet
+        return c.idx, du
+
+    ix, du = response("foot", -0.2)  # the left foot 0.2 m behind the right
+    expect = np.zeros_like(du)
+    expect[1, [ix["HAMS"], ix["TA"], ix["HFL"]]] = [0.11, 0.12, 0.13]
+    expect[0, [ix["SOL"], ix["GAS"], ix["GLU"]]] = [0.14, 0.15, 0.16]
+    np.testing.assert_allclose(du, expect, atol=1e-12)
+    _, held = response("foot", -0.2, then=0.3)
+    np.testing.assert_allclose(held, expect, atol=1e-12)
+    _, du = response("foot", 0.3)  # ahead
+    expect[1] = 0.0
+    expect[1, [ix["RF"], ix["SOL"], ix["GLU"], ix["HAMS"]]] = [0.21, 0.22, 0.23, 0.24]
+    np.testing.assert_allclose(du, expect, atol=1e-12)
+    _, du = response("any", 0.3)
+    expect[1, [ix["HAMS"], ix["TA"], ix["HFL"]]] = [0.11 + 0.24, 0.12, 0.13]
+    np.testing.assert_allclose(du, expect, atol=1e-12)
+    from stumble.errors import InputError
+
+    with pytest.raises(InputError, match="scr_phase 'late' is not one of any, foot"):
+        GH2010Params.from_json({"scr_phase": "late"})

@@ -229,6 +229,13 @@ def _parser() -> argparse.ArgumentParser:
                    "and four obstacle trips in its own gait (60 generations)")
     f.add_argument("--params", type=Path, default=None, metavar="FILE",
                    help="gh2010 --trips: the gh2010.json to start from")
+    f.add_argument("--trip-set", choices=("four", "wide"), default=None,
+                   help="gh2010 --trips: the stage's obstacle trips: four (the default) or "
+                   "twelve across swing 0.1-0.75 and the three start speeds")
+    f.add_argument("--scr-phase", choices=("any", "foot"), default=None,
+                   help="gh2010 --trips: the stumbling corrective reflex the same at every "
+                   "phase (any), or reversing as the tripped foot is behind or ahead of "
+                   "the other (foot); default: the starting fit's")
     f.add_argument("--wiring", choices=("gh2010", "seed003"), default="gh2010",
                    help="gh2010: the paper's laws and delays (default), or seed003: the "
                    "laws the network can express on its nerves (the network's expert)")
@@ -550,6 +557,7 @@ def cmd_reflex_fit_gh2010(args) -> int:
     from stumble.control.reflex.fit_walk import (
         GH2010_STAGES,
         SEED003_STAGES,
+        TRIP_SETS,
         TRIP_STAGES,
         fit_gh2010,
     )
@@ -557,8 +565,10 @@ def cmd_reflex_fit_gh2010(args) -> int:
 
     if args.trips and args.wiring != "gh2010":
         raise InputError("--trips is for --wiring gh2010")
-    if args.params is not None and not args.trips:
-        raise InputError("--params is for --trips (the fit to start from)")
+    for flag, given in (("--params", args.params), ("--trip-set", args.trip_set),
+                        ("--scr-phase", args.scr_phase)):
+        if given is not None and not args.trips:
+            raise InputError(f"{flag} is for --trips (the trip stage)")
     start = start_fit = None
     if args.params is not None:
         import json
@@ -577,6 +587,8 @@ def cmd_reflex_fit_gh2010(args) -> int:
         start_fit = json.loads(src.read_text()).get("fit")
     stages = (TRIP_STAGES if args.trips else GH2010_STAGES if args.wiring == "gh2010"
               else SEED003_STAGES)
+    if args.trip_set is not None:
+        stages = tuple((g, w, TRIP_SETS[args.trip_set]) for g, w, _t in stages)
     if args.generations is not None:  # the same stages, shortened (a quick look)
         if args.generations < 1:
             raise InputError(f"--generations must be at least 1, got {args.generations}")
@@ -591,7 +603,7 @@ def cmd_reflex_fit_gh2010(args) -> int:
     res = fit_gh2010(seed=args.seed, stages=stages, workers=workers, out=out,
                      progress=lambda row: bar(row["generation"] + 1, gens),
                      wiring=args.wiring, trips=args.trips, start=start,
-                     start_fit=start_fit)
+                     start_fit=start_fit, scr_phase=args.scr_phase)
     bar.done()
     written, walk = write_gh2010_fit(out, res)
     s = walk.summary
@@ -607,8 +619,9 @@ def cmd_reflex(args) -> int:
         return cmd_reflex_walk(args)
     if args.controller == "gh2010":
         return cmd_reflex_fit_gh2010(args)
-    if args.trips or args.params is not None:
-        raise InputError("--trips and --params are for --controller gh2010")
+    if args.trips or args.params is not None or args.trip_set or args.scr_phase:
+        raise InputError("--trips, --params, --trip-set and --scr-phase are for "
+                         "--controller gh2010")
     from stumble.control.reflex.identify import ITERATIONS, REFINE_ITERATIONS, fit
     from stumble.outputs import prepare_dir, write_fit
 

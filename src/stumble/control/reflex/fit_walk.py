@@ -206,20 +206,28 @@ GAIN_RANGE = (0.2, 5.0)
 SCR_BOUNDS = {"g_scr_ham": (0.0, 1.0), "g_scr_ta": (0.0, 1.0), "g_scr_flex": (0.0, 1.0),
               "g_scr_sol": (0.0, 1.0), "g_scr_gas": (0.0, 1.0), "g_scr_glu": (0.0, 1.0),
               "g_scr_vas": (0.0, 1.0), "scr_hold_s": (0.05, 0.5),
-              "scr_vas_after_s": (0.0, 0.4)}
+              "scr_vas_after_s": (0.0, 0.4), "g_scr_ext_rf": (0.0, 1.0),
+              "g_scr_ext_sol": (0.0, 1.0), "g_scr_ext_glu": (0.0, 1.0),
+              "g_scr_ext_ham": (0.0, 1.0)}
+# the extension set acts only with ``scr_phase`` foot: fitted only then
+SCR_EXTENSION = ("g_scr_ext_rf", "g_scr_ext_sol", "g_scr_ext_glu", "g_scr_ext_ham")
 SCR_MIN_SCALE = 0.15
 
 
-def gh2010_space(start=None, stumble_reflex: bool = False) -> Space:
+def gh2010_space(start=None, stumble_reflex: bool = False,
+                 scr_phase: str | None = None) -> Space:
     """The GH2010 gains a fit may change, scaled to about 30 % of the paper's values
     (or of ``start``'s), each within its bounds; ``stumble_reflex``: with the gains of
-    the stumbling corrective reflex (``SCR_BOUNDS``)."""
+    the stumbling corrective reflex (``SCR_BOUNDS``; its extension set only where
+    ``scr_phase``, default ``start``'s, is ``foot``)."""
     from stumble.control.reflex.gh2010 import GH2010Params
 
     p = start or GH2010Params()
     paper = GH2010Params()
+    phase = scr_phase or p.scr_phase
     names = tuple(n for n in p.free() if n not in GH2010_FIXED
-                  and (stumble_reflex or n not in SCR_BOUNDS))
+                  and (stumble_reflex or n not in SCR_BOUNDS)
+                  and (phase == "foot" or n not in SCR_EXTENSION))
     theta = np.array([getattr(p, n) for n in names])
     scale = np.maximum(0.3 * np.abs(theta), [SCR_MIN_SCALE if n in SCR_BOUNDS else 0.02
                                              for n in names])
@@ -252,7 +260,8 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
     if kind == "gh2010":
         from stumble.control.reflex.gh2010 import GH2010Params
 
-        names = gh2010_space(stumble_reflex=_EVAL.get("stumble_reflex", False)).names
+        names = gh2010_space(stumble_reflex=_EVAL.get("stumble_reflex", False),
+                             scr_phase=_EVAL["base"].get("scr_phase", "any")).names
         params = GH2010Params(**{**_EVAL["base"],
                                  **dict(zip(names, map(float, theta), strict=True))})
         r = simulate_walk("gh2010", _EVAL["duration_s"], _EVAL["speed"], params=params)
@@ -328,6 +337,13 @@ SEED003_STAGES = ((100, 10.0, ()),)  # the network's expert: walking, from the s
 # the stumbling corrective reflex's on a 10 s walk and four obstacle trips in the walker's
 # own gait (``Scenario.start`` own), two per strategy window and one per start speed
 TRIP_STAGES = ((60, 10.0, ((0.1, 1.2), (0.3, 1.0), (0.6, 1.4), (0.72, 1.2))),)
+# the trips of a trip stage by name (``--trip-set``): the four above, or twelve across
+# the strategy map (swing 0.1-0.75, the three start speeds in turn), so that a fit cannot
+# overfit four trips (a third four-trip stage recovered 8 of the 45: README)
+TRIP_SETS = {"four": TRIP_STAGES[0][2],
+             "wide": ((0.1, 1.0), (0.2, 1.4), (0.3, 1.2), (0.35, 1.0), (0.4, 1.4),
+                      (0.45, 1.2), (0.5, 1.0), (0.55, 1.4), (0.6, 1.2), (0.65, 1.0),
+                      (0.7, 1.4), (0.75, 1.2))}
 TRIP_SIGMA = 0.4
 SCR_START = 0.2  # every gain of the stumbling corrective reflex starts here
 
@@ -335,7 +351,7 @@ SCR_START = 0.2  # every gain of the stumbling corrective reflex starts here
 def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                workers: int = 1, out: Path | None = None, progress=None,
                wiring: str = "gh2010", trips: bool = False, start=None,
-               start_fit: dict | None = None) -> FitResult:
+               start_fit: dict | None = None, scr_phase: str | None = None) -> FitResult:
     """Optimise the GH2010 gains in closed loop: per stage (generations, walk s, obstacle
     trips), CMA-ES on ``walk_cost`` plus, for each trip, ``W_TRIP`` times the part of the
     3 s after it not walked on. ``wiring`` ``gh2010`` starts from the paper's values
@@ -345,15 +361,20 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     ``start`` was found, recorded with the result), with the stumbling corrective reflex's
     gains: each at zero in ``start`` (never fitted, or fitted to its lower bound) restarts
     at ``SCR_START``, so that a later stage explores it again (the shipped second stage
-    restarted the hip flexor's, zero after the first). Writes ``gh2010.json`` to
-    ``out`` (the best parameters and the fit's figures) when given."""
+    restarted the hip flexor's, zero after the first); ``scr_phase``: the reflex's
+    phase law for the stage (``GH2010Params.scr_phase``; default ``start``'s), with its
+    extension set fitted only where it is ``foot``. Writes ``gh2010.json`` to ``out``
+    (the best parameters and the fit's figures) when given."""
     from dataclasses import replace
 
     from stumble.control.reflex.gh2010 import SCR_GAINS, GH2010Params, shipped_params
 
     if trips:
         params = start or shipped_params("gh2010", walking_only=True)
-        params = replace(params, **{n: getattr(params, n) or SCR_START for n in SCR_GAINS})
+        if scr_phase is not None:
+            params = replace(params, scr_phase=scr_phase)
+        params = replace(params, **{n: getattr(params, n) or SCR_START for n in SCR_GAINS
+                                    if params.scr_phase == "foot" or n not in SCR_EXTENSION})
         stages = stages or TRIP_STAGES
     elif wiring == "gh2010":
         params, stages = GH2010Params(), stages or GH2010_STAGES
@@ -400,9 +421,27 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                     "cost": res.best_cost, "terms": res.best_terms,
                     "wall_time_s": round(wall, 1),
                     "wiring": wiring,
-                    "command": f"stumble reflex fit --controller gh2010 --wiring {wiring} "
-                               f"{'--trips ' if with_trips else ''}--seed {seed} --out DIR"}})
+                    "scr_phase": params.scr_phase,
+                    "command": _fit_command(wiring, with_trips, stages, scr_phase, seed)}})
     return res
+
+
+def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: int) -> str:
+    """The ``stumble reflex fit`` command of a GH2010 fit (``--params`` aside)."""
+    opts = ["--trips"] if trips else []
+    if trips:
+        named = [k for k, v in TRIP_SETS.items() if all(t == v for _g, _w, t in stages)]
+        if named and named[0] != "four":
+            opts.append(f"--trip-set {named[0]}")
+        if scr_phase is not None:
+            opts.append(f"--scr-phase {scr_phase}")
+    default = (TRIP_STAGES if trips else GH2010_STAGES if wiring == "gh2010"
+               else SEED003_STAGES)
+    total = sum(g for g, _w, _t in stages)
+    if total != sum(g for g, _w, _t in default):
+        opts.append(f"--generations {total}")
+    return " ".join(["stumble reflex fit --controller gh2010 --wiring", wiring, *opts,
+                     f"--seed {seed} --out DIR"])
 
 
 # ---- the seed's network: a documented subset of its weights ---------------------------

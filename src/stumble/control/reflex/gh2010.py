@@ -64,8 +64,23 @@ WIRINGS = ("gh2010", "seed003")
 # plantarflexors and gluteus (Pijnappels et al. 2005). One pathway at every phase: which
 # strategy follows is left to the mechanics. The touch is the foot's contact with the
 # obstacle (the only thing that touches a foot but the floor), read through a delay tap.
+#
+# ``scr_phase`` (our choice, a parameter): ``any``, the same response at every phase of
+# swing (which strategy follows is then left to the mechanics alone), or ``foot``: the
+# tripped leg's response reverses with the phase of its swing, as human cutaneous
+# reflexes do (phase-dependent reflex reversal, Zehr & Stein 1999, Prog. Neurobiol.
+# 58:185; Schillings et al. 2000): with the tripped foot behind the other (early swing)
+# the flexion set above, ahead of it (late swing) the extension set, RF and SOL (Eng et
+# al. 1994, seed 003 §IV.A: lowering by RF and SOL 50-100 ms after the trip), GLU and
+# HAMS (the hip's extensors, which pull the foot back and down).
+# The phase is where the feet were at the touch's onset, sensed with the touch (the hip
+# delay's foot positions, read at the touch's latency) and held while it lasts: no
+# strategy is chosen, the response is one law of the leg's state when it is tripped.
+# (The knee's motion was tried first: in late swing the struck knee rebounds from full
+# extension, and reads as flexing.)
 SCR_GAINS = ("g_scr_ham", "g_scr_ta", "g_scr_flex", "g_scr_sol", "g_scr_gas", "g_scr_glu",
-             "g_scr_vas")
+             "g_scr_vas", "g_scr_ext_rf", "g_scr_ext_sol", "g_scr_ext_glu", "g_scr_ext_ham")
+SCR_PHASES = ("any", "foot")
 # optimised parameters shipped in stumble/control/reflex/data/, per wiring
 SHIPPED = {"gh2010": "gh2010.json", "seed003": "gh2010_seed003.json"}
 # the walking fit the shipped GH2010 trip fit started from (``--params walk``)
@@ -116,13 +131,19 @@ class GH2010Params:
     g_scr_vas: float = 0.0  # the tripped leg's knee extensor, scr_vas_after_s later
     scr_vas_after_s: float = 0.1  # s after the flexors' onset (our choice; Eng et al.
     # 1994's lowering response is a knee extensor's, RF, 50-100 ms after the trip)
+    # the tripped leg's extension set (``scr_phase`` foot: tripped ahead of the other)
+    g_scr_ext_rf: float = 0.0
+    g_scr_ext_sol: float = 0.0
+    g_scr_ext_glu: float = 0.0
+    g_scr_ext_ham: float = 0.0
+    scr_phase: str = "any"  # "any" or "foot" (``SCR_PHASES``)
     delay_scale: float = 1.0  # every delay multiplied by this
     wiring: str = "gh2010"  # "gh2010" or "seed003" (see GH2010Controller)
 
     def free(self) -> list[str]:
         """Names of the gains a closed-loop fit may change (not the delays, the wiring)."""
         return [f.name for f in fields(self)
-                if f.name not in ("delay_scale", "wiring", "scr_latency_s")]
+                if f.name not in ("delay_scale", "wiring", "scr_latency_s", "scr_phase")]
 
     @property
     def stumble_reflex(self) -> bool:
@@ -150,9 +171,10 @@ class GH2010Params:
             raise InputError(f"unknown GH2010 parameter(s): {', '.join(bad)}")
         vals = {}
         for k, v in obj.items():
-            if k == "wiring":
-                if v not in WIRINGS:
-                    raise InputError(f"GH2010 wiring {v!r} is not one of {', '.join(WIRINGS)}")
+            if k in ("wiring", "scr_phase"):
+                allowed = WIRINGS if k == "wiring" else SCR_PHASES
+                if v not in allowed:
+                    raise InputError(f"GH2010 {k} {v!r} is not one of {', '.join(allowed)}")
                 vals[k] = v
                 continue
             if not isinstance(v, int | float) or isinstance(v, bool) or not np.isfinite(v):
@@ -239,6 +261,9 @@ class GH2010Controller:
         self.wiring = self.p.wiring
         if self.wiring not in WIRINGS:
             raise InputError(f"GH2010 wiring {self.wiring!r} is not one of {', '.join(WIRINGS)}")
+        if self.p.scr_phase not in SCR_PHASES:
+            raise InputError(f"GH2010 scr_phase {self.p.scr_phase!r} is not one of "
+                             f"{', '.join(SCR_PHASES)}")
         self.lean_free: np.ndarray | None = None  # set to anything to also get the laws'
         # output without their trunk-lean terms after each update
         self.log: list[tuple[str, float]] = []
@@ -331,6 +356,7 @@ class GH2010Controller:
                 tap(("ds_load", leg), c_load + leg, ds)
                 tap(("ds_x", leg), c_x + leg, ds)
             tap(("touch", leg), c_touch + leg, ticks(p.scr_latency_s))
+            tap(("x_touch", leg), c_x + leg, ticks(p.scr_latency_s))
         tap("lean", c_lean, vest)
         tap("lean_v", c_lean_v, vest)
         self.at = at
@@ -351,19 +377,27 @@ class GH2010Controller:
                       g([("ds_x", leg) for leg in range(2)])) if ds is not None else None)
         self._iLean, self._iLeanV = at["lean"], at["lean_v"]
         self._iTouch = g([("touch", leg) for leg in range(2)])
+        self._iXTouch = g([("x_touch", leg) for leg in range(2)])
+        self._touched = np.zeros(2, bool)  # each foot touched at the last tick
+        self._ahead = np.zeros(2, bool)  # it was ahead of the other at its last onset
         # (a model without an obstacle is never touched: nothing to add)
         self._scr = p.stumble_reflex and self.lay.obstacle_found is not None
         self._scr_hold = max(1, round(p.scr_hold_s * p.delay_scale / dt))
         self._scr_since = np.full(2, np.inf)  # ticks since each foot's last (sensed) touch
-        w = np.zeros((2, 2, nm))  # (touched leg, leg, muscle)
+        w = np.zeros((3, 2, 2, nm))  # (set, touched leg, leg, muscle): the tripped
+        # leg's flexion set, its extension set, the other leg's
         for leg in range(2):
             for name, gain in (("HAMS", p.g_scr_ham), ("TA", p.g_scr_ta),
                                (self.flexor, p.g_scr_flex)):
-                w[leg, leg, ix[name]] += gain
+                w[0, leg, leg, ix[name]] += gain
+            for name, gain in (("RF", p.g_scr_ext_rf), ("SOL", p.g_scr_ext_sol),
+                               ("GLU", p.g_scr_ext_glu), ("HAMS", p.g_scr_ext_ham)):
+                w[1, leg, leg, ix[name]] += gain
             for name, gain in (("SOL", p.g_scr_sol), ("GAS", p.g_scr_gas),
                                ("GLU", p.g_scr_glu)):
-                w[leg, 1 - leg, ix[name]] += gain
+                w[2, leg, 1 - leg, ix[name]] += gain
         self._w_scr = w
+        self._scr_by_foot = p.scr_phase == "foot"
         self._scr_vas_after = round(p.scr_vas_after_s * p.delay_scale / dt)
         self._w_scr_vas = np.zeros((2, 2, nm))
         for leg in range(2):
@@ -487,7 +521,8 @@ class GH2010Controller:
     def _stumble(self, x: np.ndarray) -> np.ndarray:
         """The stumbling corrective reflex (n, 2, nm): for ``scr_hold_s`` after each
         sensed touch of a foot (``SCR_GAINS``), the knee extensor from
-        ``scr_vas_after_s`` after it for as long."""
+        ``scr_vas_after_s`` after it for as long; the tripped leg's flexion or extension
+        set by where its foot was (``scr_phase`` foot) or both (any)."""
         touched = x[:, self._iTouch] > 0.0  # (n, 2)
         n = len(x)
         k = np.arange(n)[:, None]
@@ -498,7 +533,19 @@ class GH2010Controller:
         on = (since < self._scr_hold).astype(float)  # (n, 2)
         late = ((since >= self._scr_vas_after)
                 & (since < self._scr_vas_after + self._scr_hold)).astype(float)
-        return (np.einsum("nt,tlm->nlm", on, self._w_scr)
+        if self._scr_by_foot:  # where each foot was at its touch's onset, held
+            before = np.vstack([self._touched[None], touched[:-1]])
+            onset = np.where(touched & ~before, k, -1)
+            first = np.maximum.accumulate(onset, axis=0)
+            fx = x[:, self._iXTouch]
+            now = fx > fx[:, ::-1]  # (n, 2): the foot ahead of the other, as sensed
+            ahead = np.where(first >= 0, np.take_along_axis(now, np.maximum(first, 0), axis=0),
+                             self._ahead)
+            self._touched, self._ahead = touched[-1].copy(), ahead[-1].copy()
+            gates = np.stack([on * ~ahead, on * ahead, on])  # (set, n, touched)
+        else:
+            gates = np.stack([on, on, on])
+        return (np.einsum("snt,stlm->nlm", gates, self._w_scr)
                 + np.einsum("nt,tlm->nlm", late, self._w_scr_vas))
 
     def _vestibular(self, x: np.ndarray) -> np.ndarray:
