@@ -74,17 +74,43 @@ def test_own_start_trips_at_the_fraction_of_the_walkers_own_swing():
     assert s["walking_stride_s"] == w["stride_s"]
 
 
-def test_the_shipped_closed_loop_network_walks_from_the_walk_it_was_judged_on():
+@pytest.mark.parametrize("speed", [None, 1.0, 1.2, 1.4])
+def test_the_shipped_closed_loop_network_walks_from_every_start(speed):
     """`stumble reflex fit --closed-loop --seed 0`, shipped as `--network closed-loop`:
-    5 s from the 1.2 m/s played-back walk, no fall, a human speed and stance."""
+    5 s from the played-back walk (None: the recording's 1.10 m/s, the default), no
+    fall, a human speed and stance; its DAgger started episodes from, and judged each
+    pass from, the 1.0-1.3 m/s walks (1.4 was not among them)."""
     from stumble.control.reflex.identify import default_network
 
     net = default_network("closed-loop")
     assert "HFL" in net.topology.muscles and net.topology.contact
-    s = simulate_walk("network", 5.0, speed_m_per_s=1.2, network=net).summary
+    s = simulate_walk("network", 5.0, speed_m_per_s=speed, network=net).summary
     assert not s["fell"] and s["walked_s"] == pytest.approx(5.0)
     assert 0.9 <= s["speed_m_per_s"] <= 1.4
     assert 0.55 <= s["stance_fraction"] <= 0.70
+
+
+@pytest.mark.parametrize(("swing", "strategy"), [(0.13, "elevating"), (0.56, "lowering")])
+def test_the_closed_loop_network_takes_the_seeds_strategies(swing, strategy):
+    """Seed 003's CASE 1 and CASE 2 (obstacle, 1.2 m/s, from the recording, the seed's
+    way) under the closed-loop network: never switched."""
+    from stumble.control.reflex.identify import default_network
+
+    r = simulate_trip(Scenario(controller="reflex", mechanism="obstacle", swing_fraction=swing,
+                               speed_m_per_s=1.2), network=default_network("closed-loop"))
+    assert r.summary["start"] == "playback" and r.summary["strategy"] == strategy
+    assert [st["name"] for st in r.summary["states"]] == ["reflex"]
+
+
+def test_the_closed_loop_network_recovers_an_early_trip_in_its_own_gait():
+    """0.05 of its own swing, 1.2 m/s start: elevating, still walking 3 s after the trip
+    (README "The strategies emerge": 11 of the 45 own-gait trips recover)."""
+    from stumble.control.reflex.identify import default_network
+
+    s = simulate_trip(Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.05,
+                               start="own"), network=default_network("closed-loop")).summary
+    assert s["strategy"] == "elevating" and s["recovered"] and not s["fell"]
+    assert s["sim_time_s"] == pytest.approx(3.0)
 
 
 def test_cli_names_the_closed_loop_network(tmp_path):

@@ -148,8 +148,8 @@ def recovery_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
 
 def walking_rows(ctrl: str, closed_loop: bool = False) -> list[dict]:
     """A reflex controller's 20 s walk: time walked, RMSE per joint, stance fraction.
-    ``closed_loop``: the shipped closed-loop network (``reflex`` only), from the 1.2 m/s
-    walk it was judged on (``stumble.control.reflex.dagger``)."""
+    ``closed_loop``: the shipped closed-loop network (``reflex`` only), from the same
+    played-back walk (``stumble.control.reflex.dagger``)."""
     from stumble.pipeline import simulate_walk
 
     kind = REFLEX_CONTROLLERS[ctrl]
@@ -160,7 +160,7 @@ def walking_rows(ctrl: str, closed_loop: bool = False) -> list[dict]:
         if closed_loop:
             from stumble.control.reflex.identify import default_network
 
-            kw = {"network": default_network("closed-loop"), "speed_m_per_s": 1.2}
+            kw = {"network": default_network("closed-loop")}
         s = simulate_walk(kind, WALK_S, **kw).summary
     except Exception as e:
         why = f"{type(e).__name__}: {e}"

@@ -16,7 +16,10 @@ the muscles; the network is trained towards the expert's excitation *without* it
 trunk-lean terms, so network + addition reproduce the expert. The first pass is pure
 expert (β = 1), later passes hand the body to the network for a growing share of
 ``MIX_SEGMENT_S`` segments (β = ``BETA_DECAY`` ** pass): the expert recovers what the
-network starts, and labels it. The network keeps the seed's structure,
+network starts, and labels it. Each pass runs one episode from each of several
+played-back walks (``EPISODE_SPEEDS``, 1.0-1.3 m/s) and is judged by its mean objective
+from as many (``JUDGE_SPEEDS``): shown two starts and judged from one, the network
+walked from that one only. The network keeps the seed's structure,
 delays and identified input scaling; it is trained on the union of the identification
 data (the recorded walk, seed 003's) and every closed-loop pass, by the same squared
 excitation error and L-BFGS as ``identify.train``.
@@ -38,7 +41,9 @@ from stumble.sim import Context
 MIX_SEGMENT_S = 0.05  # the body changes hands between network and expert at most this often
 BETA_DECAY = 0.8  # β (the expert's share of segments) is BETA_DECAY ** pass
 EPISODE_S = 8.0  # closed-loop walking per episode
-EPISODE_SPEEDS = (1.1, 1.3)  # m/s of the walks played back before each episode
+# m/s of the walks played back before each pass's episodes, one episode each; the
+# shipped network's (the first shipped one took 1.1 and 1.3 and walked from 1.2 only)
+EPISODE_SPEEDS = (1.0, 1.1, 1.2, 1.3)
 
 
 class Mixed:
@@ -203,8 +208,9 @@ def ident_data(net: Network, ident) -> list[tuple[np.ndarray, np.ndarray, np.nda
              np.ones(ident.excitation.shape[1])) for k in range(2)]
 
 
-EVAL_S = 10.0  # each pass's network walks this long (from the 1.2 m/s walk) to be judged
+EVAL_S = 10.0  # each pass's network walks this long from each judging start to be judged
 EVAL_SPEED_M_PER_S = 1.2
+JUDGE_SPEEDS = (1.0, 1.1, 1.2, 1.3)  # m/s: the starts a pass is judged from (mean cost)
 PASSES = 8
 
 
@@ -214,35 +220,47 @@ def _collect_job(args) -> Episode:
     return collect(net, params, beta, seed, speed)
 
 
-def judge(net: Network) -> dict:
-    """The walking objective of the network on its own (``fit_walk.walk_cost``)."""
+def judge(net: Network, speeds: tuple[float, ...] = (EVAL_SPEED_M_PER_S,)) -> dict:
+    """The walking objective of the network on its own (``fit_walk.walk_cost``), from
+    each start speed of ``speeds`` (m/s): the mean cost, the figures of the first and
+    the time walked from each."""
     from stumble.control.reflex.fit_walk import effort_of, walk_cost
     from stumble.pipeline import simulate_walk
 
-    r = simulate_walk("network", EVAL_S, EVAL_SPEED_M_PER_S, network=net)
-    cost, terms = walk_cost(r.summary, effort_of(r))
-    return {"cost": cost, "walked_s": r.summary["walked_s"],
-            "speed_m_per_s": r.summary["speed_m_per_s"], "rmse_deg": r.summary["rmse_deg"],
-            "stance_fraction": r.summary["stance_fraction"], "terms": terms}
+    rows = []
+    for v in speeds:
+        r = simulate_walk("network", EVAL_S, v, network=net)
+        cost, terms = walk_cost(r.summary, effort_of(r))
+        rows.append((cost, terms, r.summary))
+    cost, terms, s = rows[0]
+    out = {"cost": float(np.mean([c for c, _t, _s in rows])), "walked_s": s["walked_s"],
+           "speed_m_per_s": s["speed_m_per_s"], "rmse_deg": s["rmse_deg"],
+           "stance_fraction": s["stance_fraction"], "terms": terms}
+    if len(speeds) > 1:
+        out["walked_s_by_start"] = {str(v): r[2]["walked_s"] for v, r in zip(speeds, rows,
+                                                                             strict=True)}
+    return out
 
 
 def dagger(net: Network, ident, params: GH2010Params, passes: int = PASSES, seed: int = 0,
-           workers: int = 1, progress=None) -> DaggerResult:
+           workers: int = 1, progress=None, episode_speeds: tuple = EPISODE_SPEEDS,
+           judge_speeds: tuple = JUDGE_SPEEDS) -> DaggerResult:
     """Refine ``net`` by DAgger with the GH2010 expert (module docstring); each pass's
-    network is judged by ``judge`` and the best of them is returned."""
+    episodes start from the walks at ``episode_speeds`` (m/s), its network is judged by
+    ``judge`` from ``judge_speeds`` and the best of them is returned."""
     from concurrent.futures import ProcessPoolExecutor
 
     t0 = time.perf_counter()
     base = ident_data(net, ident)
     data: list = []
     out = DaggerResult(net)
-    best_cost = judge(net)["cost"]
+    best_cost = judge(net, judge_speeds)["cost"]
     pool = ProcessPoolExecutor(workers) if workers > 1 else None
     try:
         for i in range(passes):
             beta = BETA_DECAY ** i
             jobs = [(net, params, beta, seed * 1000 + 10 * i + j, speed)
-                    for j, speed in enumerate(EPISODE_SPEEDS)]
+                    for j, speed in enumerate(episode_speeds)]
             eps = list(pool.map(_collect_job, jobs) if pool else map(_collect_job, jobs))
             for ep in eps:
                 for side in range(2):
@@ -252,7 +270,8 @@ def dagger(net: Network, ident, params: GH2010Params, passes: int = PASSES, seed
             net.info["balance"] = balance_of(params).to_info()
             row = {"pass": i, "beta": beta, "loss": loss,
                    "samples": int(sum(w.sum() for _x, _y, w in data)),
-                   "episodes_walked_s": [ep.walked_s for ep in eps], **judge(net),
+                   "episodes_walked_s": [ep.walked_s for ep in eps],
+                   **judge(net, judge_speeds),
                    "wall_time_s": round(time.perf_counter() - t0, 1)}
             if row["cost"] < best_cost:
                 best_cost, out.network = row["cost"], net
