@@ -3,7 +3,8 @@
 Run:  python benchmarks/bench_reflex.py [--repeats N]
 
 For a reflex trip (CASE 1 of seed 003: obstacle at 0.13 of swing, 1.2 m/s) and a 10 s
-and a 20 s walk of each reflex controller (``network``: seed 003's; ``gh2010``), it
+and a 20 s walk of each reflex controller (``network``: seed 003's, the closed-loop one
+from the 1.2 m/s walk for the walks; ``gh2010``), it
 times the whole ``sim.run`` loop and a bare loop that replays the recorded controls on
 the same model from the same state after the controller's start, doing nothing else
 (``mj_step`` per control row): the physical limit of this engine for that motion. CPU
@@ -83,11 +84,17 @@ def main() -> None:
     gh = sc.with_(controller="gh2010", start="playback")
     pipeline.simulate_trip(gh)
     measure("reflex trip (gh2010), CASE 1", lambda: pipeline.simulate_trip(gh), args.repeats)
-    for kind in ("network", "gh2010"):
-        pipeline.simulate_walk(kind, 1.0)
+    # the walks: GH2010 from the recording's speed; the network closed-loop, from the
+    # 1.2 m/s walk it walks from (the open-loop network falls within a second)
+    from stumble.control.reflex.identify import default_network
+
+    net = default_network("closed-loop")
+    for kind, kw in (("network", {"network": net, "speed_m_per_s": 1.2}), ("gh2010", {})):
+        pipeline.simulate_walk(kind, 1.0, **kw)
         for dur in (10.0, 20.0):
             measure(f"{dur:.0f} s walk ({kind})",
-                    lambda k=kind, t=dur: pipeline.simulate_walk(k, t), args.repeats)
+                    lambda k=kind, t=dur, kw=kw: pipeline.simulate_walk(k, t, **kw),
+                    args.repeats)
 
 
 if __name__ == "__main__":
