@@ -141,16 +141,21 @@ def test_params_round_trip_and_refuse_bad_values():
         GH2010Params.from_json({"g_sol": float("nan")})
 
 
+def _obstacle_body():
+    """The planar body with the iliopsoas and an obstacle (so the reflex can be touched)."""
+    body = build(planar=True, actuation="muscles", muscle_set="hfl", obstacle=(
+        1.0, 0.1, 0.1, 0.14, 0.0))
+    d = mujoco.MjData(body.model)
+    mujoco.mj_forward(body.model, d)
+    return body, body.model, d
+
+
 def test_stumble_reflex_excites_the_tripped_legs_flexors_and_the_support_legs_push():
     """A touch on the left foot's front: after scr_latency_s (65 ms, Eng et al. 1994),
     left HAMS, TA and HFL and right SOL, GAS and GLU each gain their g_scr, for
     scr_hold_s after the last sensed touch, and left VAS from scr_vas_after_s after that
     for as long; with the paper's gains (zero) nothing."""
-    body = build(planar=True, actuation="muscles", muscle_set="hfl", obstacle=(
-        1.0, 0.1, 0.1, 0.14, 0.0))
-    m = body.model
-    d = mujoco.MjData(m)
-    mujoco.mj_forward(m, d)
+    body, m, d = _obstacle_body()
     gains = dict(g_scr_ham=0.11, g_scr_ta=0.12, g_scr_flex=0.13, g_scr_sol=0.14,
                  g_scr_gas=0.15, g_scr_glu=0.16, g_scr_vas=0.17)
     c = GH2010Controller(GH2010Params(**gains, scr_hold_s=0.1, scr_vas_after_s=0.05))
@@ -188,14 +193,11 @@ def test_stumble_reflex_excites_the_tripped_legs_flexors_and_the_support_legs_pu
 
 def test_stumble_reflex_by_foot_phase_reverses_with_where_the_foot_was():
     """``scr_phase`` foot: a touch with the tripped foot behind the other gives the
-    flexion set (HAMS, TA, HFL); ahead of it, the extension set (RF, SOL, GLU: Eng et al.
-    1994's lowering muscles); the support leg's push in both; the phase held from the
-    touch's onset however the feet move after it; ``any``: both sets at every phase."""
-    body = build(planar=True, actuation="muscles", muscle_set="hfl", obstacle=(
-        1.0, 0.1, 0.1, 0.14, 0.0))
-    m = body.model
-    d = mujoco.MjData(m)
-    mujoco.mj_forward(m, d)
+    flexion set (HAMS, TA, HFL); ahead of it, the extension set (RF, SOL: Eng et al.
+    1994's lowering muscles; GLU, HAMS); the support leg's push in both; the phase held
+    from the touch's onset however the feet move after it; ``any``: both sets at every
+    phase."""
+    body, m, d = _obstacle_body()
     gains = dict(g_scr_ham=0.11, g_scr_ta=0.12, g_scr_flex=0.13, g_scr_sol=0.14,
                  g_scr_gas=0.15, g_scr_glu=0.16, g_scr_ext_rf=0.21, g_scr_ext_sol=0.22,
                  g_scr_ext_glu=0.23, g_scr_ext_ham=0.24)
