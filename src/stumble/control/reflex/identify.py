@@ -57,8 +57,9 @@ PUBLISHED_MAX_ERROR = 0.36  # seed 003 §V.A
 SHIPPED = "network.npz"  # fitted network shipped in stumble/control/reflex/data/
 # The closed-loop refinement shipped beside it: `stumble reflex fit --closed-loop --seed 0`
 # (the seed's identification with the iliopsoas and contact afferents, then 8 DAgger
-# passes with the shipped seed003-wired GH2010 expert; 41 min here). It walks 20 s from
-# the 1.2 m/s played-back walk (README "The seed's network in closed loop").
+# passes with the shipped seed003-wired GH2010 expert, episodes from and judging at the
+# 1.0-1.3 m/s walks; 24 min on the 2-core machine of 2026-12-02). It walks 20 s from
+# every played-back walk of 1.0-1.4 m/s (README "The seed's network in closed loop").
 SHIPPED_CLOSED_LOOP = "network_closed_loop.npz"
 NETWORK_NAMES = {"open-loop": SHIPPED, "closed-loop": SHIPPED_CLOSED_LOOP}
 
