@@ -209,7 +209,6 @@ def ident_data(net: Network, ident) -> list[tuple[np.ndarray, np.ndarray, np.nda
 
 
 EVAL_S = 10.0  # each pass's network walks this long from each judging start to be judged
-EVAL_SPEED_M_PER_S = 1.2
 JUDGE_SPEEDS = (1.0, 1.1, 1.2, 1.3)  # m/s: the starts a pass is judged from (mean cost)
 PASSES = 8
 
@@ -220,7 +219,7 @@ def _collect_job(args) -> Episode:
     return collect(net, params, beta, seed, speed)
 
 
-def judge(net: Network, speeds: tuple[float, ...] = (EVAL_SPEED_M_PER_S,)) -> dict:
+def judge(net: Network, speeds: tuple[float, ...] = JUDGE_SPEEDS) -> dict:
     """The walking objective of the network on its own (``fit_walk.walk_cost``), from
     each start speed of ``speeds`` (m/s): the mean cost, the figures of the first and
     the time walked from each."""
@@ -235,10 +234,9 @@ def judge(net: Network, speeds: tuple[float, ...] = (EVAL_SPEED_M_PER_S,)) -> di
     cost, terms, s = rows[0]
     out = {"cost": float(np.mean([c for c, _t, _s in rows])), "walked_s": s["walked_s"],
            "speed_m_per_s": s["speed_m_per_s"], "rmse_deg": s["rmse_deg"],
-           "stance_fraction": s["stance_fraction"], "terms": terms}
-    if len(speeds) > 1:
-        out["walked_s_by_start"] = {str(v): r[2]["walked_s"] for v, r in zip(speeds, rows,
-                                                                             strict=True)}
+           "stance_fraction": s["stance_fraction"], "terms": terms,
+           "walked_s_by_start": {str(v): r[2]["walked_s"]
+                                 for v, r in zip(speeds, rows, strict=True)}}
     return out
 
 

@@ -392,12 +392,14 @@ class GH2010Controller:
                 w[0, leg, leg, ix[name]] += gain
             for name, gain in (("RF", p.g_scr_ext_rf), ("SOL", p.g_scr_ext_sol),
                                ("GLU", p.g_scr_ext_glu), ("HAMS", p.g_scr_ext_ham)):
+                # (without the iliopsoas RF is also the flexion set's hip flexor)
                 w[1, leg, leg, ix[name]] += gain
             for name, gain in (("SOL", p.g_scr_sol), ("GAS", p.g_scr_gas),
                                ("GLU", p.g_scr_glu)):
                 w[2, leg, 1 - leg, ix[name]] += gain
-        self._w_scr = w
         self._scr_by_foot = p.scr_phase == "foot"
+        # ``any``: the three sets act together, one matrix (touched leg, leg, muscle)
+        self._w_scr = w if self._scr_by_foot else w.sum(axis=0)
         self._scr_vas_after = round(p.scr_vas_after_s * p.delay_scale / dt)
         self._w_scr_vas = np.zeros((2, 2, nm))
         for leg in range(2):
@@ -543,10 +545,10 @@ class GH2010Controller:
                              self._ahead)
             self._touched, self._ahead = touched[-1].copy(), ahead[-1].copy()
             gates = np.stack([on * ~ahead, on * ahead, on])  # (set, n, touched)
+            now_on = np.einsum("snt,stlm->nlm", gates, self._w_scr)
         else:
-            gates = np.stack([on, on, on])
-        return (np.einsum("snt,stlm->nlm", gates, self._w_scr)
-                + np.einsum("nt,tlm->nlm", late, self._w_scr_vas))
+            now_on = np.einsum("nt,tlm->nlm", on, self._w_scr)
+        return now_on + np.einsum("nt,tlm->nlm", late, self._w_scr_vas)
 
     def _vestibular(self, x: np.ndarray) -> np.ndarray:
         """The trunk-lean laws (n, 2, nm): stance hips k_p(θ − θ_ref) + k_d θ̇ rectified,
