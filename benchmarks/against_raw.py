@@ -50,9 +50,10 @@ _FULL = mujoco.mjtState.mjSTATE_FULLPHYSICS
 
 
 def bare_replay(model: mujoco.MjModel, rec) -> tuple[float, float, mujoco.MjData]:
-    """Step ``model`` from the trip's first state along its recorded controls, servo gains
-    and trip forces (``simulate_trip(..., log_controls=True)``), doing nothing else: held
-    controls as one ``mj_step`` with nstep per block, a forced step one at a time.
+    """Step ``model`` from the trip's first state along its recorded controls, servo
+    gains, torque limits and trip forces (``simulate_trip(..., log_controls=True)``),
+    doing nothing else: held controls as one ``mj_step`` with nstep per block, a forced
+    step one at a time.
     Returns the wall and CPU times (s) and the final data."""
     m = model
     d = mujoco.MjData(m)
@@ -62,14 +63,15 @@ def bare_replay(model: mujoco.MjModel, rec) -> tuple[float, float, mujoco.MjData
     last_forced = max(forces, default=-1)
     blocks = rec.controls
     ends = [b[0] for b in blocks[1:]] + [rec.steps]
-    gain, bias = m.actuator_gainprm, m.actuator_biasprm
+    gain, bias, limit = m.actuator_gainprm, m.actuator_biasprm, m.actuator_forcerange
     pool = mj_rollout.Rollout(nthread=0)
     nstate = mujoco.mj_stateSize(m, _FULL)
     cpu0 = time.process_time()
     t0 = time.perf_counter()
-    for (first, ctrl, (g, b)), end in zip(blocks, ends, strict=True):
+    for (first, ctrl, (g, b, lim)), end in zip(blocks, ends, strict=True):
         gain[:, 0] = g
         bias[:, :3] = b
+        limit[:] = lim  # the servos' torque limits (human strength, refreshed by the trip)
         n = end - first
         if ctrl.ndim == 2:  # per-step controls: natively, as the trip steps them
             state = np.empty((1, nstate))

@@ -39,7 +39,7 @@ def replay_cpu_s(result) -> float:
     mujoco.mj_setState(m, d, rec.initial_state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
     ends = [*[s for s, _c, _g in rec.controls][1:], rec.steps]
     t0 = time.process_time()
-    for (first, ctrl, (gain, bias)), end in zip(rec.controls, ends, strict=True):
+    for (first, ctrl, (gain, bias, _limits)), end in zip(rec.controls, ends, strict=True):
         m.actuator_gainprm[:, 0] = gain
         m.actuator_biasprm[:, :3] = bias
         rows = np.atleast_2d(ctrl)

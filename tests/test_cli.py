@@ -284,3 +284,17 @@ def test_an_unwritable_out_is_found_before_any_simulation(tmp_path, capsys, no_s
     out = _unwritable(tmp_path)
     err = _main_error(capsys, [*command, "--out", str(out)])
     assert f"output directory {out} is not writable" in err
+
+
+def test_trip_population_and_strength_options(tmp_path, capsys):
+    err = _main_error(capsys, ["trip", "--out", str(tmp_path / "a"), "--controller", "gh2010",
+                               "--population", "older"])
+    assert "population older is defined for the state machines" in err
+    out = tmp_path / "b"
+    assert main(["trip", "--out", str(out), "--population", "older", "--strength",
+                 "anderson2007", "--duration", "0.5", "--no-video"]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    # the older preset's preferred speed (Tirosh & Sparrow 2004) when --speed is not given
+    assert s["speed_m_per_s"] == 1.17 and s["population"] == "older"
+    assert s["strength_model"] == "anderson2007"
+    assert s["support_peak_moments_nm"]["ankle_plantarflexion"] > 0.0

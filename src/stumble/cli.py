@@ -140,8 +140,15 @@ def _parser() -> argparse.ArgumentParser:
                    help="auto: elevating up to 0.5 of swing, lowering above (default auto)")
     t.add_argument("--swing", type=float, default=0.2, metavar="F",
                    help="trip instant as a fraction of the tripped leg's swing, 0.05-0.9")
-    t.add_argument("--speed", type=float, default=1.2, metavar="V",
-                   help="walking speed in m/s, 0.7-1.6 (default 1.2)")
+    t.add_argument("--speed", type=float, default=None, metavar="V",
+                   help="walking speed in m/s, 0.7-1.6 (default: the population's, 1.2 "
+                   "young, 1.17 older)")
+    t.add_argument("--strength", choices=("fixed", "anderson2007"), default="fixed",
+                   help="servo torque limits (fsm): fixed (default) or anderson2007, human "
+                   "strength by joint angle and velocity (Anderson et al. 2007)")
+    t.add_argument("--population", choices=("young", "older"), default="young",
+                   help="young (default) or older adults (fsm): strength, response "
+                   "latencies and walking speed of healthy older adults")
     t.add_argument("--mechanism", choices=("force", "obstacle"), default=None,
                    help="force: SCA 2009 eq. 2-3 on the swing toe; obstacle: a rigid box "
                    "(default: force for fsm, obstacle for reflex, as each seed)")
@@ -469,7 +476,12 @@ def cmd_trip(args) -> int:
         raise InputError("--network and --no-trunk-balance are for --controller reflex")
     if args.params and args.controller != "gh2010":
         raise InputError("--params is for --controller gh2010")
-    scenario = Scenario(swing_fraction=args.swing, speed_m_per_s=args.speed,
+    from stumble.trip import POPULATIONS
+
+    speed = (POPULATIONS[args.population].preferred_speed_m_per_s if args.speed is None
+             else args.speed)
+    scenario = Scenario(swing_fraction=args.swing, speed_m_per_s=speed,
+                        strength_model=args.strength, population=args.population,
                         leg=args.leg, mechanism=args.mechanism or (
                             "force" if args.controller == "fsm" else "obstacle"),
                         obstacle_height_m=args.obstacle_height, controller=args.controller,

@@ -29,6 +29,7 @@ from stumble.body import Body, build
 from stumble.body.contact import DEFAULT_MODE as DEFAULT_CONTACT
 from stumble.body.contact import STIFFNESS_N_PER_M, PenaltyContact
 from stumble.body.muscles import DEFAULT_MUSCLE_SET
+from stumble.body.strength import Strength, age_fixed_limits
 from stumble.control.fsm import TripFSM
 from stumble.control.fsm_params import FSMParams
 from stumble.errors import InputError
@@ -40,6 +41,7 @@ from stumble.trip import (
     MUSCLE_CONTROLLERS,
     OBSTACLE_DEPTH_M,
     OBSTACLE_WIDTH_M,
+    POPULATIONS,
     Scenario,
     trip_time,
 )
@@ -123,7 +125,24 @@ def _controller(sc: Scenario, strategy: str | None, params: FSMParams | None,
     if sc.controller == "gh2010":
         return walk_controller("gh2010", pb, t_trip, gh2010, delay_scale=sc.delay_scale)
     p = replace(params or FSMParams(), delay_scale=sc.delay_scale)
+    extra = POPULATIONS[sc.population].extra_latency_s
+    if extra:  # the population's slower responses (trip.POPULATIONS)
+        p = replace(p, latency_s={k: v + extra.get(k, 0.0) for k, v in p.latency_s.items()})
     return TripFSM(strategy, sc.side, sc.speed_m_per_s, p)
+
+
+def _strength(m: mujoco.MjModel, sc: Scenario, reflex: bool) -> Strength | None:
+    """The servos' human strength (``stumble.body.strength``) for the scenario's body,
+    age group and strength scale; None for muscles and for the fixed limits (which an
+    older population scales by Anderson et al. 2007's older/young ratios)."""
+    age = POPULATIONS[sc.population].age
+    if reflex:
+        return None
+    if sc.strength_model != "anderson2007":
+        if age != "young":
+            age_fixed_limits(m, sc.sex, age)
+        return None
+    return Strength.for_model(m, sc.mass_kg, sc.height_m, sc.sex, age, sc.strength_scale)
 
 
 def _reflex_controller(network, pb: Playback, t: float, delay_scale: float,
@@ -223,7 +242,10 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     if sc.contact in ("lumped", "points", "penalty"):
         _rest_support_foot(m, d, reflex)
     _scale_strength(m, sc.strength_scale)
-    ctx = Context(m, d, body, Sensors(), t0=0.0)
+    strength = _strength(m, sc, reflex)
+    if strength is not None:
+        strength.apply(m, d)
+    ctx = Context(m, d, body, Sensors(), t0=0.0, strength=strength)
     controller = _controller(sc, strategy, p, network, pb, t_start, trunk_balance, gh2010)
     if sc.controller == "reflex":
         _network_every(controller.net, m)
@@ -428,8 +450,39 @@ def _summary(sc: Scenario, strategy: str, controller, rec: Recording, stop: Stop
         "contact": sc.contact,
         "delay_scale": sc.delay_scale,
         "strength_scale": sc.strength_scale,
+        "strength_model": sc.strength_model,
+        "population": sc.population,
+        "support_peak_moments_nm": support_peak_moments(m, rec, sc.side),
         "walking_stride_s": None if stride_s is None else round(stride_s, 4),
     }
+
+
+SUPPORT_WINDOW_S = 0.3  # the issue's window: the first 300 ms after the trip
+# (servo hinge, exertion of a negative torque, of a positive one): stumble.body.joints
+_EXERTIONS = (("hip_flexion", "hip_extension", "hip_flexion"),
+              ("knee_angle", "knee_flexion", "knee_extension"),
+              ("ankle_angle", "ankle_plantarflexion", "ankle_dorsiflexion"))
+
+
+def support_peak_moments(m: mujoco.MjModel, rec: Recording, tripped_side: str,
+                         window_s: float = SUPPORT_WINDOW_S) -> dict | None:
+    """Peak servo moments (N·m, ≥ 0) of the support limb (the leg not tripped) in the
+    first ``window_s`` after the trip, by exertion (hip_extension, knee_flexion,
+    ankle_plantarflexion, ...), as Pijnappels et al. 2005 report them; None for muscles
+    (their forces are not joint moments) or without actuator forces."""
+    if rec.actuator_force is None or not len(rec.time_s):
+        return None
+    side = {"r": "l", "l": "r"}[tripped_side]
+    inside = (rec.time_s >= 0.0) & (rec.time_s <= window_s + 1e-9)
+    out = {}
+    for hinge, minus, plus in _EXERTIONS:
+        i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{hinge}_{side}")
+        if i < 0 or m.actuator_trntype[i] != mujoco.mjtTrn.mjTRN_JOINT:
+            return None
+        tau = rec.actuator_force[inside, i]
+        out[minus] = round(float(max(0.0, -tau.min())), 1)
+        out[plus] = round(float(max(0.0, tau.max())), 1)
+    return out
 
 
 @dataclass

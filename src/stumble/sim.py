@@ -131,6 +131,9 @@ class Context:
     body: Body
     sensors: Sensors
     t0: float  # data.time at the trip
+    # the servos' torque limits by joint angle and velocity (stumble.body.strength),
+    # refreshed before every block; None: the model's fixed force ranges
+    strength: object | None = None
 
 
 class Controller(Protocol):
@@ -395,13 +398,20 @@ def run(ctx: Context, controller: Controller, duration_s: float,
     why = sample(initial_state, sensordata)
     uses_sensors = getattr(controller, "uses_sensors", True)
     next_rec = rec_every
+    strength = ctx.strength
+    strength_every = max(1, round(strength.period_s / dt)) if strength is not None else 0
+    next_strength = 0
     while not why and step < n_steps:
         if uses_sensors:
             decode(lay, sensordata, d.time - ctx.t0, ctx.sensors, loads())
         plan = controller.update(ctx)
+        if strength is not None and step >= next_strength:
+            strength.apply(m, d)
+            next_strength = step + strength_every
         n_block = min(period, n_steps - step)
         if controls is not None:
-            gains = (m.actuator_gainprm[:, 0].copy(), m.actuator_biasprm[:, :3].copy())
+            gains = (m.actuator_gainprm[:, 0].copy(), m.actuator_biasprm[:, :3].copy(),
+                     m.actuator_forcerange.copy())
             controls.append((step, d.ctrl.copy() if plan is None else plan[:n_block].copy(),
                              gains))
         if forcing and d.time - ctx.t0 > force_end_s:

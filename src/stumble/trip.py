@@ -72,6 +72,32 @@ WALK_IN_S = 4.0  # own start: seconds walked before the trip's swing (our choice
 WALK_IN_RANGE_S = (2.0, 30.0)
 
 
+@dataclass(frozen=True)
+class Population:
+    """A preset of who trips: the strength table's age group, latencies added to the
+    state machines' responses (s, by ``FSMParams.latency_s`` key) and the preferred
+    walking speed (m/s, the default speed of ``stumble trip`` and ``stumble study``)."""
+
+    age: str
+    extra_latency_s: dict
+    preferred_speed_m_per_s: float
+    sources: str
+
+
+POPULATIONS = {
+    # the project's default body and speeds (the recorded subject walks 1.2 m/s)
+    "young": Population("young", {}, 1.2, "Anderson et al. 2007 (18-25 y)"),
+    # healthy older adults: strength, Anderson et al. 2007 (> 65 y); the support limb's
+    # responses, Pijnappels, Bobbert & van Dieen 2005 (Exp Brain Res 160:326: 60-80 ms in
+    # young and older alike, soleus 11 ms later in the older); preferred speed, Tirosh &
+    # Sparrow 2004 (69 y: 1.17 m/s against 1.29 m/s at 25 y)
+    "older": Population("older", {"sup.ankle_angle": 0.011}, 1.17,
+                        "Anderson et al. 2007 (> 65 y); Pijnappels et al. 2005 (EBR); "
+                        "Tirosh & Sparrow 2004"),
+}
+STRENGTH_MODELS = ("anderson2007", "fixed")  # stumble.body.strength
+
+
 GH2010_MAX_STEP_S = 0.001  # the GH2010 gains were fitted at 1 ms (its 5 ms hip delay)
 
 
@@ -134,6 +160,11 @@ class Scenario:
     duration_after_trip_s: float = 3.0
     delay_scale: float = 1.0  # multiplies every response latency
     strength_scale: float = 1.0  # multiplies every servo torque limit and muscle F_max
+    # servo torque limits: fixed (build.TORQUE_LIMIT_NM × mass / 70 kg, the default
+    # until the state machines are retuned on human strength) or anderson2007 (hip, knee
+    # and ankle by angle and velocity, stumble.body.strength; README "Human strength")
+    strength_model: str = "fixed"
+    population: str = "young"  # POPULATIONS: young or older
     timestep_s: float | None = None  # physics step; None: the controller's (DEFAULT_TIMESTEP_S)
     start: str | None = None  # playback or own (module docstring); None: DEFAULT_START
     walk_in_s: float = WALK_IN_S  # own start: walked before the trip's swing (s)
@@ -184,6 +215,15 @@ class Scenario:
             raise InputError(f"delay scale {self.delay_scale} is outside 0.2-5")
         if not 0.1 <= self.strength_scale <= 5.0:
             raise InputError(f"strength scale {self.strength_scale} is outside 0.1-5")
+        if self.strength_model not in STRENGTH_MODELS:
+            raise InputError(f"strength model {self.strength_model!r} is not one of "
+                             f"{', '.join(STRENGTH_MODELS)}")
+        if self.population not in POPULATIONS:
+            raise InputError(f"population {self.population!r} is not one of "
+                             f"{', '.join(POPULATIONS)}")
+        if self.population != "young" and self.controller in MUSCLE_CONTROLLERS:
+            raise InputError(f"population {self.population} is defined for the state "
+                             f"machines (fsm), not the {self.controller} controller")
         lo_dt, hi_dt = TIMESTEP_RANGE_S
         if not np.isfinite(self.timestep_s) or not lo_dt <= self.timestep_s <= hi_dt:
             raise InputError(f"time step {self.timestep_s} s is outside {lo_dt}-{hi_dt} s")

@@ -62,6 +62,10 @@ AXES: dict[str, Axis] = {a.name: a for a in (
     Axis("delay_scale", "delay_scale", float, "response latencies multiplied by this"),
     Axis("strength_scale", "strength_scale", float,
          "servo torque limits (fsm) or muscle F_max (reflex, gh2010) multiplied by this"),
+    Axis("strength", "strength_model", str, "servo torque limits: fixed (default) or "
+         "anderson2007 (human strength by joint angle and velocity)"),
+    Axis("population", "population", str, "young (default) or older (fsm): strength, "
+         "response latencies"),
     Axis("duration", "duration_after_trip_s", float, "seconds of physics after the trip at most"),
     Axis("start", "start", str, "playback (the recorded walk to the trip) or own (the reflex "
          "controller's own gait; default gh2010)"),
