@@ -1,5 +1,6 @@
 """The SCA 2009 state-machine controllers: strategy rule, latencies, transitions, falls."""
 
+import numpy as np
 import pytest
 
 from stumble.control.fsm_params import FSMParams
@@ -115,3 +116,28 @@ def test_lowering_double_support_has_its_own_targets():
     assert low._table("double_support") == "double_support_lowering"
     assert elev._table("double_support") == "double_support"
     assert low._table("fall") == "fall"  # no lowering table of its own
+
+
+def test_gains_and_balance_feedback_scale_with_the_body():
+    from stumble.body import build as build_body
+    from stumble.body.build import body_scale
+    from stumble.control.fsm_params import FSMParams
+    from stumble.control.pd import ServoBank
+
+    big = build_body(height_m=1.90, mass_kg=90.0, actuation="servos")
+    scale = 90.0 * 1.90 / (70.0 * 1.75)
+    assert body_scale(90.0, 1.90) == pytest.approx(scale)
+    # torque limits scale as strength does (body weight x height)
+    hip = big.model.actuator("hip_flexion_r").id
+    assert big.model.actuator_forcerange[hip, 1] == pytest.approx(300.0 * scale)
+    bank = ServoBank(big)
+    bank.set_gains(np.full(len(bank.names), 1000.0))
+    assert big.model.actuator_gainprm[hip, 0] == pytest.approx(1000.0 * scale)
+    kd = -big.model.actuator_biasprm[hip, 2]
+    assert kd / big.model.actuator_gainprm[hip, 0] == pytest.approx(0.1 * (1.90 / 1.75) ** 0.5)
+    flat = ServoBank(big, scaling="none")
+    flat.set_gains(np.full(len(flat.names), 1000.0))
+    assert big.model.actuator_gainprm[hip, 0] == pytest.approx(1000.0)
+    p = FSMParams().scaled_to(1.90)
+    assert p.balance_cd_rad_per_m == pytest.approx(FSMParams().balance_cd_rad_per_m * 1.75 / 1.90)
+    assert FSMParams().scaled_to(1.75) == FSMParams()

@@ -31,7 +31,9 @@ DEFAULT_KP_NM_PER_RAD = {
 KD_OVER_KP_S = 0.1  # SCA 2009 §4.5: k_d = 0.1 k_p
 # Peak joint torques (N·m) used as actuator force limits; our choice, set near the
 # largest net joint moments reported in fast walking and trip recovery (Winter 2009
-# ch. 5; Pijnappels et al. 2004) with margin, scaled by body mass / 70 kg.
+# ch. 5; Pijnappels et al. 2004) with margin, for the reference body (70 kg, 1.75 m) and
+# scaled by ``body_scale`` (body weight × height, as human strength scales: Anderson et
+# al. 2007 normalise their joint torques so).
 TORQUE_LIMIT_NM = {
     "lumbar": 300.0, "neck": 50.0, "shoulder": 80.0, "elbow": 50.0, "pro_sup": 10.0,
     "wrist": 20.0, "hip": 300.0, "knee": 250.0, "ankle": 250.0, "subtalar": 100.0,
@@ -45,6 +47,17 @@ LIMIT_SOLREF = (0.02, 1.0)
 SEGMENT_RGBA = (0.55, 0.65, 0.80, 1.0)
 LEFT_RGBA = (0.42, 0.50, 0.66, 1.0)  # left limbs a shade darker, so the legs read apart
 FOOT_RGBA = (0.25, 0.25, 0.30, 1.0)
+
+
+REFERENCE_BODY = (70.0, 1.75)  # kg, m: the body the gains and limits were set on
+
+
+def body_scale(mass_kg: float, height_m: float) -> float:
+    """How a body's joint torques scale against the reference body's: m·h / (70 kg ·
+    1.75 m). Under dynamic similarity (the same motion in units of √(h/g)) gravity's and
+    inertia's joint moments both scale so; it is also how human strength scales (Anderson
+    et al. 2007 normalise maximal joint torque by body weight × height)."""
+    return mass_kg * height_m / (REFERENCE_BODY[0] * REFERENCE_BODY[1])
 
 
 def _gain_key(hinge: str) -> str:
@@ -328,7 +341,7 @@ def build(planar: bool = False, height_m: float = 1.75, mass_kg: float = 70.0,
     hinges = [h[0] for h in flat]
     muscle_geometry = []
     if actuation == "muscles":
-        _actuators(s, [h for h in hinges if h.startswith("lumbar")], mass_kg)
+        _actuators(s, [h for h in hinges if h.startswith("lumbar")], mass_kg, height_m)
         muscle_geometry = muscles.add_muscles(s, height_m, mass_kg,
                                               muscles.check_muscle_set(muscle_set))
         for side in ("r", "l"):
@@ -336,7 +349,7 @@ def build(planar: bool = False, height_m: float = 1.75, mass_kg: float = 70.0,
             j.stiffness = [muscles.ANKLE_STIFFNESS_NM_PER_RAD, 0.0, 0.0]
             j.damping = [muscles.ANKLE_DAMPING_NMS_PER_RAD, 0.0, 0.0]
     else:
-        _actuators(s, hinges, mass_kg)
+        _actuators(s, hinges, mass_kg, height_m)
     body_sensors.add_sensors(s, foot_points, [a.name for a in s.actuators],
                              [g.name for g in muscle_geometry], obstacle is not None)
     model = s.compile()
@@ -389,9 +402,11 @@ def _lump_planar(lay: _Layout) -> dict[str, anth.Segment]:
     return segs
 
 
-def _actuators(s: mujoco.MjSpec, hinges: list[str], mass_kg: float) -> None:
-    """One PD position servo per internal DOF: τ = kp(ctrl − θ) − kd θ̇ (SCA 2009 eq. 1)."""
-    scale = mass_kg / 70.0
+def _actuators(s: mujoco.MjSpec, hinges: list[str], mass_kg: float,
+               height_m: float) -> None:
+    """One PD position servo per internal DOF: τ = kp(ctrl − θ) − kd θ̇ (SCA 2009 eq. 1),
+    its torque limit scaled by ``body_scale``."""
+    scale = body_scale(mass_kg, height_m)
     for name in hinges:
         key = _gain_key(name)
         kp = DEFAULT_KP_NM_PER_RAD[key]

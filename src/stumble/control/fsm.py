@@ -68,7 +68,9 @@ class TripFSM:
     def start(self, ctx: Context) -> None:
         """Take over at the trip: hold the current pose, schedule the reactions."""
         self.period_steps = max(1, round(1.0 / (CONTROL_HZ * ctx.model.opt.timestep)))
-        self.bank = ServoBank(ctx.body)
+        self.bank = ServoBank(ctx.body, scaling=self.p.body_scaling)
+        if self.p.body_scaling == "dynamic":  # SIMBICON's feedback in body lengths
+            self.p = self.p.scaled_to(ctx.body.height_m)
         self._cache_views(ctx)
         nu = len(self.bank.names)
         self.mode = np.full(nu, HOLD)

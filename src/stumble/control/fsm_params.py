@@ -18,7 +18,7 @@ is beside it. Everything here can be overridden (``FSMParams(**changes)``).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 ACTIVATION_TO_TORQUE_S = 0.050  # SCA 2009 §4.3: 50 ms from muscle activation to torque
 
@@ -199,6 +199,9 @@ class FSMParams:
     kp_hip_out_of_plane: float = KP_HIP_OUT_OF_PLANE
     kp_knee_rotation: float = KP_KNEE_ROTATION
     kp_subtalar: float = KP_SUBTALAR
+    # gains are the reference body's (70 kg, 1.75 m); dynamic: scaled to each body by
+    # m·h (k_d/k_p by √h), stumble.control.pd.ServoBank; none: the same for every body
+    body_scaling: str = "dynamic"
     # SCA 2009 §5 uses 50 and 300 for slow and fast walking; on our body 300 lifts the
     # support foot off and stalls the recovery; the tuned values (scripts/tune_fsm.py,
     # seeds 1, 3 and 11) are 39.5 and 66.7.
@@ -234,6 +237,16 @@ class FSMParams:
     def delay(self, key: str) -> float:
         """Latency + activation-to-torque offset, times the delay scale (s)."""
         return (self.latency_s[key] + self.activation_to_torque_s) * self.delay_scale
+
+    def scaled_to(self, height_m: float) -> FSMParams:
+        """These parameters for a body ``height_m`` tall, under dynamic similarity with the
+        reference body (1.75 m): SIMBICON's position gains (rad/m) over the body's length
+        scale ℓ = h / 1.75 m, its velocity gains (rad·s/m) over √ℓ (speeds scale as √(gℓ))."""
+        ell = height_m / 1.75
+        return replace(self, balance_cd_rad_per_m=self.balance_cd_rad_per_m / ell,
+                       balance_cv_rad_s_per_m=self.balance_cv_rad_s_per_m / ell ** 0.5,
+                       balance_cd_lat_rad_per_m=self.balance_cd_lat_rad_per_m / ell,
+                       balance_cv_lat_rad_s_per_m=self.balance_cv_lat_rad_s_per_m / ell ** 0.5)
 
     def kc(self, speed_m_per_s: float) -> float:
         """Compensation coefficient at a walking speed (SCA 2009 §5, interpolated)."""
