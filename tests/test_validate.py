@@ -18,10 +18,15 @@ def fake_trip(sc: Scenario, **kw):
     if sc.controller == "reflex":
         raise InputError("controller 'reflex' is not available (fsm)")
     elevating = sc.swing_fraction <= 0.5
+    # older adults fall from the late trips (the window trips are all at 1.1 m/s)
+    fell = sc.speed_m_per_s >= 1.3 or (sc.population == "older" and not elevating)
     return SimpleNamespace(summary={
         "controller": "fsm", "strategy": "elevating" if elevating else "lowering",
-        "variant": "double_support", "recovered": sc.speed_m_per_s < 1.3,
-        "fell": sc.speed_m_per_s >= 1.3, "diverged": False,
+        "variant": "double_support", "recovered": not fell,
+        "fell": fell, "diverged": False,
+        "support_peak_moments_nm": {"hip_extension": 60.0 + 10 * sc.swing_fraction,
+                                    "knee_flexion": 150.0, "ankle_plantarflexion": 190.0},
+        "trunk_tilt_at_recovery_contact_deg": 20.0 + 10 * sc.swing_fraction,
         "durations_s": {"recovery_step": 0.70 if elevating else None,
                         "trip_to_recovery_contact": 0.58 if elevating else 0.90},
         "wall_time_s": 0.001})
@@ -45,8 +50,11 @@ def fake(monkeypatch):
 
 def test_the_fixed_study():
     cases = validate.validation_scenarios()
-    assert len(cases) == 36 and len({c for c, _ in cases}) == 36
-    fsm = [sc for c, sc in cases if sc.controller == "fsm"]
+    assert len(cases) == 44 and len({c for c, _ in cases}) == 44
+    older = [sc for c, sc in cases if "/older/" in c]
+    assert [sc.swing_fraction for sc in older] == list(validate.WINDOW_SWINGS)
+    assert {(sc.controller, sc.population) for sc in older} == {("fsm", "older")}
+    fsm = [sc for c, sc in cases if sc.controller == "fsm" and sc.population == "young"]
     windows = [sc for sc in fsm if sc.mechanism == "obstacle"]
     assert [sc.swing_fraction for sc in windows] == list(validate.WINDOW_SWINGS)
     assert {sc.speed_m_per_s for sc in windows} == {1.1}
@@ -112,6 +120,18 @@ def test_validate_prints_the_table_and_writes_json(tmp_path, fake, capsys, monke
     assert walk["agreement"] == "no" and "walked 20.0 s" in walk["stumble_text"]
     stance = by[("walking: stance fraction", "gh2010")]
     assert stance["stumble"] == 0.62 and stance["agreement"] == "yes"
+    # the state machines beside people: push-off (Pijnappels et al. 2005), trunk, older
+    hip = by[("support limb: peak hip extension moment, 300 ms after the trip", "fsm")]
+    assert hip["published"] == 52.0 and hip["stumble"] == pytest.approx(64.5)
+    assert hip["agreement"] == "yes"  # within x1.5 of 52 N·m
+    knee = by[("support limb: peak knee flexion moment, 300 ms after the trip", "fsm")]
+    assert knee["stumble"] == 150.0 and knee["agreement"] == "no"  # over 1.5 x 54 N·m
+    tilt = by[("trunk from vertical at recovery-foot contact, recoveries", "fsm")]
+    assert tilt["stumble"] == pytest.approx(27.5) and tilt["agreement"] == "no"
+    low = by[("older adults: strategy, trip at 55-75 % of swing", "fsm")]
+    assert low["stumble"] == 3 and low["agreement"] == "yes"
+    falls = by[("older adults fall more often than young (window trips)", "fsm")]
+    assert falls["stumble"] == {"young": 0, "older": 3} and falls["agreement"] == "yes"
     # the runs are a study: there, with their rows
     assert (out / "results.parquet").exists()
 

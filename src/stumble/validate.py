@@ -109,6 +109,18 @@ NORMAL_SWING = ((1.0, 0.45, 0.40), (1.4, 0.42, 0.3))
 # SCA 2009 §5.1: the elevating (double support) step is 64 % longer than normal walking's
 # swing in the motion capture, 75 % in the simulation
 ELEVATING_INCREASE = (0.64, 0.75)
+# Pijnappels, Bobbert & van Dieen 2005 (J Biomech 38:627, abstract): the support limb's
+# peak moments in the primary phase of recovery from mid-swing trips, 12 young adults:
+# ankle plantarflexion 204 N·m, knee flexion 54 N·m, hip extension 52 N·m. Only the means
+# were read; agreement is within PUSH_OFF_FACTOR of each (ours)
+PUSH_OFF_NM = (("hip_extension", 52.0), ("knee_flexion", 54.0),
+               ("ankle_plantarflexion", 204.0))
+PUSH_OFF_FACTOR = 1.5
+# van den Bogert, Pavol & Grabiner 2002 (J Biomech 35:199): recoveries keep the trunk
+# within about 23-26° of vertical at recovery-foot contact
+TRUNK_TILT_MAX_DEG = 26.0
+# Roos et al. 2010 (Clin Biomech 25:873): older adults tripped at 60-80 % of swing lower
+OLDER_LOWERING = (0.55, 0.75)  # our window trips nearest 60-80 %
 # Murai & Yamane 2011 §V.A: identification from walking, average error 2.0 %, maximum 36 %
 IDENTIFICATION = (("average", "avg_error", 0.020), ("maximum", "max_error", 0.36))
 
@@ -121,6 +133,11 @@ def validation_scenarios(controllers=CONTROLLERS) -> list[tuple[str, Scenario]]:
             out.append((f"{ctrl}/window/{s}", Scenario(
                 swing_fraction=s, speed_m_per_s=WINDOW_SPEED_M_PER_S, mechanism="obstacle",
                 controller=ctrl)))
+        if ctrl == "fsm":  # the same window trips by healthy older adults
+            for s in WINDOW_SWINGS:
+                out.append((f"{ctrl}/older/{s}", Scenario(
+                    swing_fraction=s, speed_m_per_s=WINDOW_SPEED_M_PER_S,
+                    mechanism="obstacle", controller=ctrl, population="older")))
         for i, c in enumerate(DURATIONS):
             # each seed's mechanism: SCA 2009's tripping force, seed 003's obstacle
             out.append((f"{ctrl}/duration/{i}", Scenario(
@@ -144,6 +161,57 @@ def recovery_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
     return [_row(figure, "stumble", ctrl, RECOVERY_TARGET, pub_text, round(rate, 4),
                  f"{k}/{len(ran)} ({rate:.0%})", "yes" if rate >= RECOVERY_TARGET else "no",
                  keys)]
+
+
+def strength_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
+    """The state machines beside people: the support limb's push-off (Pijnappels et al.
+    2005), the trunk at recovery contact (van den Bogert et al. 2002), older adults
+    (Roos et al. 2010)."""
+    rows = [by_case[f"{ctrl}/window/{s}"] for s in WINDOW_SWINGS]
+    ran = [r for r in rows if not r.get("error")]
+    keys = [r["key"] for r in rows]
+    out = []
+    for name, pub in PUSH_OFF_NM:
+        figure = f"support limb: peak {name.replace('_', ' ')} moment, 300 ms after the trip"
+        vals = sorted(v for r in ran
+                      if (v := r.get(f"support_peak_moments_nm.{name}")) is not None)
+        pub_text = f"{pub:g} N·m (mean; agreement within ×{PUSH_OFF_FACTOR:g})"
+        if not vals:
+            out.append(_row(figure, "Pijnappels et al. 2005", ctrl, pub, pub_text, None,
+                            "not available", "n/a", keys, _why(rows)))
+            continue
+        med = vals[len(vals) // 2]
+        ok = pub / PUSH_OFF_FACTOR <= med <= pub * PUSH_OFF_FACTOR
+        out.append(_row(figure, "Pijnappels et al. 2005", ctrl, pub, pub_text, med,
+                        f"median {med:.0f} N·m (range {vals[0]:.0f}-{vals[-1]:.0f})",
+                        "yes" if ok else "no", keys))
+    tilts = [r.get("trunk_tilt_at_recovery_contact_deg") for r in ran if r.get("recovered")]
+    tilts = [t for t in tilts if t is not None]
+    figure = "trunk from vertical at recovery-foot contact, recoveries"
+    pub_text = f"≤ {TRUNK_TILT_MAX_DEG:g}° (23-26°)"
+    out.append(_row(figure, "van den Bogert et al. 2002", ctrl, TRUNK_TILT_MAX_DEG, pub_text,
+                    max(tilts) if tilts else None,
+                    f"largest {max(tilts):.1f}° of {len(tilts)}" if tilts else "no recovery",
+                    ("yes" if max(tilts) <= TRUNK_TILT_MAX_DEG else "no") if tilts else "n/a",
+                    keys))
+    older = [by_case[f"{ctrl}/older/{s}"] for s in WINDOW_SWINGS]
+    o_ran = [r for r in older if not r.get("error")]
+    late = [r for r in o_ran if OLDER_LOWERING[0] - 1e-9 <= r["swing_fraction"]
+            <= OLDER_LOWERING[1] + 1e-9]
+    n_low = sum(r.get("strategy") == "lowering" for r in late)
+    out.append(_row("older adults: strategy, trip at 55-75 % of swing", "Roos et al. 2010",
+                    ctrl, "lowering", "lowering (at 60-80 %)", n_low,
+                    f"lowering {n_low}/{len(late)}",
+                    "yes" if late and n_low == len(late) else "no",
+                    [r["key"] for r in older]))
+    fall_y = sum(bool(r.get("fell")) for r in ran)
+    fall_o = sum(bool(r.get("fell")) for r in o_ran)
+    out.append(_row("older adults fall more often than young (window trips)",
+                    "Pijnappels et al. 2005 (EBR)", ctrl, "older > young", "older > young",
+                    {"young": fall_y, "older": fall_o},
+                    f"young {fall_y}/{len(ran)}, older {fall_o}/{len(o_ran)}",
+                    "yes" if fall_o > fall_y else "no", [r["key"] for r in older]))
+    return out
 
 
 def walking_rows(ctrl: str, closed_loop: bool = False) -> list[dict]:
@@ -374,6 +442,8 @@ def run_validation(out: Path, workers: int | None = None, progress: bool = True,
         rows += window_rows(ctrl, by_case)
         rows += duration_rows(ctrl, by_case, swing)
         rows += recovery_rows(ctrl, by_case)
+        if ctrl == "fsm":
+            rows += strength_rows(ctrl, by_case)
         if ctrl in REFLEX_CONTROLLERS:
             rows += walking_rows(ctrl)
         if ctrl == "reflex":
@@ -389,6 +459,9 @@ def run_validation(out: Path, workers: int | None = None, progress: bool = True,
                         f"within {RELATIVE_TOLERANCE:.0%} of the motion-capture value",
             "identification": "no larger than the published error",
             "recovery": f"at least {RECOVERY_TARGET:.0%} of the window trips recovered",
+            "push_off": f"the median over the window trips within ×{PUSH_OFF_FACTOR:g} of "
+                        "Pijnappels et al. 2005's mean",
+            "trunk": f"no recovery beyond {TRUNK_TILT_MAX_DEG:g}° at recovery-foot contact",
             "walking": f"{WALK_S:g} s walked, every joint RMSE ≤ {WALK_RMSE_DEG:g}°; stance "
                        f"fraction within {STANCE_RANGE[0]}-{STANCE_RANGE[1]}",
         },
