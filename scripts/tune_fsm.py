@@ -8,7 +8,12 @@ the number recovered (tie-break: the time survived). Seeded and deterministic.
 
 Run:  python scripts/tune_fsm.py [--candidates N] [--workers N] [--seed S]
       [--grid small|full|lowering] [--only all|lowering] [--around JSON]
-Prints the best parameter set as Python, to be carried into fsm_params.py by hand.
+      [--method random|cma] [--generations G] [--popsize P] [--out FILE]
+      [--strength anderson2007|fixed]
+``--method cma``: CMA-ES (the ``cmaes`` package, seeded) over the targets scaled to
+their ranges, from the defaults, maximising recoveries + the fraction of the grid's
+time survived; every generation's best is written to ``--out`` as it goes.
+Prints the best parameter set as JSON, to be carried into fsm_params.py by hand.
 """
 
 from __future__ import annotations
@@ -50,6 +55,16 @@ SPACE = {
     "ds_low_sup_hip": (("targets_deg", "double_support_lowering", "sup.hip_flexion"), 15.0,
                        50.0),
 }
+# servo gains (N·m/rad), searched with --gains: with human strength (Anderson et al.
+# 2007) the servos saturate, and how hard each joint is driven matters
+GAINS = {
+    "kp_support_hip": (("kp_passive", "support_hip"), 300.0, 2000.0),
+    "kp_swing_hip": (("kp_passive", "swing_hip"), 150.0, 1500.0),
+    "kp_knee": (("kp_passive", "knee"), 100.0, 800.0),
+    "kp_ankle": (("kp_passive", "ankle"), 100.0, 800.0),
+    "recovery_gain_factor": (("recovery_gain_factor",), 1.0, 2.5),
+    "kp_ssat_support_hip": (("kp_ssat_support_hip",), 400.0, 3000.0),
+}
 # the targets that only the lowering strategy uses (--only lowering)
 LOWERING = ("low_sup_ankle", "low_rec_hip", "low_rec_knee", "low_rec_ankle", "swap_trip_hip",
             "swap_trip_ankle", "swap_trip_knee", "ds_low_sup_knee", "ds_low_sup_hip")
@@ -69,12 +84,17 @@ def params_from(x: dict):
 
     p = FSMParams()
     for name, value in x.items():
-        path = SPACE[name][0]
+        path = {**SPACE, **GAINS}[name][0]
         if path[0] == "targets_deg":
             p.targets_deg[path[1]][path[2]] = value
+        elif path[0] == "kp_passive":
+            p.kp_passive[path[1]] = value
         else:
             setattr(p, path[0], value)
     return p
+
+
+STRENGTH = "fixed"  # the servos' torque limits (Scenario.strength_model, --strength)
 
 
 def evaluate(x: dict) -> tuple[int, float]:
@@ -84,7 +104,8 @@ def evaluate(x: dict) -> tuple[int, float]:
 
     rec, survived = 0, 0.0
     for f, v, mech in GRID:
-        s = simulate_trip(Scenario(swing_fraction=f, speed_m_per_s=v, mechanism=mech),
+        s = simulate_trip(Scenario(swing_fraction=f, speed_m_per_s=v, mechanism=mech,
+                                   strength_model=STRENGTH),
                           params=params_from(x)).summary
         rec += int(s["recovered"])
         survived += s["sim_time_s"] if not s["fell"] else (s["fall_time_s"] or 0.0)
@@ -102,20 +123,37 @@ def main() -> None:
     ap.add_argument("--around", metavar="JSON",
                     help="search locally: Gaussian steps (15 %% of each range) around these "
                     "values, a JSON object of SPACE names (default: uniform over the ranges)")
+    ap.add_argument("--method", choices=("random", "cma"), default="random")
+    ap.add_argument("--generations", type=int, default=20, help="cma: generations")
+    ap.add_argument("--popsize", type=int, default=12, help="cma: candidates per generation")
+    ap.add_argument("--out", default=None, metavar="FILE",
+                    help="cma: the best so far, as JSON, rewritten every generation")
+    ap.add_argument("--strength", choices=("anderson2007", "fixed"), default="fixed",
+                    help="the servos' torque limits (Scenario.strength_model)")
+    ap.add_argument("--gains", action="store_true",
+                    help="search the servo gains too (GAINS) as well as the targets")
     args = ap.parse_args()
-    global GRID
+    global GRID, STRENGTH
     GRID = {"small": GRID, "full": FULL_GRID, "lowering": LOWERING_GRID}[args.grid]
+    STRENGTH = args.strength
     space = {k: v for k, v in SPACE.items() if args.only == "all" or k in LOWERING}
+    if args.gains:
+        space.update(GAINS)
     rng = np.random.default_rng(args.seed)
     from stumble.control.fsm_params import FSMParams
 
     default = FSMParams()
     base = {}
-    for name, (path, _lo, _hi) in SPACE.items():
+    for name, (path, _lo, _hi) in {**SPACE, **GAINS}.items():
         base[name] = (default.targets_deg[path[1]][path[2]] if path[0] == "targets_deg"
+                      else default.kp_passive[path[1]] if path[0] == "kp_passive"
                       else getattr(default, path[0]))
     if args.around:
         base.update(json.loads(args.around))
+    if args.method == "cma":
+        _cma(args, base, space)
+        return
+    if args.around:
         cands = [base] + [{**base, **{k: float(np.clip(base[k] + rng.normal(0, 0.15 * (hi - lo)),
                                                        lo, hi))
                                       for k, (_p, lo, hi) in space.items()}}
@@ -135,6 +173,56 @@ def main() -> None:
                 best = (x, score)
             print(f"{i:3d} recovered {score[0]:2d}/{len(GRID)} survived {score[1]:6.2f} s "
                   f"best {best[1][0]} ({time.time() - t0:.0f} s)", flush=True)
+    finally:
+        if ex:
+            ex.shutdown()
+    print(json.dumps({"recovered": best[1][0], "of": len(GRID), "params": best[0]}, indent=1))
+
+
+def _worker_init(strength: str, grid: list) -> None:
+    global STRENGTH, GRID
+    STRENGTH, GRID = strength, grid
+
+
+def _cma(args, base: dict, space: dict) -> None:
+    """CMA-ES over ``space`` (each name scaled to its range), from ``base``."""
+    from cmaes import CMA
+
+    names = list(space)
+    lo = np.array([space[k][1] for k in names])
+    hi = np.array([space[k][2] for k in names])
+    x0 = np.clip((np.array([base[k] for k in names]) - lo) / (hi - lo), 0.0, 1.0)
+    opt = CMA(mean=x0, sigma=0.12, bounds=np.array([[0.0, 1.0]] * len(names)),
+              seed=args.seed, population_size=args.popsize)
+
+    def point(u: np.ndarray) -> dict:
+        return {**base, **{k: float(v) for k, v in zip(names, lo + u * (hi - lo), strict=True)}}
+
+    ex = ProcessPoolExecutor(args.workers, initializer=_worker_init,
+                             initargs=(STRENGTH, GRID)) if args.workers > 1 else None
+    t0, best = time.time(), None
+    span = 3.0 * len(GRID)  # the grid's time budget (3 s a trip)
+    try:
+        first = evaluate(base) if ex is None else ex.submit(evaluate, base).result()
+        best = (base, first)
+        print(f"start recovered {first[0]}/{len(GRID)} survived {first[1]:.1f} s", flush=True)
+        for g in range(args.generations):
+            us = [opt.ask() for _ in range(opt.population_size)]
+            xs = [point(u) for u in us]
+            scores = list(ex.map(evaluate, xs) if ex else map(evaluate, xs))
+            opt.tell([(u, -(r + sv / span)) for u, (r, sv) in zip(us, scores, strict=True)])
+            for x, sc in zip(xs, scores, strict=True):
+                if sc > best[1]:
+                    best = (x, sc)
+            print(f"gen {g:2d} best of gen {max(scores)[0]}/{len(GRID)} overall "
+                  f"{best[1][0]} ({time.time() - t0:.0f} s)", flush=True)
+            if args.out:
+                with open(args.out, "w") as fh:
+                    json.dump({"recovered": best[1][0], "of": len(GRID),
+                               "survived_s": round(best[1][1], 3), "generation": g,
+                               "command": " ".join(["python scripts/tune_fsm.py",
+                                                    *__import__("sys").argv[1:]]),
+                               "params": best[0]}, fh, indent=1)
     finally:
         if ex:
             ex.shutdown()
