@@ -42,6 +42,8 @@ def main() -> None:
     ap.add_argument("--timestep", type=float, default=None, help="default: the scenario's")
     ap.add_argument("--duration", type=float, default=None, help="default: the scenario's")
     ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--strength", choices=("fixed", "anderson2007"), default="fixed",
+                    help="the servos' torque limits (Scenario.strength_model)")
     ap.add_argument("--cases", choices=("all", "one"), default="all")
     args = ap.parse_args()
     print(f"load average before {os.getloadavg()[0]:.2f}; contact {args.contact}")
@@ -54,6 +56,7 @@ def main() -> None:
         given = {k: v for k, v in (("timestep_s", args.timestep),
                                    ("duration_after_trip_s", args.duration)) if v is not None}
         sc = Scenario(swing_fraction=f, mechanism=mech, speed_m_per_s=args.speed,
+                      strength_model=args.strength,
                       contact=args.contact, **given)
         t = time_against_replay(sc, args.repeats)
         s = t.result.summary

@@ -25,46 +25,8 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-# name: (path in FSMParams, low, high)
-SPACE = {
-    "low_sup_ankle": (("targets_deg", "clearance_lowering", "sup.ankle_angle"), -60.0, 10.0),
-    "elev_sup_ankle": (("targets_deg", "clearance_elevating", "sup.ankle_angle"), -60.0, 0.0),
-    "fall_rec_knee": (("targets_deg", "fall", "rec.knee_angle"), -25.0, -3.0),
-    "fall_sup_ankle": (("targets_deg", "fall", "sup.ankle_angle"), -30.0, 10.0),
-    "ext_rec_hip": (("targets_deg", "clearance_extend", "rec.hip_flexion"), 20.0, 60.0),
-    "ext_rec_knee": (("targets_deg", "clearance_extend", "rec.knee_angle"), -45.0, -8.0),
-    "low_rec_hip": (("targets_deg", "clearance_lowering", "rec.hip_flexion"), 40.0, 80.0),
-    "low_rec_knee": (("targets_deg", "clearance_lowering", "rec.knee_angle"), -125.0, -70.0),
-    "ssat_sup_hip": (("targets_deg", "single_support_after_trip", "sup.hip_flexion"), 30.0,
-                     65.0),
-    "reach_sup_knee": (("targets_deg", "step_reach", "sup.knee_angle"), -20.0, -3.0),
-    "kc_slow": (("kc_slow",), 0.0, 100.0),
-    "kc_fast": (("kc_fast",), 0.0, 300.0),
-    "reach_thigh_deg": (("reach_thigh_deg",), -5.0, 15.0),
-    "land_thigh_deg": (("land_thigh_deg",), -5.0, 30.0),
-    "balance_cd": (("balance_cd_rad_per_m",), 0.2, 0.8),
-    "balance_cv": (("balance_cv_rad_s_per_m",), 0.1, 0.5),
-    "ssat_swing_s": (("ssat_swing_s",), 0.2, 0.45),
-    "clear_margin_m": (("clear_margin_m",), 0.06, 0.2),
-    "swap_trip_hip": (("targets_deg", "leg_swap", "trip.hip_flexion"), -10.0, 20.0),
-    "swap_trip_ankle": (("targets_deg", "leg_swap", "trip.ankle_angle"), -10.0, 20.0),
-    "swap_trip_knee": (("targets_deg", "leg_swap", "trip.knee_angle"), -20.0, 0.0),
-    "low_rec_ankle": (("targets_deg", "clearance_lowering", "rec.ankle_angle"), 0.0, 25.0),
-    "ds_low_sup_knee": (("targets_deg", "double_support_lowering", "sup.knee_angle"), -125.0,
-                        -90.0),
-    "ds_low_sup_hip": (("targets_deg", "double_support_lowering", "sup.hip_flexion"), 15.0,
-                       50.0),
-}
-# servo gains (N·m/rad), searched with --gains: with human strength (Anderson et al.
-# 2007) the servos saturate, and how hard each joint is driven matters
-GAINS = {
-    "kp_support_hip": (("kp_passive", "support_hip"), 300.0, 2000.0),
-    "kp_swing_hip": (("kp_passive", "swing_hip"), 150.0, 1500.0),
-    "kp_knee": (("kp_passive", "knee"), 100.0, 800.0),
-    "kp_ankle": (("kp_passive", "ankle"), 100.0, 800.0),
-    "recovery_gain_factor": (("recovery_gain_factor",), 1.0, 2.5),
-    "kp_ssat_support_hip": (("kp_ssat_support_hip",), 400.0, 3000.0),
-}
+from stumble.control.fsm_params import GAINS, SPACE  # name: (path in FSMParams, lo, hi)
+
 # the targets that only the lowering strategy uses (--only lowering)
 LOWERING = ("low_sup_ankle", "low_rec_hip", "low_rec_knee", "low_rec_ankle", "swap_trip_hip",
             "swap_trip_ankle", "swap_trip_knee", "ds_low_sup_knee", "ds_low_sup_hip")
@@ -82,19 +44,11 @@ def params_from(x: dict):
     """An FSMParams with the searched values set."""
     from stumble.control.fsm_params import FSMParams
 
-    p = FSMParams()
-    for name, value in x.items():
-        path = {**SPACE, **GAINS}[name][0]
-        if path[0] == "targets_deg":
-            p.targets_deg[path[1]][path[2]] = value
-        elif path[0] == "kp_passive":
-            p.kp_passive[path[1]] = value
-        else:
-            setattr(p, path[0], value)
-    return p
+    return FSMParams().with_values(x)
 
 
 STRENGTH = "fixed"  # the servos' torque limits (Scenario.strength_model, --strength)
+WALK_ON_S = None  # --walk-on S: recovered = still walking S s after the trip
 
 
 def evaluate(x: dict) -> tuple[int, float]:
@@ -104,8 +58,10 @@ def evaluate(x: dict) -> tuple[int, float]:
 
     rec, survived = 0, 0.0
     for f, v, mech in GRID:
+        walk_on = ({} if WALK_ON_S is None else
+                   {"recovery": "walk_on", "duration_after_trip_s": WALK_ON_S})
         s = simulate_trip(Scenario(swing_fraction=f, speed_m_per_s=v, mechanism=mech,
-                                   strength_model=STRENGTH),
+                                   strength_model=STRENGTH, **walk_on),
                           params=params_from(x)).summary
         rec += int(s["recovered"])
         survived += s["sim_time_s"] if not s["fell"] else (s["fall_time_s"] or 0.0)
@@ -130,12 +86,15 @@ def main() -> None:
                     help="cma: the best so far, as JSON, rewritten every generation")
     ap.add_argument("--strength", choices=("anderson2007", "fixed"), default="fixed",
                     help="the servos' torque limits (Scenario.strength_model)")
+    ap.add_argument("--walk-on", type=float, default=None, metavar="S",
+                    help="recovered = still walking S s after the trip (Scenario recovery "
+                    "walk_on) instead of 1 s after the recovery step")
     ap.add_argument("--gains", action="store_true",
                     help="search the servo gains too (GAINS) as well as the targets")
     args = ap.parse_args()
-    global GRID, STRENGTH
+    global GRID, STRENGTH, WALK_ON_S
     GRID = {"small": GRID, "full": FULL_GRID, "lowering": LOWERING_GRID}[args.grid]
-    STRENGTH = args.strength
+    STRENGTH, WALK_ON_S = args.strength, args.walk_on
     space = {k: v for k, v in SPACE.items() if args.only == "all" or k in LOWERING}
     if args.gains:
         space.update(GAINS)
@@ -144,10 +103,7 @@ def main() -> None:
 
     default = FSMParams()
     base = {}
-    for name, (path, _lo, _hi) in {**SPACE, **GAINS}.items():
-        base[name] = (default.targets_deg[path[1]][path[2]] if path[0] == "targets_deg"
-                      else default.kp_passive[path[1]] if path[0] == "kp_passive"
-                      else getattr(default, path[0]))
+    base = default.values()
     if args.around:
         base.update(json.loads(args.around))
     if args.method == "cma":
@@ -179,9 +135,9 @@ def main() -> None:
     print(json.dumps({"recovered": best[1][0], "of": len(GRID), "params": best[0]}, indent=1))
 
 
-def _worker_init(strength: str, grid: list) -> None:
-    global STRENGTH, GRID
-    STRENGTH, GRID = strength, grid
+def _worker_init(strength: str, grid: list, walk_on_s: float | None) -> None:
+    global STRENGTH, GRID, WALK_ON_S
+    STRENGTH, GRID, WALK_ON_S = strength, grid, walk_on_s
 
 
 def _cma(args, base: dict, space: dict) -> None:
@@ -199,9 +155,9 @@ def _cma(args, base: dict, space: dict) -> None:
         return {**base, **{k: float(v) for k, v in zip(names, lo + u * (hi - lo), strict=True)}}
 
     ex = ProcessPoolExecutor(args.workers, initializer=_worker_init,
-                             initargs=(STRENGTH, GRID)) if args.workers > 1 else None
+                             initargs=(STRENGTH, GRID, WALK_ON_S)) if args.workers > 1 else None
     t0, best = time.time(), None
-    span = 3.0 * len(GRID)  # the grid's time budget (3 s a trip)
+    span = (WALK_ON_S or 3.0) * len(GRID)  # the grid's time budget
     try:
         first = evaluate(base) if ex is None else ex.submit(evaluate, base).result()
         best = (base, first)

@@ -141,3 +141,29 @@ def test_gains_and_balance_feedback_scale_with_the_body():
     p = FSMParams().scaled_to(1.90)
     assert p.balance_cd_rad_per_m == pytest.approx(FSMParams().balance_cd_rad_per_m * 1.75 / 1.90)
     assert FSMParams().scaled_to(1.75) == FSMParams()
+
+
+def test_tunable_values_and_the_human_strength_set():
+    import json
+
+    from stumble.control.fsm_params import (
+        GAINS,
+        HUMAN_STRENGTH_FILE,
+        SPACE,
+        human_strength_params,
+    )
+
+    p = FSMParams()
+    assert set(p.values()) == set(SPACE) | set(GAINS) and len(SPACE) == 24
+    assert p.with_values(p.values()) == p
+    q = p.with_values({"kp_knee": 123.0, "ssat_swing_s": 0.3})
+    assert q.kp_passive["knee"] == 123.0 and q.ssat_swing_s == 0.3
+    assert p.kp_passive["knee"] == 300.0  # the original is untouched
+    with pytest.raises(KeyError):
+        p.with_values({"no_such_target": 1.0})
+    shipped = json.loads(HUMAN_STRENGTH_FILE.read_text())
+    assert "--strength anderson2007" in shipped["fit"]["command"]
+    h = human_strength_params()
+    assert h.values() == pytest.approx(shipped["params"]) and h != p
+    for name, (_path, lo, hi) in {**SPACE, **GAINS}.items():
+        assert lo <= h.values()[name] <= hi, name

@@ -149,3 +149,14 @@ def test_older_population_is_weaker_and_slower():
     ratio = (ANDERSON_2007[("hip", "extension", "male", "older")][0]
              / ANDERSON_2007[("hip", "extension", "male", "young")][0])
     assert m.actuator_forcerange[hip, 0] == pytest.approx(-300.0 * ratio)
+
+
+def test_recovery_rule_walk_on_asks_for_walking_to_the_end():
+    from stumble.pipeline import _walk_on_s
+    from stumble.trip import Scenario
+
+    with pytest.raises(InputError, match="recovery rule 'stand'"):
+        Scenario(recovery="stand").validated()
+    sc = Scenario(recovery="walk_on", duration_after_trip_s=6.0).validated()
+    assert _walk_on_s(sc, reflex=False) == pytest.approx(5.99)
+    assert _walk_on_s(Scenario().validated(), reflex=False) is None

@@ -146,6 +146,10 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--strength", choices=("fixed", "anderson2007"), default="fixed",
                    help="servo torque limits (fsm): fixed (default) or anderson2007, human "
                    "strength by joint angle and velocity (Anderson et al. 2007)")
+    t.add_argument("--recovery", choices=("step", "walk_on"), default="step",
+                   help="what recovered means (fsm): step, 1 s after the recovery step "
+                   "upright over the feet (default); walk_on, still walking upright at "
+                   "the end of --duration (as the reflex controllers)")
     t.add_argument("--population", choices=("young", "older"), default="young",
                    help="young (default) or older adults (fsm): strength, response "
                    "latencies and walking speed of healthy older adults")
@@ -482,6 +486,7 @@ def cmd_trip(args) -> int:
              else args.speed)
     scenario = Scenario(swing_fraction=args.swing, speed_m_per_s=speed,
                         strength_model=args.strength, population=args.population,
+                        recovery=args.recovery,
                         leg=args.leg, mechanism=args.mechanism or (
                             "force" if args.controller == "fsm" else "obstacle"),
                         obstacle_height_m=args.obstacle_height, controller=args.controller,

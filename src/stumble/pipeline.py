@@ -31,7 +31,7 @@ from stumble.body.contact import STIFFNESS_N_PER_M, PenaltyContact
 from stumble.body.muscles import DEFAULT_MUSCLE_SET
 from stumble.body.strength import Strength, age_fixed_limits
 from stumble.control.fsm import TripFSM
-from stumble.control.fsm_params import FSMParams
+from stumble.control.fsm_params import FSMParams, human_strength_params
 from stumble.errors import InputError
 from stumble.gait.playback import Playback
 from stumble.gait.reference import load_reference
@@ -210,7 +210,9 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     """
     sc = scenario.validated()
     reflex = sc.controller in MUSCLE_CONTROLLERS
-    p = params or FSMParams()
+    # the state machines on human strength run with the targets and gains tuned for it
+    p = params or (human_strength_params() if sc.strength_model == "anderson2007"
+                   else FSMParams())
     strategy = None
     if not reflex:
         strategy = p.strategy_for(sc.swing_fraction) if sc.strategy == "auto" else sc.strategy
@@ -265,7 +267,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
         ctx.t0 = float(d.time)
     far_x = front + OBSTACLE_GAP_M + OBSTACLE_DEPTH_M  # force trips: a notional obstacle
     stop = StopRule(strategy, sc.side, fall_height, far_x=far_x,
-                    walk_on_s=WALK_ON_S if reflex else None)
+                    walk_on_s=_walk_on_s(sc, reflex))
     force_kwargs = {}
     if sc.mechanism == "force":
         toe = f"toes_{sc.side}" if not reflex else f"foot_{sc.side}"
@@ -304,6 +306,17 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     return TripResult(summary, rec, body, pb, sc, states,
                       controller.net if sc.controller == "reflex" else None,
                       walk_rec if own else None)
+
+
+def _walk_on_s(sc: Scenario, reflex: bool) -> float | None:
+    """How long after the trip a recovered person is still walking (StopRule.walk_on_s):
+    the reflex controllers WALK_ON_S; the state machines with recovery walk_on the whole
+    run (its last 10 ms aside, so that the verdict falls inside it); else None."""
+    if reflex:
+        return WALK_ON_S
+    if sc.recovery == "walk_on":
+        return max(sc.duration_after_trip_s - 0.01, 0.5)
+    return None
 
 
 WALK_IN_MARGIN_S = 3.0  # own start: the trip's swing must begin within this after walk_in_s
@@ -422,11 +435,16 @@ def _summary(sc: Scenario, strategy: str, controller, rec: Recording, stop: Stop
             sim, rec.time_s, ref, np.asarray(reference["time_s"])).items()}
     diverged = rec.diverged
     fell = stop.fell_s is not None and not diverged
+    steps_after = _steps_after(rec, landing)
+    recovered = stop.recovered_s is not None and not diverged
+    if sc.recovery == "walk_on" and sc.controller not in MUSCLE_CONTROLLERS:
+        # the issue's walking on: at least WALK_ON_STEPS steps after the recovery step
+        recovered = recovered and steps_after is not None and steps_after >= WALK_ON_STEPS
     return {
         "controller": sc.controller,
         "strategy": strategy,
         "variant": variant(rec, landing),
-        "recovered": stop.recovered_s is not None and not diverged,
+        "recovered": recovered,
         "fell": fell,
         "diverged": diverged,
         "swing_fraction": sc.swing_fraction,
@@ -453,8 +471,24 @@ def _summary(sc: Scenario, strategy: str, controller, rec: Recording, stop: Stop
         "strength_model": sc.strength_model,
         "population": sc.population,
         "support_peak_moments_nm": support_peak_moments(m, rec, sc.side),
+        "recovery": sc.recovery,
+        "steps_after_recovery_step": steps_after,
         "walking_stride_s": None if stride_s is None else round(stride_s, 4),
     }
+
+
+WALK_ON_STEPS = 4  # recovery walk_on: steps after the recovery step (issue: at least 4)
+
+
+def _steps_after(rec: Recording, landing_s: float | None) -> int | None:
+    """Heel strikes of either foot after the recovery step's (``landing_s``), as force
+    plates would see them (``analysis.contact_events``); None without a recovery step."""
+    if landing_s is None or not len(rec.time_s):
+        return None
+    from stumble.analysis import contact_events
+
+    ev = contact_events(rec.time_s, rec.foot_on_floor)
+    return sum(1 for side in ev.values() for t in side["heel_strike_s"] if t > landing_s + 0.02)
 
 
 SUPPORT_WINDOW_S = 0.3  # the issue's window: the first 300 ms after the trip

@@ -96,6 +96,7 @@ POPULATIONS = {
                         "Tirosh & Sparrow 2004"),
 }
 STRENGTH_MODELS = ("anderson2007", "fixed")  # stumble.body.strength
+RECOVERY_RULES = ("step", "walk_on")  # Scenario.recovery
 
 
 GH2010_MAX_STEP_S = 0.001  # the GH2010 gains were fitted at 1 ms (its 5 ms hip delay)
@@ -165,6 +166,10 @@ class Scenario:
     # and ankle by angle and velocity, stumble.body.strength; README "Human strength")
     strength_model: str = "fixed"
     population: str = "young"  # POPULATIONS: young or older
+    # what "recovered" means for the state machines: step (1 s after the recovery step
+    # the trunk is upright and the COM over the feet; the default) or walk_on (still
+    # walking upright at the end of duration_after_trip_s, as the reflex controllers)
+    recovery: str = "step"
     timestep_s: float | None = None  # physics step; None: the controller's (DEFAULT_TIMESTEP_S)
     start: str | None = None  # playback or own (module docstring); None: DEFAULT_START
     walk_in_s: float = WALK_IN_S  # own start: walked before the trip's swing (s)
@@ -218,6 +223,8 @@ class Scenario:
         if self.strength_model not in STRENGTH_MODELS:
             raise InputError(f"strength model {self.strength_model!r} is not one of "
                              f"{', '.join(STRENGTH_MODELS)}")
+        if self.recovery not in RECOVERY_RULES:
+            raise InputError(f"recovery rule {self.recovery!r} is not step or walk_on")
         if self.population not in POPULATIONS:
             raise InputError(f"population {self.population!r} is not one of "
                              f"{', '.join(POPULATIONS)}")

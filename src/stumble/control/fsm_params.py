@@ -18,7 +18,10 @@ is beside it. Everything here can be overridden (``FSMParams(**changes)``).
 
 from __future__ import annotations
 
+import copy
+import json
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 ACTIVATION_TO_TORQUE_S = 0.050  # SCA 2009 §4.3: 50 ms from muscle activation to torque
 
@@ -183,6 +186,50 @@ def _arms() -> dict[str, dict[str, float | str]]:
     }
 
 
+# The free targets and gains a search may change (scripts/tune_fsm.py), each with its
+# range: name -> (path in FSMParams, low, high). The targets are the ones SCA 2009 took
+# from its own motion capture; their ranges come from the literature of the defaults'
+# comments above.
+SPACE = {
+    "low_sup_ankle": (("targets_deg", "clearance_lowering", "sup.ankle_angle"), -60.0, 10.0),
+    "elev_sup_ankle": (("targets_deg", "clearance_elevating", "sup.ankle_angle"), -60.0, 0.0),
+    "fall_rec_knee": (("targets_deg", "fall", "rec.knee_angle"), -25.0, -3.0),
+    "fall_sup_ankle": (("targets_deg", "fall", "sup.ankle_angle"), -30.0, 10.0),
+    "ext_rec_hip": (("targets_deg", "clearance_extend", "rec.hip_flexion"), 20.0, 60.0),
+    "ext_rec_knee": (("targets_deg", "clearance_extend", "rec.knee_angle"), -45.0, -8.0),
+    "low_rec_hip": (("targets_deg", "clearance_lowering", "rec.hip_flexion"), 40.0, 80.0),
+    "low_rec_knee": (("targets_deg", "clearance_lowering", "rec.knee_angle"), -125.0, -70.0),
+    "ssat_sup_hip": (("targets_deg", "single_support_after_trip", "sup.hip_flexion"), 30.0,
+                     65.0),
+    "reach_sup_knee": (("targets_deg", "step_reach", "sup.knee_angle"), -20.0, -3.0),
+    "kc_slow": (("kc_slow",), 0.0, 100.0),
+    "kc_fast": (("kc_fast",), 0.0, 300.0),
+    "reach_thigh_deg": (("reach_thigh_deg",), -5.0, 15.0),
+    "land_thigh_deg": (("land_thigh_deg",), -5.0, 30.0),
+    "balance_cd": (("balance_cd_rad_per_m",), 0.2, 0.8),
+    "balance_cv": (("balance_cv_rad_s_per_m",), 0.1, 0.5),
+    "ssat_swing_s": (("ssat_swing_s",), 0.2, 0.45),
+    "clear_margin_m": (("clear_margin_m",), 0.06, 0.2),
+    "swap_trip_hip": (("targets_deg", "leg_swap", "trip.hip_flexion"), -10.0, 20.0),
+    "swap_trip_ankle": (("targets_deg", "leg_swap", "trip.ankle_angle"), -10.0, 20.0),
+    "swap_trip_knee": (("targets_deg", "leg_swap", "trip.knee_angle"), -20.0, 0.0),
+    "low_rec_ankle": (("targets_deg", "clearance_lowering", "rec.ankle_angle"), 0.0, 25.0),
+    "ds_low_sup_knee": (("targets_deg", "double_support_lowering", "sup.knee_angle"), -125.0,
+                        -90.0),
+    "ds_low_sup_hip": (("targets_deg", "double_support_lowering", "sup.hip_flexion"), 15.0,
+                       50.0),
+}
+# servo gains (N·m/rad), searched with --gains: with human strength (Anderson et al.
+# 2007) the servos saturate, and how hard each joint is driven matters
+GAINS = {
+    "kp_support_hip": (("kp_passive", "support_hip"), 300.0, 2000.0),
+    "kp_swing_hip": (("kp_passive", "swing_hip"), 150.0, 1500.0),
+    "kp_knee": (("kp_passive", "knee"), 100.0, 800.0),
+    "kp_ankle": (("kp_passive", "ankle"), 100.0, 800.0),
+    "recovery_gain_factor": (("recovery_gain_factor",), 1.0, 2.5),
+    "kp_ssat_support_hip": (("kp_ssat_support_hip",), 400.0, 3000.0),
+}
+
 @dataclass
 class FSMParams:
     """Every number of the trip controllers; override any field to experiment."""
@@ -238,6 +285,29 @@ class FSMParams:
         """Latency + activation-to-torque offset, times the delay scale (s)."""
         return (self.latency_s[key] + self.activation_to_torque_s) * self.delay_scale
 
+    def values(self) -> dict[str, float]:
+        """The tunable values (``SPACE`` and ``GAINS``) by name."""
+        out = {}
+        for name, (path, _lo, _hi) in {**SPACE, **GAINS}.items():
+            out[name] = (self.targets_deg[path[1]][path[2]] if path[0] == "targets_deg"
+                         else self.kp_passive[path[1]] if path[0] == "kp_passive"
+                         else getattr(self, path[0]))
+        return out
+
+    def with_values(self, values: dict[str, float]) -> FSMParams:
+        """A copy with tunable values (``SPACE``/``GAINS`` names) set; KeyError names an
+        unknown one."""
+        p = copy.deepcopy(self)
+        for name, value in values.items():
+            path = {**SPACE, **GAINS}[name][0]
+            if path[0] == "targets_deg":
+                p.targets_deg[path[1]][path[2]] = value
+            elif path[0] == "kp_passive":
+                p.kp_passive[path[1]] = value
+            else:
+                setattr(p, path[0], value)
+        return p
+
     def scaled_to(self, height_m: float) -> FSMParams:
         """These parameters for a body ``height_m`` tall, under dynamic similarity with the
         reference body (1.75 m): SIMBICON's position gains (rad/m) over the body's length
@@ -262,3 +332,14 @@ class FSMParams:
         if swing_fraction > self.lowering_above:
             return "lowering"
         return "elevating" if swing_fraction <= self.strategy_threshold else "lowering"
+
+
+# The targets and gains tuned on human strength (``--strength anderson2007``), with the
+# command that found them (CMA-ES, seeded; ``fit`` in the file).
+HUMAN_STRENGTH_FILE = Path(__file__).parent / "data" / "fsm_anderson2007.json"
+
+
+def human_strength_params() -> FSMParams:
+    """The state machines' parameters for human strength: the defaults with the values
+    ``scripts/tune_fsm.py --strength anderson2007`` found (``HUMAN_STRENGTH_FILE``)."""
+    return FSMParams().with_values(json.loads(HUMAN_STRENGTH_FILE.read_text())["params"])

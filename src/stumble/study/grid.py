@@ -64,6 +64,8 @@ AXES: dict[str, Axis] = {a.name: a for a in (
          "servo torque limits (fsm) or muscle F_max (reflex, gh2010) multiplied by this"),
     Axis("strength", "strength_model", str, "servo torque limits: fixed (default) or "
          "anderson2007 (human strength by joint angle and velocity)"),
+    Axis("recovery", "recovery", str, "what recovered means (fsm): step (1 s after the "
+         "recovery step, default) or walk_on (still walking at the end of --duration)"),
     Axis("population", "population", str, "young (default) or older (fsm): strength, "
          "response latencies"),
     Axis("duration", "duration_after_trip_s", float, "seconds of physics after the trip at most"),
