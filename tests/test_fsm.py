@@ -167,3 +167,23 @@ def test_tunable_values_and_the_human_strength_set():
     assert h.values() == pytest.approx(shipped["params"]) and h != p
     for name, (_path, lo, hi) in {**SPACE, **GAINS}.items():
         assert lo <= h.values()[name] <= hi, name
+
+
+def test_load_params_names_bad_files_and_values(tmp_path):
+    import json
+
+    from stumble.control.fsm_params import human_strength_params, load_params
+    from stumble.errors import InputError
+
+    assert load_params("anderson2007") == human_strength_params()
+    good = tmp_path / "p.json"
+    good.write_text(json.dumps({"params": {"kp_knee": 250.0}}))
+    assert load_params(good).kp_passive["knee"] == 250.0
+    for text, match in (("nope", "not a state-machine parameter file"),
+                        ('{"params": {"kp_kne": 1}}', "unknown parameter 'kp_kne'"),
+                        ('{"params": {"kp_knee": 5000}}', "kp_knee = 5000 is outside 100-800"),
+                        ('{"params": [1]}', "is not an object")):
+        bad = tmp_path / "bad.json"
+        bad.write_text(text)
+        with pytest.raises(InputError, match=match):
+            load_params(bad)

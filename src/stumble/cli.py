@@ -128,7 +128,8 @@ def _parser() -> argparse.ArgumentParser:
                    "body (the reflex controllers' strategy emerges)")
     t.add_argument("--params", type=Path, metavar="FILE",
                    help="gh2010 controller: a gh2010.json, or walk: the shipped walking fit "
-                   "(default: the shipped trip fit)")
+                   "(default: the shipped trip fit); fsm: a JSON of tuned targets and gains "
+                   "(scripts/tune_fsm.py --out) or a shipped set by name: anderson2007")
     t.add_argument("--network", type=Path, metavar="FILE",
                    help="reflex controller: a network.npz from `stumble reflex fit`, or "
                    "closed-loop: the shipped closed-loop refinement (default: the shipped "
@@ -478,8 +479,8 @@ def cmd_trip(args) -> int:
                          "uses the planar one (--controller reflex)")
     if (args.network or args.no_trunk_balance) and args.controller != "reflex":
         raise InputError("--network and --no-trunk-balance are for --controller reflex")
-    if args.params and args.controller != "gh2010":
-        raise InputError("--params is for --controller gh2010")
+    if args.params and args.controller == "reflex":
+        raise InputError("--params is for --controller fsm or gh2010")
     from stumble.trip import POPULATIONS
 
     speed = (POPULATIONS[args.population].preferred_speed_m_per_s if args.speed is None
@@ -507,13 +508,17 @@ def cmd_trip(args) -> int:
 
         network = _network_arg(args.network)
         steps_per_tick(scenario.timestep_s, network.topology.rate_hz)
-    gh2010 = None
-    if args.params:
+    gh2010 = fsm = None
+    if args.params and args.controller == "gh2010":
         from stumble.control.reflex.gh2010 import load_params
 
         gh2010 = load_params(args.params)
+    elif args.params:
+        from stumble.control.fsm_params import load_params as load_fsm_params
+
+        fsm = load_fsm_params(args.params)
     out = prepare_dir(args.out)  # and writable: checked before the simulation
-    result = simulate_trip(scenario, reference=reference, network=network,
+    result = simulate_trip(scenario, params=fsm, reference=reference, network=network,
                            trunk_balance=not args.no_trunk_balance, gh2010=gh2010)
     write_summary(out, result)
     write_timeseries(out, result)

@@ -343,3 +343,30 @@ def human_strength_params() -> FSMParams:
     """The state machines' parameters for human strength: the defaults with the values
     ``scripts/tune_fsm.py --strength anderson2007`` found (``HUMAN_STRENGTH_FILE``)."""
     return FSMParams().with_values(json.loads(HUMAN_STRENGTH_FILE.read_text())["params"])
+
+
+SHIPPED = {"anderson2007": HUMAN_STRENGTH_FILE}  # named parameter sets (load_params)
+
+
+def load_params(path_or_name) -> FSMParams:
+    """The defaults with the tunable values of a JSON file (``{"params": {name: value}}``,
+    as ``scripts/tune_fsm.py --out`` writes it) or of a shipped set by name
+    (``SHIPPED``); InputError names a bad file, an unknown name or a value out of range."""
+    from stumble.errors import InputError
+
+    path = SHIPPED.get(str(path_or_name), Path(path_or_name))
+    try:
+        values = json.loads(Path(path).read_text())["params"]
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        raise InputError(f"{path_or_name}: not a state-machine parameter file with "
+                         f"\"params\" ({type(e).__name__})") from None
+    if not isinstance(values, dict):
+        raise InputError(f"{path_or_name}: \"params\" is not an object of named values")
+    space = {**SPACE, **GAINS}
+    for name, value in values.items():
+        if name not in space:
+            raise InputError(f"{path_or_name}: unknown parameter {name!r}")
+        lo, hi = space[name][1:]
+        if not isinstance(value, (int, float)) or not lo <= value <= hi:
+            raise InputError(f"{path_or_name}: {name} = {value!r} is outside {lo:g}-{hi:g}")
+    return FSMParams().with_values(values)
