@@ -158,7 +158,7 @@ def test_tunable_values_and_the_human_strength_set():
     assert p.with_values(p.values()) == p
     q = p.with_values({"kp_knee": 123.0, "ssat_swing_s": 0.3})
     assert q.kp_passive["knee"] == 123.0 and q.ssat_swing_s == 0.3
-    assert p.kp_passive["knee"] == 300.0  # the original is untouched
+    assert p.kp_passive["knee"] == FSMParams().kp_passive["knee"] != 123.0  # untouched
     with pytest.raises(KeyError):
         p.with_values({"no_such_target": 1.0})
     shipped = json.loads(HUMAN_STRENGTH_FILE.read_text())
@@ -187,3 +187,11 @@ def test_load_params_names_bad_files_and_values(tmp_path):
         bad.write_text(text)
         with pytest.raises(InputError, match=match):
             load_params(bad)
+
+
+@pytest.mark.parametrize("swing,strategy", [(0.2, "elevating"), (0.65, "lowering")])
+def test_walks_on_for_six_seconds_after_the_trip(swing, strategy):
+    s = simulate_trip(Scenario(swing_fraction=swing, recovery="walk_on",
+                               duration_after_trip_s=6.0)).summary
+    assert s["strategy"] == strategy and s["recovered"] and not s["fell"]
+    assert s["sim_time_s"] > 5.9 and s["steps_after_recovery_step"] >= 4
