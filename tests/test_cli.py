@@ -176,6 +176,7 @@ def _one_line_error(r: subprocess.CompletedProcess, *words: str) -> None:
     (["reflex", "fit", "--controller", "gh2010", "--scr-phase", "foot", "--out", "OUT"],
      ["--scr-phase is for --trips"]),
     (["reflex", "fit", "--scr-phase", "foot", "--out", "OUT"], ["--controller gh2010"]),
+    (["reflex", "fit", "--ta-bound", "paper", "--out", "OUT"], ["--controller gh2010"]),
 ])
 def test_bad_input_is_one_line_and_non_zero(tmp_path, args, words):
     args = [str(tmp_path / "o") if a == "OUT" else a for a in args]

@@ -117,3 +117,32 @@ def test_the_trip_stage_fits_the_stumbling_reflex_from_the_walking_fit(tmp_path)
     assert fitted.scr_phase == "foot" and all(getattr(fitted, n) > 0.0 for n in SCR_GAINS)
     fit = json.loads((tmp_path / "gh2010.json").read_text())["fit"]
     assert "--scr-phase foot" in fit["command"] and fit["scr_phase"] == "foot"
+
+
+def test_the_ta_bound_option_narrows_the_ta_length_reflex_only():
+    """``ta_bound="paper"`` holds l_off_ta within 0.6-0.8 l_opt and g_ta within 0.5-1.5
+    times the paper's; every other bound, and the default (``wide``, the shipped fits'),
+    are as before; the command of such a fit says so."""
+    from stumble.control.reflex.fit_walk import _fit_command
+    from stumble.control.reflex.gh2010 import GH2010Params
+
+    wide, paper = gh2010_space(), gh2010_space(ta_bound="paper")
+    assert wide.names == paper.names and np.array_equal(wide.start, paper.start)
+    i, j = wide.names.index("l_off_ta"), wide.names.index("g_ta")
+    assert (wide.lo[i], wide.hi[i]) == (0.3, 1.5)
+    assert (paper.lo[i], paper.hi[i]) == (0.6, 0.8)
+    g = GH2010Params().g_ta
+    assert (wide.lo[j], wide.hi[j]) == pytest.approx((0.2 * g, 5.0 * g))
+    assert (paper.lo[j], paper.hi[j]) == pytest.approx((0.5 * g, 1.5 * g))
+    others = [k for k in range(len(wide.names)) if k not in (i, j)]
+    assert np.array_equal(wide.lo[others], paper.lo[others])
+    assert np.array_equal(wide.hi[others], paper.hi[others])
+    # a start outside the bounds (the shipped trip fit's 0.37 l_opt) is clipped into them
+    far = gh2010_space(GH2010Params(l_off_ta=0.37, g_ta=1.9), ta_bound="paper")
+    th = far.to_params(np.zeros(len(far.names)))
+    assert th[i] == 0.6 and th[j] == pytest.approx(1.5 * g)
+    with pytest.raises(ValueError):
+        gh2010_space(ta_bound="tight")
+    assert "--ta-bound" not in _fit_command("gh2010", False, ((110, 15.0, ()),), None, 1)
+    assert "--ta-bound paper" in _fit_command("gh2010", False, ((110, 15.0, ()),), None, 1,
+                                              "paper")

@@ -248,6 +248,10 @@ def _parser() -> argparse.ArgumentParser:
                    help="gh2010 --trips: the stumbling corrective reflex the same at every "
                    "phase (any), or reversing as the tripped foot is behind or ahead of "
                    "the other (foot); default: the starting fit's")
+    f.add_argument("--ta-bound", choices=("wide", "paper"), default="wide",
+                   help="gh2010: bounds of the TA length reflex (l_off_ta, g_ta): wide (the "
+                   "default, as shipped: 0.3-1.5 l_opt, 0.2-5x the paper's gain) or paper "
+                   "(0.6-0.8 l_opt, 0.5-1.5x the paper's gain)")
     f.add_argument("--wiring", choices=("gh2010", "seed003"), default="gh2010",
                    help="gh2010: the paper's laws and delays (default), or seed003: the "
                    "laws the network can express on its nerves (the network's expert)")
@@ -625,7 +629,8 @@ def cmd_reflex_fit_gh2010(args) -> int:
     res = fit_gh2010(seed=args.seed, stages=stages, workers=workers, out=out,
                      progress=lambda row: bar(row["generation"] + 1, gens),
                      wiring=args.wiring, trips=args.trips, start=start,
-                     start_fit=start_fit, scr_phase=args.scr_phase)
+                     start_fit=start_fit, scr_phase=args.scr_phase,
+                     ta_bound=args.ta_bound)
     bar.done()
     written, walk = write_gh2010_fit(out, res)
     s = walk.summary
@@ -641,8 +646,9 @@ def cmd_reflex(args) -> int:
         return cmd_reflex_walk(args)
     if args.controller == "gh2010":
         return cmd_reflex_fit_gh2010(args)
-    if args.trips or args.params is not None or args.trip_set or args.scr_phase:
-        raise InputError("--trips, --params, --trip-set and --scr-phase are for "
+    if (args.trips or args.params is not None or args.trip_set or args.scr_phase
+            or args.ta_bound != "wide"):
+        raise InputError("--trips, --params, --trip-set, --scr-phase and --ta-bound are for "
                          "--controller gh2010")
     from stumble.control.reflex.identify import ITERATIONS, REFINE_ITERATIONS, fit
     from stumble.outputs import prepare_dir, write_fit

@@ -200,6 +200,15 @@ GH2010_FIXED = ("s0", "delay_scale")  # prestimulation floor and delays stay the
 GH2010_BOUNDS = {"l_off_ta": (0.3, 1.5), "l_off_hfl": (0.3, 1.5), "l_off_ham": (0.5, 1.5),
                  "phi_off": (0.0, 0.6), "stance_load": (0.02, 0.5), "lean_ref": (-0.3, 0.4)}
 GAIN_RANGE = (0.2, 5.0)
+# the swing TA length reflex's bounds by name (``ta_bound``; ``--ta-bound``): ``wide``
+# (the default, the shipped fits') leaves l_off_ta in GH2010_BOUNDS and g_ta in GAIN_RANGE;
+# ``paper`` holds them near Geyer & Herr 2010's (0.71 l_opt, 1.1): l_off_ta within 0.6-0.8
+# l_opt, g_ta within 0.5-1.5 times the paper's. The shipped trip fit's 0.37 l_opt and
+# 1.7 times the paper's gain hold its foot ~37 deg toe up late in swing, so that the heel
+# meets a late-swing obstacle and the foot lands on top of it (README); ``paper`` tests
+# whether a fit kept near the paper's reflex recovers lowering trips
+TA_BOUNDS = {"wide": {}, "paper": {"l_off_ta": (0.6, 0.8), "g_ta": (0.5, 1.5)}}
+TA_BOUND_GAINS = ("g_ta",)  # of TA_BOUNDS: factors on the paper's value, not plain bounds
 # the stumbling corrective reflex (``gh2010.SCR_GAINS``; zero in the paper): fitted only
 # with trips (``stumble_reflex``), each gain in 0-1 (an excitation), steps of at least
 # these
@@ -215,11 +224,13 @@ SCR_MIN_SCALE = 0.15
 
 
 def gh2010_space(start=None, stumble_reflex: bool = False,
-                 scr_phase: str | None = None) -> Space:
+                 scr_phase: str | None = None, ta_bound: str = "wide") -> Space:
     """The GH2010 gains a fit may change, scaled to about 30 % of the paper's values
     (or of ``start``'s), each within its bounds; ``stumble_reflex``: with the gains of
     the stumbling corrective reflex (``SCR_BOUNDS``; its extension set only where
-    ``scr_phase``, default ``start``'s, is ``foot``)."""
+    ``scr_phase``, default ``start``'s, is ``foot``); ``ta_bound``: the TA length
+    reflex's bounds (``TA_BOUNDS``: ``wide``, the default, or ``paper``, near the
+    paper's). A start outside the bounds is clipped into them at the first candidate."""
     from stumble.control.reflex.gh2010 import GH2010Params
 
     p = start or GH2010Params()
@@ -231,10 +242,14 @@ def gh2010_space(start=None, stumble_reflex: bool = False,
     theta = np.array([getattr(p, n) for n in names])
     scale = np.maximum(0.3 * np.abs(theta), [SCR_MIN_SCALE if n in SCR_BOUNDS else 0.02
                                              for n in names])
+    if ta_bound not in TA_BOUNDS:
+        raise ValueError(f"ta_bound must be one of {sorted(TA_BOUNDS)}, got {ta_bound!r}")
+    ta = {n: (a * getattr(paper, n), b * getattr(paper, n)) if n in TA_BOUND_GAINS else (a, b)
+          for n, (a, b) in TA_BOUNDS[ta_bound].items()}
     lo, hi = [], []
     for n in names:
-        a, b = {**GH2010_BOUNDS, **SCR_BOUNDS}.get(n, (GAIN_RANGE[0] * getattr(paper, n),
-                                     GAIN_RANGE[1] * getattr(paper, n)))
+        a, b = {**GH2010_BOUNDS, **SCR_BOUNDS, **ta}.get(n, (GAIN_RANGE[0] * getattr(paper, n),
+                                                             GAIN_RANGE[1] * getattr(paper, n)))
         lo.append(a)
         hi.append(b)
     return Space(names, theta, scale, np.array(lo), np.array(hi))
@@ -351,7 +366,8 @@ SCR_START = 0.2  # every gain of the stumbling corrective reflex starts here
 def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                workers: int = 1, out: Path | None = None, progress=None,
                wiring: str = "gh2010", trips: bool = False, start=None,
-               start_fit: dict | None = None, scr_phase: str | None = None) -> FitResult:
+               start_fit: dict | None = None, scr_phase: str | None = None,
+               ta_bound: str = "wide") -> FitResult:
     """Optimise the GH2010 gains in closed loop: per stage (generations, walk s, obstacle
     trips), CMA-ES on ``walk_cost`` plus, for each trip, ``W_TRIP`` times the part of the
     3 s after it not walked on. ``wiring`` ``gh2010`` starts from the paper's values
@@ -363,8 +379,10 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     at ``SCR_START``, so that a later stage explores it again (the shipped second stage
     restarted the hip flexor's, zero after the first); ``scr_phase``: the reflex's
     phase law for the stage (``GH2010Params.scr_phase``; default ``start``'s), with its
-    extension set fitted only where it is ``foot``. Writes ``gh2010.json`` to ``out``
-    (the best parameters and the fit's figures) when given."""
+    extension set fitted only where it is ``foot``; ``ta_bound``: the TA length reflex's
+    bounds (``TA_BOUNDS``; ``wide`` as shipped, ``paper`` near the paper's), in every
+    stage. Writes ``gh2010.json`` to ``out`` (the best parameters and the fit's figures)
+    when given."""
     from dataclasses import replace
 
     from stumble.control.reflex.gh2010 import SCR_GAINS, GH2010Params, shipped_params
@@ -385,7 +403,7 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     history: list[dict] = []
     with_trips = trips
     for k, (gens, walk_s, trips) in enumerate(stages):
-        space = gh2010_space(params, stumble_reflex=with_trips)
+        space = gh2010_space(params, stumble_reflex=with_trips, ta_bound=ta_bound)
         first = k == 0 and wiring == "gh2010"
         sigma = (TRIP_SIGMA if with_trips else GH2010_SIGMA if first else GH2010_SIGMA_TRIPS)
         fixed = {n: v for n, v in params.to_json().items() if n not in space.names}
@@ -422,13 +440,18 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                     "wall_time_s": round(wall, 1),
                     "wiring": wiring,
                     "scr_phase": params.scr_phase,
-                    "command": _fit_command(wiring, with_trips, stages, scr_phase, seed)}})
+                    "ta_bound": ta_bound,
+                    "command": _fit_command(wiring, with_trips, stages, scr_phase, seed,
+                                            ta_bound)}})
     return res
 
 
-def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: int) -> str:
+def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: int,
+                 ta_bound: str = "wide") -> str:
     """The ``stumble reflex fit`` command of a GH2010 fit (``--params`` aside)."""
     opts = ["--trips"] if trips else []
+    if ta_bound != "wide":
+        opts.append(f"--ta-bound {ta_bound}")
     if trips:
         named = [k for k, v in TRIP_SETS.items() if all(t == v for _g, _w, t in stages)]
         if named and named[0] != "four":
