@@ -161,7 +161,7 @@ class Scenario:
     duration_after_trip_s: float = 3.0
     delay_scale: float = 1.0  # multiplies every response latency
     strength_scale: float = 1.0  # multiplies every servo torque limit and muscle F_max
-    # servo torque limits: fixed (build.TORQUE_LIMIT_NM × mass / 70 kg, the default
+    # servo torque limits: fixed (build.TORQUE_LIMIT_NM × build.body_scale, the default
     # until the state machines are retuned on human strength) or anderson2007 (hip, knee
     # and ankle by angle and velocity, stumble.body.strength; README "Human strength")
     strength_model: str = "fixed"

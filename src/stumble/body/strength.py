@@ -19,7 +19,7 @@ concentric velocities at 75 % and 50 % of the isometric torque. Their Table 3 (m
 coefficients) is below, as tabulated in RBDL's ``Millard2016TorqueMuscle``
 (``Anderson2007Table3Mean``; the paper's table itself was not read).
 
-Our choices, each a parameter of ``torque_limits``:
+Our choices, each a field of ``Strength`` (and an argument of ``max_torque``):
 
 - ``eccentric``: ``hold`` (default) keeps the eccentric branch at its peak beyond the
   lengthening velocity where the fitted curve peaks (the fit falls again at high
@@ -32,8 +32,8 @@ Our choices, each a parameter of ``torque_limits``:
   step costs a third of the physics time.
 
 Only the sagittal hip, knee and ankle have a dataset here; every other joint keeps
-``stumble.body.build.TORQUE_LIMIT_NM`` (our choice), scaled by body mass. With those
-fixed limits (``fixed``, the state machines' default) an age group other than young
+``stumble.body.build.TORQUE_LIMIT_NM`` (our choice), scaled by ``build.body_scale``.
+With those fixed limits (``fixed``, the state machines' default) an age group other than young
 scales each hip, knee and ankle limit by the ratio of that exertion's peak isometric
 torque to the young's (``age_fixed_limits``).
 """
@@ -50,7 +50,7 @@ from stumble.errors import InputError
 G_M_PER_S2 = 9.81  # Anderson et al. 2007 normalise by body weight × height
 AGES = ("young", "middle", "older")  # 18–25, 55–65, > 65 years (Anderson et al. 2007)
 SEXES = ("male", "female")
-MODELS = ("anderson2007", "fixed")  # "fixed": TORQUE_LIMIT_NM × mass / 70 kg (before)
+MODELS = ("anderson2007", "fixed")  # "fixed": TORQUE_LIMIT_NM × build.body_scale
 ECCENTRIC = ("hold", "paper")
 
 # Anderson et al. 2007 Table 3, mean C1..C6 per (joint, exertion, sex, age):
