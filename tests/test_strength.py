@@ -102,17 +102,6 @@ def test_bad_strength_inputs_are_named():
         Strength.for_model(body.model, 70.0, 1.75, eccentric="x")
 
 
-def test_scenario_names_a_bad_strength_model_or_population():
-    from stumble.trip import Scenario
-
-    with pytest.raises(InputError, match="strength model 'weak'"):
-        Scenario(strength_model="weak").validated()
-    with pytest.raises(InputError, match="population 'teen'"):
-        Scenario(population="teen").validated()
-    with pytest.raises(InputError, match="population older is defined for the state machines"):
-        Scenario(controller="gh2010", mechanism="obstacle", population="older").validated()
-
-
 def test_trip_with_human_strength_stays_within_it_and_reports_push_off():
     from stumble.pipeline import simulate_trip
     from stumble.trip import Scenario
@@ -149,14 +138,3 @@ def test_older_population_is_weaker_and_slower():
     ratio = (ANDERSON_2007[("hip", "extension", "male", "older")][0]
              / ANDERSON_2007[("hip", "extension", "male", "young")][0])
     assert m.actuator_forcerange[hip, 0] == pytest.approx(-300.0 * ratio)
-
-
-def test_recovery_rule_walk_on_asks_for_walking_to_the_end():
-    from stumble.pipeline import _walk_on_s
-    from stumble.trip import Scenario
-
-    with pytest.raises(InputError, match="recovery rule 'stand'"):
-        Scenario(recovery="stand").validated()
-    sc = Scenario(recovery="walk_on", duration_after_trip_s=6.0).validated()
-    assert _walk_on_s(sc, reflex=False) == pytest.approx(5.99)
-    assert _walk_on_s(Scenario().validated(), reflex=False) is None

@@ -78,3 +78,27 @@ def test_start_own_is_for_walkers_and_the_walk_in_is_bounded():
         Scenario(controller="gh2010", start="walk").validated()
     with pytest.raises(InputError, match=r"walk-in 1\.0 s is outside 2-30 s"):
         Scenario(controller="gh2010", walk_in_s=1.0).validated()
+
+
+
+def test_scenario_names_a_bad_strength_model_or_population():
+    from stumble.trip import Scenario
+
+    with pytest.raises(InputError, match="strength model 'weak'"):
+        Scenario(strength_model="weak").validated()
+    with pytest.raises(InputError, match="population 'teen'"):
+        Scenario(population="teen").validated()
+    with pytest.raises(InputError, match="population older is defined for the state machines"):
+        Scenario(controller="gh2010", mechanism="obstacle", population="older").validated()
+
+
+
+def test_recovery_rule_walk_on_asks_for_walking_to_the_end():
+    from stumble.pipeline import _walk_on_s
+    from stumble.trip import Scenario
+
+    with pytest.raises(InputError, match="recovery rule 'stand'"):
+        Scenario(recovery="stand").validated()
+    sc = Scenario(recovery="walk_on", duration_after_trip_s=6.0).validated()
+    assert _walk_on_s(sc, reflex=False) == pytest.approx(5.99)
+    assert _walk_on_s(Scenario().validated(), reflex=False) is None

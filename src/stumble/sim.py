@@ -132,7 +132,7 @@ class Context:
     sensors: Sensors
     t0: float  # data.time at the trip
     # the servos' torque limits by joint angle and velocity (stumble.body.strength),
-    # refreshed before every block; None: the model's fixed force ranges
+    # refreshed every ``strength.period_s`` by ``run``; None: the fixed force ranges
     strength: object | None = None
 
 

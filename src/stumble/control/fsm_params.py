@@ -87,7 +87,7 @@ def _targets() -> dict[str, dict[str, float | str]]:
             # would pull the trunk forward whenever the stance thigh is behind the body.
             # Set "sup.hip_flexion": 0.0 to use it literally.
             "sup.hip_flexion": "attitude", "sup.knee_angle": -5.0,
-            # tuned (TUNED_WITH below) from SCA's 60° of plantarflexion
+            # tuned (TUNED_WITH, after these tables) from SCA's 60° of plantarflexion
             "sup.ankle_angle": -23.014702706544988,
             "sup.hip_adduction": "attitude",
             # Recovery leg lifted over the obstacle. SCA 2009 §4.5: a knee that reaches
@@ -97,13 +97,13 @@ def _targets() -> dict[str, dict[str, float | str]]:
         },
         "clearance_extend": {
             # after the rectus femoris burst the recovery knee extends for touch-down
-            # tuned (TUNED_WITH below)
+            # tuned (TUNED_WITH, after these tables)
             "rec.knee_angle": -16.810831716786787, "rec.hip_flexion": 30.50555188108346,
         },
         "leg_swap": {
             # SCA 2009 §4.4: extension torques put the tripped leg on the ground at once,
             # ankle dorsiflexed (TA with SOL at 40 ms, TA again at 60 ms)
-            # tuned (TUNED_WITH below)
+            # tuned (TUNED_WITH, after these tables)
             "trip.hip_flexion": -3.7920171242156293,
             "trip.knee_angle": -3.1398301384518916,
             "trip.ankle_angle": -1.4790240425653298,
@@ -112,13 +112,14 @@ def _targets() -> dict[str, dict[str, float | str]]:
         },
         "clearance_lowering": {
             # roles swapped: the tripped leg supports and pushes off, the other clears
-            # tuned: the lowering push-off is mild (ankle -1°): the body must roll over the
-            # tripped foot for the other leg to step over (SCA's -60° stalls it on tiptoe)
+            # tuned: the lowering push-off is mild (ankle 6° dorsiflexed): the body must roll
+            # over the tripped foot for the other leg to step over (SCA's -60° stalls it
+            # on tiptoe)
             "sup.hip_flexion": "attitude",
             "sup.knee_angle": -5.0,
             "sup.ankle_angle": 6.232628815348832,
             "sup.hip_adduction": "attitude",
-            # tuned (TUNED_WITH below)
+            # tuned (TUNED_WITH, after these tables)
             "rec.hip_flexion": 62.814007369453,
             "rec.knee_angle": -87.13597457394597,
             "rec.ankle_angle": 22.65682487783592,
@@ -131,10 +132,10 @@ def _targets() -> dict[str, dict[str, float | str]]:
         "fall": {
             # SCA 2009 §4.3: the front swing leg extended for landing
             # (the hip flexion is replaced by the world-frame placement, land_thigh_deg)
-            # tuned (TUNED_WITH below)
+            # tuned (TUNED_WITH, after these tables)
             "rec.hip_flexion": 40.0, "rec.knee_angle": -17.477139331178105, "rec.ankle_angle": 5.0,
             "sup.hip_adduction": "attitude",
-            "sup.ankle_angle": -13.916144963531217,  # tuned (TUNED_WITH below)
+            "sup.ankle_angle": -13.916144963531217,  # tuned (TUNED_WITH, after these tables)
         },
         "double_support": {
             # SCA 2009 §4.3: front leg keeps the torso attitude and its length; the rear
@@ -154,7 +155,7 @@ def _targets() -> dict[str, dict[str, float | str]]:
             # -125), the ankle dorsiflexes the toe up (tibialis anterior, as there).
             "rec.hip_flexion": "attitude", "rec.hip_adduction": "attitude",
             "rec.knee_angle": -8.0, "rec.ankle_angle": "hold",
-            # (refined with the rest by scripts/tune_fsm.py, seed 11)
+            # tuned (TUNED_WITH, after these tables)
             "sup.hip_flexion": 37.05039263608667,
             "sup.knee_angle": -118.23983475080739,
             "sup.ankle_angle": 15.0,
@@ -164,14 +165,14 @@ def _targets() -> dict[str, dict[str, float | str]]:
             # the swing leg moves forward flexed
             "rec.hip_flexion": "attitude", "rec.hip_adduction": "attitude",
             "rec.knee_angle": -5.0, "rec.ankle_angle": "hold",
-            # tuned (TUNED_WITH below)
+            # tuned (TUNED_WITH, after these tables)
             "sup.hip_flexion": 49.64305621255319, "sup.knee_angle": -75.0, "sup.ankle_angle": 10.0,
         },
         "step_reach": {
             # ours: the swing leg reaches forward for the next step (SCA 2009 stops at
             # Single Support After Trip, "empirically set so that balance is recovered");
             # its hip target gets the balance feedback below
-            # tuned (TUNED_WITH below)
+            # tuned (TUNED_WITH, after these tables)
             "sup.hip_flexion": 20.0, "sup.knee_angle": -11.420425435765583, "sup.ankle_angle": 0.0,
             "rec.hip_flexion": "attitude", "rec.hip_adduction": "attitude",
             "rec.knee_angle": -5.0,
@@ -258,7 +259,7 @@ class FSMParams:
     latency_s: dict = field(default_factory=lambda: dict(LATENCY_S))
     activation_to_torque_s: float = ACTIVATION_TO_TORQUE_S
     delay_scale: float = 1.0
-    # tuned (TUNED_WITH below) from SCA 2009 §4.5's KP_PASSIVE, ×1.5 and 1500
+    # tuned (TUNED_WITH, after these tables) from SCA 2009 §4.5's KP_PASSIVE, ×1.5 and 1500
     kp_passive: dict = field(default_factory=lambda: dict(
         KP_PASSIVE, support_hip=1243.3062412476338, swing_hip=634.1790891375344,
         knee=463.42703567397234, ankle=180.10312463995103))
@@ -272,8 +273,8 @@ class FSMParams:
     # m·h (k_d/k_p by √h), stumble.control.pd.ServoBank; none: the same for every body
     body_scaling: str = "dynamic"
     # SCA 2009 §5 uses 50 and 300 for slow and fast walking; on our body 300 lifts the
-    # support foot off and stalls the recovery; the tuned values (scripts/tune_fsm.py,
-    # seeds 1, 3 and 11) are 39.5 and 66.7.
+    # support foot off and stalls the recovery; tuned (TUNED_WITH above; 39.5 and 66.7
+    # before the tuning for walking on)
     kc_slow: float = 28.999344653119145  # tuned
     kc_fast: float = 89.97148071517134  # tuned
     kc_speeds: tuple[float, float] = KC_SPEEDS
