@@ -48,6 +48,25 @@ def test_tendon_organ_law_and_filter():
     assert first[0] == pytest.approx(1.7, abs=0.01)  # high-frequency gain 1.7/1
 
 
+def test_tendon_organ_block_filter_is_lfilter_and_each_step():
+    """``GTOFilter.block`` (SciPy's filter kernel, called directly) gives lfilter's numbers
+    bit for bit, and those of filtering the samples one by one."""
+    from scipy import signal
+
+    x = 60.0 * np.abs(np.sin(np.arange(24.0)[:, None] * [0.3, 0.7, 1.1]))  # (24, 3) imp/s
+    f = R.GTOFilter(0.001, 3)
+    f.reset(x[0])
+    z0 = f.z.copy()
+    y, z = f.block(x)
+    y_ref, z_ref = signal.lfilter(f.b, f.a, x, axis=0, zi=z0)
+    assert np.array_equal(y, y_ref) and np.array_equal(z, z_ref)
+    one = R.GTOFilter(0.001, 3)
+    one.z[:] = z0
+    stepped = np.array([one.step(row) for row in x])
+    assert np.allclose(stepped, y, rtol=1e-12) and np.allclose(one.z, z, rtol=1e-12)
+    assert not np.allclose(y, x)  # the filter does something: its high-frequency gain 1.7
+
+
 # ---- delays of Table I ----------------------------------------------------------------
 def test_nerve_delays_follow_table_one():
     t = Topology()

@@ -209,6 +209,18 @@ class _Buffers:
         self.names.append(name)
         self.k = k + 1
 
+    def extend(self, t: np.ndarray, states: np.ndarray, rows: np.ndarray, name: str) -> None:
+        """``add`` of several samples at once."""
+        k, n = self.k, len(t)
+        self.time[k:k + n], self.states[k:k + n], self.rows[k:k + n] = t, states, rows
+        self.names.extend([name] * n)
+        self.k = k + n
+
+    def truncate(self, n: int) -> None:
+        """Keep the first ``n`` samples."""
+        self.k = n
+        del self.names[n:]
+
     def recording(self, lay: SensorLayout, force: Callable | None, loads) -> Recording:
         """The samples as a ``Recording`` (vectorised decoding of the sensor rows)."""
         m, k = self.model, self.k
@@ -385,6 +397,29 @@ def run(ctx: Context, controller: Controller, duration_s: float,
             load_log.append(f)
         return stop(scratch.set(lay, row, t, f)) if stop is not None else ""
 
+    def sample_block(states: np.ndarray, rows: np.ndarray, first: int, end: int) -> str:
+        """``sample`` of every recorded instant among the steps after ``first`` up to
+        ``end`` of a stepped block (its per-step states and rows), in bulk; the first
+        stop reason."""
+        nonlocal next_rec
+        if next_rec > end:
+            return ""
+        idx = np.arange(next_rec - first - 1, end - first, rec_every)
+        next_rec += rec_every * len(idx)
+        st, rw = states[idx], rows[idx]
+        finite = np.isfinite(st).all(axis=1)
+        n_ok = len(idx) if finite.all() else int(finite.argmin())
+        k0 = buf.k
+        t = st[:n_ok, 0] - ctx.t0
+        buf.extend(t, st[:n_ok], rw[:n_ok], controller.state())
+        if stop is not None:
+            for j in range(n_ok):
+                why = stop(scratch.set(lay, rw[j], float(t[j])))
+                if why:
+                    buf.truncate(k0 + j + 1)
+                    return why
+        return "" if n_ok == len(idx) else "diverged"
+
     def sample_now() -> str:
         """``sample`` of the current state (held controls: no finiteness scan, MuJoCo's
         warnings say when the state went bad)."""
@@ -438,7 +473,9 @@ def run(ctx: Context, controller: Controller, duration_s: float,
                                            want_rows=True, want_states=True)
             if observe is not None:
                 observe(rows)
-            while next_rec <= end:
+            if penalty is None:
+                why = sample_block(states, rows, step, end)
+            while penalty is not None and next_rec <= end:  # (each sample its loads)
                 k, next_rec = next_rec - step, next_rec + rec_every
                 why = sample(states[k - 1], rows[k - 1])
                 if why:

@@ -22,7 +22,6 @@ that led up to it (the seed replays the walk and its inverse dynamics until the 
 from __future__ import annotations
 
 import numpy as np
-from scipy import signal
 
 from stumble.body.muscles import MUSCLE_NAMES
 from stumble.control.reflex.network import Network
@@ -73,6 +72,7 @@ class TrunkBalance:
         self.k_bw = k_bw
         self.lag = max(1, round(delay_s * rate_hz))
         self.weight_n = 686.7  # set by ``bind``
+        self._lay = self._cols = None  # the sensor layout ``sense`` reads, its columns
         self.bind(MUSCLE_NAMES)
 
     def to_info(self) -> dict:
@@ -98,40 +98,63 @@ class TrunkBalance:
             self.mus[muscles.index(name)] = sign
         self.ext[[muscles.index("GLU"), muscles.index("HAMS")]] = 1.0
         self.flex[muscles.index(self.flexor)] = 1.0
+        self.cols = np.array([muscles.index(n) for n in ("GLU", "HAMS", self.flexor)])
         self.ds = np.zeros(len(muscles))  # double support: GLU −, flexor +
         self.ds[muscles.index("GLU")], self.ds[muscles.index(self.flexor)] = -1.0, 1.0
         if weight_n is not None:
             self.weight_n = weight_n
 
-    @staticmethod
-    def sense(rows: np.ndarray, lay) -> np.ndarray:
+    def sense(self, rows: np.ndarray, lay) -> np.ndarray:
         """(n, 6) lean (rad), pitch rate (rad/s), the right and left feet's vertical loads
         (N) and their ankles' forward positions (m), from sensor rows (n, nsensordata)."""
-        z = rows[:, lay.torso_z]
-        fz = -rows[:, lay.foot_force[:, 2]]  # (n, 2) vertical loads r, l
-        # forward lean (z axis towards +x), pitch rate about +y
-        return np.column_stack([np.arctan2(z[:, 0], z[:, 2]), rows[:, lay.torso_angvel[1]],
-                                fz, rows[:, lay.foot_pos[:, 0]]])
+        if self._lay is not lay:  # torso axis x and z, pitch rate, loads, ankles' x
+            self._lay, self._cols = lay, np.concatenate([
+                lay.torso_z[[0, 2]], [lay.torso_angvel[1]], lay.foot_force[:, 2],
+                lay.foot_pos[:, 0]])
+        g = rows[:, self._cols]
+        out = np.empty((len(rows), 6))
+        out[:, 0] = np.arctan2(g[:, 0], g[:, 1])  # forward lean (z axis towards +x)
+        out[:, 1] = g[:, 2]  # pitch rate about +y
+        out[:, 2:4] = -g[:, 3:5]  # vertical loads
+        out[:, 4:6] = g[:, 5:7]
+        return out
 
     def drive(self, sensed: np.ndarray) -> np.ndarray:
         """(n, 2, n_muscles) excitation from (n, 6) delayed lean, rate, loads, ankles."""
+        out = np.zeros((len(sensed), 2, len(self.mus)))
+        out[:, :, self.cols] = self.drive_cols(sensed)
+        return out
+
+    def drive_cols(self, sensed: np.ndarray) -> np.ndarray:
+        """``drive`` of the muscles it reaches only, (n, 2, 3): GLU, HAMS, the flexor
+        (``cols``); the other muscles' drive is zero."""
         lean = sensed[:, 0] - self.ref
-        g = (self.kp * lean + self.kd * sensed[:, 1])[:, None, None]
+        g = self.kp * lean + self.kd * sensed[:, 1]  # (n,)
         fz = sensed[:, 2:4]
-        total = fz.sum(axis=1, keepdims=True)
-        share = np.where(total > 0.0, fz / np.where(total > 0.0, total, 1.0), 0.5)[:, :, None]
+        total = fz[:, 0] + fz[:, 1]
+        pos = total > 0.0
+        share = np.where(pos[:, None], fz / np.where(pos, total, 1.0)[:, None], 0.5)
+        out = np.empty((len(sensed), 2, 3))
         if self.rectified:
-            out = (np.maximum(g, 0.0) * self.ext + np.maximum(-g, 0.0) * self.flex) * share
+            ext = np.maximum(g, 0.0)[:, None] * share
+            out[:, :, 0] = ext
+            out[:, :, 1] = ext
+            out[:, :, 2] = np.maximum(-g, 0.0)[:, None] * share
         else:
-            out = g * share * self.mus
+            gs = g[:, None] * share
+            out[:, :, 0] = gs
+            out[:, :, 1] = gs
+            out[:, :, 2] = -gs
         if self.k_lean:
-            swing = (fz < self.stance_load * self.weight_n)[:, :, None]
-            out = out + swing * (self.k_lean * lean)[:, None, None] * self.flex
+            swing = fz < self.stance_load * self.weight_n
+            out[:, :, 2] += swing * (self.k_lean * lean)[:, None]
         if self.k_bw:
             on = fz > self.stance_load * self.weight_n
             x = sensed[:, 4:6]
             rear = on & on[:, ::-1] & (x < x[:, ::-1])
-            out = out + (self.k_bw * fz[:, ::-1] / self.weight_n * rear)[:, :, None] * self.ds
+            bw = self.k_bw * fz[:, ::-1] / self.weight_n * rear
+            out[:, :, 0] -= bw  # GLU
+            out[:, :, 2] += bw  # the flexor
         return out
 
 
@@ -219,6 +242,8 @@ class ReflexController:
         for k, (_s, j, _lag) in enumerate(conns):
             mv[k * H:(k + 1) * H, j] = net.v[k]
         self.mv = mv
+        self._in_at: dict[int, np.ndarray] = {}  # (``_in_idx``, ``_mn_idx``)
+        self._mn_at: dict[int, np.ndarray] = {}
         self.k = 0  # ticks sensed so far
         self.h_done = 0  # interneuron ticks evaluated so far
         self.gto = GTOFilter(1.0 / t.rate_hz, 2 * nm)
@@ -228,6 +253,7 @@ class ReflexController:
         self.sensed = np.zeros((self.block, 3, 2 * nm))  # length, velocity, force
         self.loads = np.zeros((self.block, 2))
         self.exc_block = np.zeros((self.block, 2, nm))
+        self._nb_ticks = np.arange(self.block)
         self.block_start = 0
         if self.balance is not None:
             self.bal_buf = np.zeros((self.balance.lag + self.block + 1, 6))
@@ -240,12 +266,35 @@ class ReflexController:
         slots = (first + np.arange(n)) % self.n_buf
         self.sig_buf.reshape(self.n_buf, -1)[slots] = z
 
+    def _in_idx(self, first: int, n: int) -> np.ndarray:
+        """Flat indices (n, 2, n_inputs) of what the interneurons of ticks first … read;
+        a whole block's kept per ring slot (the same few slots recur)."""
+        key = first % self.n_buf
+        idx = self._in_at.get(key) if n == self.block else None
+        if idx is None:
+            ticks = np.arange(first, first + n)
+            idx = ((ticks[:, None, None] - self.in_lag) % self.n_buf) * self.sig_row + self.in_off
+            if n == self.block:
+                self._in_at[key] = idx
+        return idx
+
+    def _mn_idx(self, first: int, n: int) -> np.ndarray:
+        """Flat indices (n, 2, C·H) of what the motor neurons of ticks first … read."""
+        key = first % self.n_buf
+        idx = self._mn_at.get(key) if n == self.block else None
+        if idx is None:
+            ticks = np.arange(first, first + n)
+            idx = ((ticks[:, None, None] - self.c_lag) % self.n_buf) * self.hid_row + self.hid_off
+            if n == self.block:
+                self._mn_at[key] = idx
+        return idx
+
     def _interneurons(self, upto: int) -> None:
         """Evaluate interneurons of ticks h_done … upto−1 (their inputs are sensed)."""
         if upto <= self.h_done:
             return
         ticks = np.arange(self.h_done, upto)
-        idx = ((ticks[:, None, None] - self.in_lag) % self.n_buf) * self.sig_row + self.in_off
+        idx = self._in_idx(self.h_done, len(ticks))
         x = self.sig_buf.take(idx)  # (n, 2, n_inputs): the delayed standardised inputs
         if self.trace is not None:
             self.trace["inputs"].append(x)
@@ -255,8 +304,7 @@ class ReflexController:
 
     def _motor(self, first: int, n: int) -> np.ndarray:
         """Excitation (n, 2, 7) of ticks first … first+n−1."""
-        ticks = np.arange(first, first + n)
-        idx = ((ticks[:, None, None] - self.c_lag) % self.n_buf) * self.hid_row + self.hid_off
+        idx = self._mn_idx(first, n)
         return 1.0 / (1.0 + np.exp(-(self.hid_buf.take(idx) @ self.mv + self.c)))
 
     def _tick(self, rates: np.ndarray) -> np.ndarray:
@@ -274,8 +322,7 @@ class ReflexController:
         v_mm = self.k_mm * sensed[:, 1]  # fibre stretch velocity, mm/s
         ia = (IA_VELOCITY_GAIN * np.copysign(np.abs(v_mm) ** IA_VELOCITY_EXPONENT, v_mm)
               + IA_STRETCH_GAIN * d_mm + IA_BASE)
-        ib, self.gto.z = signal.lfilter(self.gto.b, self.gto.a, gto_static(-sensed[:, 2]),
-                                        axis=0, zi=self.gto.z)
+        ib, self.gto.z = self.gto.block(gto_static(-sensed[:, 2]))
         out = np.empty((n, 2, self.net.topology.n_signals))
         nm3 = 3 * self.nm
         out[:, :, 0:nm3:3] = np.maximum(ia, 0.0).reshape(n, 2, -1)
@@ -294,19 +341,21 @@ class ReflexController:
         self._interneurons(k + self.a_min)
         self.exc_block = self._motor(k, nb)
         if self.balance is not None:
-            ticks = np.arange(k, k + nb) - self.balance.lag
-            drive = self.balance.drive(self.bal_buf[ticks % len(self.bal_buf)])
+            sensed = self.bal_buf[(k - self.balance.lag + self._nb_ticks) % len(self.bal_buf)]
             if self.trace is not None:
-                self.trace["balance"].append((k, drive))
-            self.exc_block = self.exc_block + drive
-        self.ctrl_block = np.clip(self.exc_block.reshape(nb, -1), 0.01, 1.0)
+                self.trace["balance"].append((k, self.balance.drive(sensed)))
+            self.exc_block[:, :, self.balance.cols] += self.balance.drive_cols(sensed)
+        self.ctrl_block = np.minimum(np.maximum(self.exc_block.reshape(nb, -1), 0.01), 1.0)
         self.block_start = k
 
     # ---- Controller protocol ---------------------------------------------------------
     def start(self, ctx: Context) -> None:
         """Bind to the model, fill the buffers with the walk before the trip."""
         self._bind(ctx)
-        self.lay = ctx.body.sensors
+        self.lay = lay = ctx.body.sensors
+        self._obs_cols = np.concatenate([lay.muscle_length, lay.muscle_velocity,
+                                         lay.muscle_force, lay.foot_force[:, 2]])
+        self._n_mus3 = 3 * len(lay.muscle_length)
         self.every = max(1, round(1.0 / (self.net.topology.rate_hz * ctx.model.opt.timestep)))
         self.period_steps = self.block * self.every
         if self.history is not None:
@@ -334,23 +383,22 @@ class ReflexController:
         self._next_block()
         self.excitation = self.exc_block[-1]
         self.plan[:] = ctx.data.ctrl
-        self.plan[:, self.act_slice] = np.repeat(self.ctrl_block, self.every, axis=0)
+        self.plan[:, self.act_slice] = (self.ctrl_block if self.every == 1
+                                        else np.repeat(self.ctrl_block, self.every, axis=0))
         return self.plan
 
     def observe(self, rows: np.ndarray) -> None:
         """Store the muscle states (and loads, lean) sensed at each tick of the block."""
-        lay = self.lay
-        ticks = rows[::self.every]
+        ticks = rows[::self.every] if self.every > 1 else rows
         n = len(ticks)
         k0 = self.k
-        self.sensed[:n, 0] = ticks[:, lay.muscle_length]
-        self.sensed[:n, 1] = ticks[:, lay.muscle_velocity]
-        self.sensed[:n, 2] = ticks[:, lay.muscle_force]
+        g = ticks[:, self._obs_cols]  # muscle lengths, velocities, forces; feet's loads
+        self.sensed[:n] = g[:, :self._n_mus3].reshape(n, 3, -1)
         if self.contact:
-            self.loads[:n] = -ticks[:, lay.foot_force[:, 2]]
+            self.loads[:n] = -g[:, self._n_mus3:]
         if self.balance is not None:
-            idx = (k0 + np.arange(n)) % len(self.bal_buf)
-            self.bal_buf[idx] = self.balance.sense(ticks, lay)
+            idx = (k0 + self._nb_ticks[:n]) % len(self.bal_buf)
+            self.bal_buf[idx] = self.balance.sense(ticks, self.lay)
         self.k = k0 + n
 
     def state(self) -> str:

@@ -21,8 +21,16 @@ d = 0 at l_CE = l_opt. Rates are clipped at zero: a neuron does not fire negativ
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from scipy import signal
+
+try:  # lfilter's own kernel, without its argument checks: the same numbers, 6 µs less per
+    # network block (tests/test_reflex.py checks it against lfilter)
+    from scipy.signal._sigtools import _linear_filter
+except ImportError:  # pragma: no cover - a SciPy without it: lfilter
+    _linear_filter = None
 
 IA_VELOCITY_GAIN = 4.3  # imp/s per (mm/s)^0.6 (Prochazka form, not verified)
 IA_VELOCITY_EXPONENT = 0.6  # Prochazka & Gorassini 1998: 0.5-0.6 (verified)
@@ -58,13 +66,20 @@ def gto_static(force_n: np.ndarray) -> np.ndarray:
     return IB_GAIN * np.log(np.maximum(np.asarray(force_n), 0.0) / IB_FORCE_N + 1.0)
 
 
+@functools.lru_cache(maxsize=8)
+def _discrete(dt_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """The Ib filter's numerator and denominator at ``dt_s`` (bilinear), read-only."""
+    b, a, _ = signal.cont2discrete((IB_FILTER_NUM, IB_FILTER_DEN), dt_s, method="bilinear")
+    b, a = np.asarray(b).ravel(), np.asarray(a).ravel()
+    b.flags.writeable = a.flags.writeable = False
+    return b, a
+
+
 class GTOFilter:
     """The Ib transfer function, discretised (bilinear) at ``dt``; one state per channel."""
 
     def __init__(self, dt_s: float, channels: int):
-        b, a, _ = signal.cont2discrete((IB_FILTER_NUM, IB_FILTER_DEN), dt_s, method="bilinear")
-        self.b = np.asarray(b).ravel()
-        self.a = np.asarray(a).ravel()
+        self.b, self.a = _discrete(float(dt_s))
         self.z = np.zeros((2, channels))  # direct form II transposed
 
     def reset(self, x: np.ndarray) -> None:
@@ -74,6 +89,13 @@ class GTOFilter:
         # steady state of the transposed form: y = x (DC gain 1)
         self.z[1] = b[2] * x - a[2] * x
         self.z[0] = b[1] * x - a[1] * x + self.z[1]
+
+    def block(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Filter samples (n, channels) from the state ``z``: (outputs, the state after
+        them); ``z`` itself is left for the caller to update."""
+        if _linear_filter is not None:
+            return _linear_filter(self.b, self.a, x, 0, self.z)
+        return signal.lfilter(self.b, self.a, x, axis=0, zi=self.z)
 
     def step(self, x: np.ndarray) -> np.ndarray:
         """Filter one sample of every channel."""
