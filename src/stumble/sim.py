@@ -404,11 +404,11 @@ def run(ctx: Context, controller: Controller, duration_s: float,
         nonlocal next_rec
         if next_rec > end:
             return ""
-        idx = np.arange(next_rec - first - 1, end - first, rec_every)
-        next_rec += rec_every * len(idx)
-        st, rw = states[idx], rows[idx]
-        finite = np.isfinite(st).all(axis=1)
-        n_ok = len(idx) if finite.all() else int(finite.argmin())
+        pick = slice(next_rec - first - 1, end - first, rec_every)
+        st, rw = states[pick], rows[pick]
+        n = len(st)
+        next_rec += rec_every * n
+        n_ok = n if np.isfinite(st).all() else int(np.isfinite(st).all(axis=1).argmin())
         k0 = buf.k
         t = st[:n_ok, 0] - ctx.t0
         buf.extend(t, st[:n_ok], rw[:n_ok], controller.state())
@@ -418,7 +418,7 @@ def run(ctx: Context, controller: Controller, duration_s: float,
                 if why:
                     buf.truncate(k0 + j + 1)
                     return why
-        return "" if n_ok == len(idx) else "diverged"
+        return "" if n_ok == n else "diverged"
 
     def sample_now() -> str:
         """``sample`` of the current state (held controls: no finiteness scan, MuJoCo's
