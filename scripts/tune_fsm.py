@@ -29,7 +29,8 @@ from stumble.control.fsm_params import GAINS, SPACE  # name: (path in FSMParams,
 
 # the targets that only the lowering strategy uses (--only lowering)
 LOWERING = ("low_sup_ankle", "low_rec_hip", "low_rec_knee", "low_rec_ankle", "swap_trip_hip",
-            "swap_trip_ankle", "swap_trip_knee", "ds_low_sup_knee", "ds_low_sup_hip")
+            "swap_trip_ankle", "swap_trip_knee", "ds_low_sup_knee", "ds_low_sup_hip",
+            "ssat_low_sup_hip", "ssat_low_sup_knee", "ssat_low_sup_ankle")
 GRID = [(f, v, mech) for mech in ("force", "obstacle") for f in (0.1, 0.3, 0.45, 0.55, 0.65, 0.75)
         for v in (1.0, 1.4)]
 # the grid: swing 0.05-0.75, 1.0-1.4 m/s, both mechanisms (--grid full)

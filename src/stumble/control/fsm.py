@@ -109,6 +109,7 @@ class TripFSM:
             self.t_extend = float("inf")
         # where the trip stopped the swing foot: the recovery foot must pass it (+ margin)
         self.trip_point_x = self._toe_x(ctx, self.tripped)
+        self._crossed = False  # lowering: the tripped leg's swing has passed the obstacle
         self._write(ctx)
 
     def _cache_views(self, ctx: Context) -> None:
@@ -260,16 +261,24 @@ class TripFSM:
                   and self._ahead(ctx, rec, sup, 0.0)):
                 self._switch("double_support", t, d, targets=self._table("double_support"))
         elif st == "flight" and on[rec] and self._ahead(ctx, rec, sup, 0.0):
-            self._switch("single_support_after_trip", t, d)
+            self._switch("single_support_after_trip", t, d,
+                         targets=self._table("single_support_after_trip"))
             self.left_floor[sup] = True
             self._set_kp(f"hip_flexion_{rec}", self.p.kp_ssat_support_hip)
         elif (st == "fall" and on[rec] and self.left_floor[rec]
               and self._ahead(ctx, rec, sup, 0.0)):
             self._switch("double_support", t, d, targets=self._table("double_support"))
         elif st == "double_support" and not on[sup]:
-            self._switch("single_support_after_trip", t, d)
+            self._switch("single_support_after_trip", t, d,
+                         targets=self._table("single_support_after_trip"))
             self._set_kp(f"hip_flexion_{rec}", self.p.kp_ssat_support_hip)
             self.left_floor[sup] = True
+        elif (st == "single_support_after_trip" and self.strategy == "lowering"
+              and not self._crossed
+              and self._toe_x(ctx, sup) > self.trip_point_x + self.p.clear_margin_m):
+            # the tripped leg's toe is past the obstacle: its swing goes on as in walking
+            self._apply_state_targets("single_support_after_trip", d)
+            self._crossed = True
         elif st in ("single_support_after_trip", "step_swing") and (
                 self._ahead(ctx, sup, rec, -0.05) or t - self.t_state > self.p.ssat_swing_s):
             self._switch("step_reach", t, d, cancel=False)

@@ -168,6 +168,21 @@ def _targets() -> dict[str, dict[str, float | str]]:
             # tuned (TUNED_WITH, after these tables)
             "sup.hip_flexion": 49.64305621255319, "sup.knee_angle": -75.0, "sup.ankle_angle": 10.0,
         },
+        "single_support_after_trip_lowering": {
+            # Single Support After Trip of the lowering strategy (ours): the swing leg is
+            # the tripped one, lowered behind the obstacle, and it swings forward over it
+            # as a trailing limb (SCA 2009's lowering ends at the recovery step, before
+            # this swing). With the targets above (knee 75°) its toe caught the box again
+            # in every obstacle trip at 0.55 of swing, 1.0-1.4 m/s, and the body fell
+            # ~0.6 s after the recovery step. A trailing limb crossing an obstacle flexes
+            # its knee further (about 100-110° at the crossing, Chou & Draganich 1997), so
+            # the knee and ankle take Double Support's crossing targets
+            # (double_support_lowering: its knee flexion and toe-up ankle, tuned).
+            "rec.hip_flexion": "attitude", "rec.hip_adduction": "attitude",
+            "rec.knee_angle": -5.0, "rec.ankle_angle": "hold",
+            "sup.hip_flexion": 49.64305621255319, "sup.knee_angle": -118.23983475080739,
+            "sup.ankle_angle": 15.0,
+        },
         "step_reach": {
             # ours: the swing leg reaches forward for the next step (SCA 2009 stops at
             # Single Support After Trip, "empirically set so that balance is recovered");
@@ -227,6 +242,14 @@ SPACE = {
                         -90.0),
     "ds_low_sup_hip": (("targets_deg", "double_support_lowering", "sup.hip_flexion"), 15.0,
                        50.0),
+    # the tripped leg crossing the obstacle as a trailing limb after a lowering recovery
+    # step (single_support_after_trip_lowering; knee 90-125° as ds_low_sup_knee)
+    "ssat_low_sup_hip": (("targets_deg", "single_support_after_trip_lowering",
+                          "sup.hip_flexion"), 30.0, 65.0),
+    "ssat_low_sup_knee": (("targets_deg", "single_support_after_trip_lowering",
+                           "sup.knee_angle"), -125.0, -75.0),
+    "ssat_low_sup_ankle": (("targets_deg", "single_support_after_trip_lowering",
+                            "sup.ankle_angle"), 0.0, 25.0),
 }
 # servo gains (N·m/rad), searched with --gains: with human strength (Anderson et al.
 # 2007) the servos saturate, and how hard each joint is driven matters
