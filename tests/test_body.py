@@ -87,3 +87,28 @@ def test_bad_person_raises_one_line_error(kwargs, word):
     with pytest.raises(InputError) as e:
         build(**kwargs)
     assert word in str(e.value) and "\n" not in str(e.value)
+
+
+def test_build_keeps_compiled_models_but_hands_out_copies():
+    """The same arguments give the same model (compiled once per process) as a new copy:
+    changing one body's model or lists leaves the next one alone."""
+    from stumble.body.build import compile_body
+
+    a = build(planar=True, actuation="muscles", obstacle=(0.0, 0.1, 0.1, 0.14, 0.0))
+    b = build(planar=True, actuation="muscles", obstacle=(0.0, 0.1, 0.1, 0.14, 0.0))
+    assert a.model is not b.model and a.joints is not b.joints
+    fresh = compile_body(planar=True, actuation="muscles",
+                         obstacle=(0.0, 0.1, 0.1, 0.14, 0.0))
+    for m in (a.model, b.model):
+        assert m.nq == fresh.model.nq == 10
+        assert np.array_equal(m.body_mass, fresh.model.body_mass)
+        assert np.array_equal(m.geom_pos, fresh.model.geom_pos)
+    a.model.geom_pos[a.model.geom("obstacle").id] = [5.0, 0.0, 0.05]
+    a.joints.append("nothing")
+    c = build(planar=True, actuation="muscles", obstacle=(0.0, 0.1, 0.1, 0.14, 0.0))
+    assert np.array_equal(c.model.geom_pos, fresh.model.geom_pos)
+    assert c.joints == fresh.joints
+    d = mujoco.MjData(c.model)
+    mujoco.mj_step(c.model, d)  # a copy steps like the original
+    with pytest.raises(InputError, match="height"):
+        build(height_m=-1.0)

@@ -229,15 +229,23 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     front, low, lane = _toe_front(base, qpos, sc.side)
     obstacle = None
     if sc.mechanism == "obstacle":
-        # own start: built parked under the floor, placed at the trip (``_place_obstacle``)
-        obstacle = ((0.0, sc.obstacle_height_m, OBSTACLE_DEPTH_M, OBSTACLE_WIDTH_M, lane)
-                    if own else _obstacle_at(base, qpos, sc))
+        # built at the origin (one compiled model for every trip of a body, ``build``)
+        # and moved: where the trip puts it (playback) or parked under the floor until
+        # the trip (own start; ``_place_obstacle``)
+        obstacle = (0.0, sc.obstacle_height_m, OBSTACLE_DEPTH_M, OBSTACLE_WIDTH_M, 0.0)
+        box = None if own else _obstacle_at(base, qpos, sc)
     body = build(planar=reflex, height_m=sc.height_m, mass_kg=sc.mass_kg, sex=sc.sex,
                  contact=sc.contact, obstacle=obstacle, timestep_s=sc.timestep_s,
                  actuation="muscles" if reflex else "servos", muscle_set=muscle_set)
     m = body.model
-    if own and obstacle is not None:
-        m.geom_pos[m.geom("obstacle").id, 2] = -1.0  # parked (it touches only the feet)
+    if obstacle is not None:
+        g = m.geom("obstacle").id
+        if own:
+            m.geom_pos[g] = [0.5 * OBSTACLE_DEPTH_M, lane, -1.0]  # parked (it touches
+            # only the feet)
+        else:
+            x0, h, depth, _w, y0 = box
+            m.geom_pos[g] = [x0 + 0.5 * depth, y0, 0.5 * h]
     d = mujoco.MjData(m)
     d.qpos[:], d.qvel[:] = qpos, qvel
     perturb_initial_state(body, d, sc.seed)
