@@ -40,14 +40,18 @@ from stumble.sim import Context, Recording, Sensors, run
 from stumble.trip import (
     MUSCLE_CONTROLLERS,
     OBSTACLE_DEPTH_M,
+    OBSTACLE_GAP_M,
     OBSTACLE_WIDTH_M,
     POPULATIONS,
     Scenario,
+    obstacle_at,
+    park_obstacle,
+    place_obstacle,
+    toe_front,
     trip_time,
 )
 
 WALK_BEFORE_TRIP_S = 0.4  # the trip comes in the first swing of that leg after this time
-OBSTACLE_GAP_M = 0.002  # the obstacle's near face this far ahead of the toe at the trip
 
 
 @dataclass
@@ -62,41 +66,6 @@ class TripResult:
     states: list[tuple[str, float]] = field(default_factory=list)
     network: object = None  # the reflex network that ran (reflex controller only)
     walk_recording: Recording | None = None  # start own: the controller's walk to the trip
-
-
-def _toe_front(body: Body, qpos: np.ndarray, side: str) -> tuple[float, float, float]:
-    """Forward-most x, lowest z and mean y of a foot's boxes, for one pose."""
-    m = body.model
-    d = mujoco.MjData(m)
-    d.qpos[:] = qpos
-    mujoco.mj_kinematics(m, d)
-    xs, zs, ys = [], [], []
-    for name in (f"foot_{side}_geom", f"toes_{side}_geom"):
-        gid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, name)
-        if gid < 0:
-            continue
-        half = m.geom_size[gid]
-        corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1)
-                            for sz in (-1, 1)]) * half
-        world = d.geom_xpos[gid] + corners @ d.geom_xmat[gid].reshape(3, 3).T
-        xs.append(world[:, 0].max())
-        zs.append(world[:, 2].min())
-        ys.append(world[:, 1].mean())
-    return float(max(xs)), float(min(zs)), float(np.mean(ys))
-
-
-def _check_clear_of_stance(body: Body, qpos: np.ndarray, side: str, box) -> None:
-    """InputError if the obstacle's footprint would overlap the stance foot."""
-    m = body.model
-    d = mujoco.MjData(m)
-    d.qpos[:] = qpos
-    mujoco.mj_kinematics(m, d)
-    pts = d.site_xpos[[m.site(n).id for n in body.foot_points[side]], :2]
-    x0, _h, depth, width, y0 = box
-    inside = ((pts[:, 0] > x0) & (pts[:, 0] < x0 + depth)
-              & (np.abs(pts[:, 1] - y0) < 0.5 * width))
-    if inside.any():
-        raise InputError("the obstacle would stand under the stance foot at this instant")
 
 
 SEED_ANGLE_SD_RAD = np.radians(0.5)  # per joint angle, seed != 0 (our choice)
@@ -226,26 +195,23 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     else:
         t_start = trip_time(pb.events, sc.side, sc.swing_fraction, after_s=WALK_BEFORE_TRIP_S)
     qpos, qvel = pb.state_at(t_start)
-    front, low, lane = _toe_front(base, qpos, sc.side)
+    front, low, lane = toe_front(base, qpos, sc.side)
     obstacle = None
     if sc.mechanism == "obstacle":
         # built at the origin (one compiled model for every trip of a body, ``build``)
         # and moved: where the trip puts it (playback) or parked under the floor until
-        # the trip (own start; ``_place_obstacle``)
+        # the trip (own start; ``trip.place_obstacle``)
         obstacle = (0.0, sc.obstacle_height_m, OBSTACLE_DEPTH_M, OBSTACLE_WIDTH_M, 0.0)
-        box = None if own else _obstacle_at(base, qpos, sc)
+        box = None if own else obstacle_at(base, qpos, sc)
     body = build(planar=reflex, height_m=sc.height_m, mass_kg=sc.mass_kg, sex=sc.sex,
                  contact=sc.contact, obstacle=obstacle, timestep_s=sc.timestep_s,
                  actuation="muscles" if reflex else "servos", muscle_set=muscle_set)
     m = body.model
     if obstacle is not None:
-        g = m.geom("obstacle").id
         if own:
-            m.geom_pos[g] = [0.5 * OBSTACLE_DEPTH_M, lane, -1.0]  # parked (it touches
-            # only the feet)
+            park_obstacle(m, lane)
         else:
-            x0, h, depth, _w, y0 = box
-            m.geom_pos[g] = [x0 + 0.5 * depth, y0, 0.5 * h]
+            place_obstacle(m, box)
     d = mujoco.MjData(m)
     d.qpos[:], d.qvel[:] = qpos, qvel
     perturb_initial_state(body, d, sc.seed)
@@ -268,10 +234,10 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
         if walk_rec.stop_reason != "trip":
             return _no_trip(sc, controller, walk_rec, walk_in, body, pb)
         qpos = d.qpos.copy()
-        front, low, _lane = _toe_front(body, qpos, sc.side)
+        front, low, _lane = toe_front(body, qpos, sc.side)
         if sc.mechanism == "obstacle":
-            _place_obstacle(m, d, _obstacle_at(body, qpos, sc, who=f"the {sc.controller} "
-                                               "walker's"))
+            place_obstacle(m, obstacle_at(body, qpos, sc, who=f"the {sc.controller} "
+                                          "walker's"), d)
         ctx.t0 = float(d.time)
     far_x = front + OBSTACLE_GAP_M + OBSTACLE_DEPTH_M  # force trips: a notional obstacle
     stop = StopRule(strategy, sc.side, fall_height, far_x=far_x,
@@ -328,27 +294,6 @@ def _walk_on_s(sc: Scenario, reflex: bool) -> float | None:
 
 
 WALK_IN_MARGIN_S = 3.0  # own start: the trip's swing must begin within this after walk_in_s
-
-
-def _obstacle_at(body: Body, qpos: np.ndarray, sc: Scenario, who: str = "the"):
-    """The obstacle box (near face x, height, depth, width, lane y) just ahead of the
-    tripped toe in pose ``qpos``; InputError if the toe is over it or the box would stand
-    under the stance foot."""
-    front, low, lane = _toe_front(body, qpos, sc.side)
-    if low > sc.obstacle_height_m - 0.01:
-        raise InputError(f"at {sc.swing_fraction} of swing {who} toe is {low:.3f} m up, "
-                         f"over a {sc.obstacle_height_m} m obstacle")
-    box = (front + OBSTACLE_GAP_M, sc.obstacle_height_m, OBSTACLE_DEPTH_M,
-           OBSTACLE_WIDTH_M, lane)
-    _check_clear_of_stance(body, qpos, {"l": "r", "r": "l"}[sc.side], box)
-    return box
-
-
-def _place_obstacle(m: mujoco.MjModel, d: mujoco.MjData, box) -> None:
-    """Move the (parked) obstacle box to ``box`` (``_obstacle_at``'s form)."""
-    x0, h, depth, _w, y0 = box
-    m.geom_pos[m.geom("obstacle").id] = [x0 + 0.5 * depth, y0, 0.5 * h]
-    mujoco.mj_forward(m, d)
 
 
 def _walk_in_summary(rec: Recording, timer: TripTimer, sc: Scenario) -> dict:

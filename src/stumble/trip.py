@@ -23,11 +23,16 @@ and where the walk before the trip comes from (``start``):
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
+import mujoco
 import numpy as np
 
 from stumble.errors import InputError
 from stumble.gait.reference import check_speed
+
+if TYPE_CHECKING:
+    from stumble.body import Body
 
 # SCA 2009 §4.3, after Pijnappels et al. 2004 (inverse dynamics and force plates).
 FX_MAX_N = 170.0  # SCA 2009 eq. 2: peak horizontal (backward) tripping force
@@ -42,6 +47,7 @@ SIGMA_OVER_T_TRIP = 1.0 / 6.0
 SWING_RANGE = (0.05, 0.9)  # the issue's range of trip instants (fraction of swing)
 OBSTACLE_HEIGHT_M = 0.10  # default; trip experiments used 8 and 14 cm (reference README)
 OBSTACLE_DEPTH_M = 0.10  # along the walking direction (our choice)
+OBSTACLE_GAP_M = 0.002  # the obstacle's near face this far ahead of the toe at the trip
 OBSTACLE_WIDTH_M = 0.14  # across: the tripped foot's lane only, as the pop-up obstacles
 # of trip experiments (Schillings et al. 2000; Pijnappels et al. 2004); a wide board would
 # lie under the stance foot for trips before mid swing (our choice)
@@ -271,3 +277,70 @@ def trip_time(events, side: str, swing_fraction: float, after_s: float = 0.0) ->
         if hs:
             return float(to + swing_fraction * (hs[0] - to))
     raise InputError(f"the walk has no complete swing of the {side} leg after {after_s} s")
+
+
+# ---- where the obstacle stands ------------------------------------------------------
+def toe_front(body: Body, qpos: np.ndarray, side: str) -> tuple[float, float, float]:
+    """Forward-most x, lowest z and mean y of a foot's boxes, for one pose."""
+    m = body.model
+    d = mujoco.MjData(m)
+    d.qpos[:] = qpos
+    mujoco.mj_kinematics(m, d)
+    xs, zs, ys = [], [], []
+    for name in (f"foot_{side}_geom", f"toes_{side}_geom"):
+        gid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, name)
+        if gid < 0:
+            continue
+        half = m.geom_size[gid]
+        corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1)
+                            for sz in (-1, 1)]) * half
+        world = d.geom_xpos[gid] + corners @ d.geom_xmat[gid].reshape(3, 3).T
+        xs.append(world[:, 0].max())
+        zs.append(world[:, 2].min())
+        ys.append(world[:, 1].mean())
+    return float(max(xs)), float(min(zs)), float(np.mean(ys))
+
+
+def check_clear_of_stance(body: Body, qpos: np.ndarray, side: str, box) -> None:
+    """InputError if the obstacle's footprint would overlap the stance foot."""
+    m = body.model
+    d = mujoco.MjData(m)
+    d.qpos[:] = qpos
+    mujoco.mj_kinematics(m, d)
+    pts = d.site_xpos[[m.site(n).id for n in body.foot_points[side]], :2]
+    x0, _h, depth, width, y0 = box
+    inside = ((pts[:, 0] > x0) & (pts[:, 0] < x0 + depth)
+              & (np.abs(pts[:, 1] - y0) < 0.5 * width))
+    if inside.any():
+        raise InputError("the obstacle would stand under the stance foot at this instant")
+
+
+def obstacle_at(body: Body, qpos: np.ndarray, sc: Scenario, who: str = "the"):
+    """The obstacle box (near face x, height, depth, width, lane y) just ahead of the
+    tripped toe in pose ``qpos``; InputError if the toe is over it or the box would stand
+    under the stance foot."""
+    front, low, lane = toe_front(body, qpos, sc.side)
+    if low > sc.obstacle_height_m - 0.01:
+        raise InputError(f"at {sc.swing_fraction} of swing {who} toe is {low:.3f} m up, "
+                         f"over a {sc.obstacle_height_m} m obstacle")
+    box = (front + OBSTACLE_GAP_M, sc.obstacle_height_m, OBSTACLE_DEPTH_M,
+           OBSTACLE_WIDTH_M, lane)
+    check_clear_of_stance(body, qpos, {"l": "r", "r": "l"}[sc.side], box)
+    return box
+
+
+def place_obstacle(m: mujoco.MjModel, box, d: mujoco.MjData | None = None) -> None:
+    """Move the model's obstacle box to ``box`` (``obstacle_at``'s form; the model's box
+    keeps its size), then bring ``d`` up to date if given. A trip builds its obstacle at
+    the origin and moves it (``build`` compiles one model for every trip of a body); the
+    same physics as a box compiled in place (the 48-trip grid, checked)."""
+    x0, h, depth, _w, y0 = box
+    m.geom_pos[m.geom("obstacle").id] = [x0 + 0.5 * depth, y0, 0.5 * h]
+    if d is not None:
+        mujoco.mj_forward(m, d)
+
+
+def park_obstacle(m: mujoco.MjModel, lane_y: float) -> None:
+    """Put the obstacle under the floor in the foot's lane (it touches only the feet),
+    until ``place_obstacle``."""
+    m.geom_pos[m.geom("obstacle").id] = [0.5 * OBSTACLE_DEPTH_M, lane_y, -1.0]
