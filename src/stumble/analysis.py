@@ -383,3 +383,40 @@ def walk_metrics(rec: Recording, model: mujoco.MjModel, reference: dict[str, np.
         "rmse_deg_by_side": {k: round(v, 3) for k, v in rmse.items()},
         "events": ev,
     }
+
+
+def steps_after(rec: Recording, landing_s: float | None) -> int | None:
+    """Heel strikes of either foot after the recovery step's (``landing_s``), as force
+    plates would see them (``analysis.contact_events``); None without a recovery step."""
+    if landing_s is None or not len(rec.time_s):
+        return None
+    ev = contact_events(rec.time_s, rec.foot_on_floor)
+    return sum(1 for side in ev.values() for t in side["heel_strike_s"] if t > landing_s + 0.02)
+
+
+SUPPORT_WINDOW_S = 0.3  # the issue's window: the first 300 ms after the trip
+# (servo hinge, exertion of a negative torque, of a positive one): stumble.body.joints
+_EXERTIONS = (("hip_flexion", "hip_extension", "hip_flexion"),
+              ("knee_angle", "knee_flexion", "knee_extension"),
+              ("ankle_angle", "ankle_plantarflexion", "ankle_dorsiflexion"))
+
+
+def support_peak_moments(m: mujoco.MjModel, rec: Recording, tripped_side: str,
+                         window_s: float = SUPPORT_WINDOW_S) -> dict | None:
+    """Peak servo moments (N·m, ≥ 0) of the support limb (the leg not tripped) in the
+    first ``window_s`` after the trip, by exertion (hip_extension, knee_flexion,
+    ankle_plantarflexion, ...), as Pijnappels et al. 2005 report them; None for muscles
+    (their forces are not joint moments) or without actuator forces."""
+    if rec.actuator_force is None or not len(rec.time_s):
+        return None
+    side = {"r": "l", "l": "r"}[tripped_side]
+    inside = (rec.time_s >= 0.0) & (rec.time_s <= window_s + 1e-9)
+    out = {}
+    for hinge, minus, plus in _EXERTIONS:
+        i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{hinge}_{side}")
+        if i < 0 or m.actuator_trntype[i] != mujoco.mjtTrn.mjTRN_JOINT:
+            return None
+        tau = rec.actuator_force[inside, i]
+        out[minus] = round(float(max(0.0, -tau.min())), 1)
+        out[plus] = round(float(max(0.0, tau.max())), 1)
+    return out

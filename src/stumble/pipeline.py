@@ -21,13 +21,15 @@ from stumble.analysis import (
     TripTimer,
     pitch_angles_deg,
     rmse_deg,
+    steps_after,
+    support_peak_moments,
     table2_from_coordinates,
     trunk_tilt_deg,
     variant,
 )
 from stumble.body import Body, build
 from stumble.body.contact import DEFAULT_MODE as DEFAULT_CONTACT
-from stumble.body.contact import STIFFNESS_N_PER_M, PenaltyContact
+from stumble.body.contact import PenaltyContact, rest_support_foot
 from stumble.body.muscles import DEFAULT_MUSCLE_SET
 from stumble.body.strength import Strength, age_fixed_limits
 from stumble.control.fsm import TripFSM
@@ -132,13 +134,6 @@ def _reflex_controller(network, pb: Playback, t: float, delay_scale: float,
     return ReflexController(net, history, balance)
 
 
-def _rest_support_foot(m: mujoco.MjModel, d: mujoco.MjData, planar: bool) -> None:
-    """SCA 2009 §4.2: the support foot on the ground, at the penalty law's static depth
-    under the body's weight on one foot (96 points)."""
-    height = m.jnt_qposadr[m.joint("pelvis_ty").id] if planar else 2  # z of the root
-    d.qpos[height] -= m.body_mass.sum() * 9.81 / (96 * STIFFNESS_N_PER_M)
-
-
 def _network_every(net, m: mujoco.MjModel) -> int:
     """Physics steps per network tick (``network.steps_per_tick``: the rule is checked
     with the scenario, ``Scenario.validated``)."""
@@ -216,7 +211,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     d.qpos[:], d.qvel[:] = qpos, qvel
     perturb_initial_state(body, d, sc.seed)
     if sc.contact in ("lumped", "points", "penalty"):
-        _rest_support_foot(m, d, reflex)
+        rest_support_foot(m, d, reflex)
     _scale_strength(m, sc.strength_scale)
     strength = _strength(m, sc, reflex)
     if strength is not None:
@@ -388,11 +383,11 @@ def _summary(sc: Scenario, strategy: str, controller, rec: Recording, stop: Stop
             sim, rec.time_s, ref, np.asarray(reference["time_s"])).items()}
     diverged = rec.diverged
     fell = stop.fell_s is not None and not diverged
-    steps_after = _steps_after(rec, landing)
+    n_after = steps_after(rec, landing)
     recovered = stop.recovered_s is not None and not diverged
     if sc.recovery == "walk_on" and sc.controller not in MUSCLE_CONTROLLERS:
         # the issue's walking on: at least WALK_ON_STEPS steps after the recovery step
-        recovered = recovered and steps_after is not None and steps_after >= WALK_ON_STEPS
+        recovered = recovered and n_after is not None and n_after >= WALK_ON_STEPS
     return {
         "controller": sc.controller,
         "strategy": strategy,
@@ -425,51 +420,12 @@ def _summary(sc: Scenario, strategy: str, controller, rec: Recording, stop: Stop
         "population": sc.population,
         "support_peak_moments_nm": support_peak_moments(m, rec, sc.side),
         "recovery": sc.recovery,
-        "steps_after_recovery_step": steps_after,
+        "steps_after_recovery_step": n_after,
         "walking_stride_s": None if stride_s is None else round(stride_s, 4),
     }
 
 
 WALK_ON_STEPS = 4  # recovery walk_on: steps after the recovery step (issue: at least 4)
-
-
-def _steps_after(rec: Recording, landing_s: float | None) -> int | None:
-    """Heel strikes of either foot after the recovery step's (``landing_s``), as force
-    plates would see them (``analysis.contact_events``); None without a recovery step."""
-    if landing_s is None or not len(rec.time_s):
-        return None
-    from stumble.analysis import contact_events
-
-    ev = contact_events(rec.time_s, rec.foot_on_floor)
-    return sum(1 for side in ev.values() for t in side["heel_strike_s"] if t > landing_s + 0.02)
-
-
-SUPPORT_WINDOW_S = 0.3  # the issue's window: the first 300 ms after the trip
-# (servo hinge, exertion of a negative torque, of a positive one): stumble.body.joints
-_EXERTIONS = (("hip_flexion", "hip_extension", "hip_flexion"),
-              ("knee_angle", "knee_flexion", "knee_extension"),
-              ("ankle_angle", "ankle_plantarflexion", "ankle_dorsiflexion"))
-
-
-def support_peak_moments(m: mujoco.MjModel, rec: Recording, tripped_side: str,
-                         window_s: float = SUPPORT_WINDOW_S) -> dict | None:
-    """Peak servo moments (N·m, ≥ 0) of the support limb (the leg not tripped) in the
-    first ``window_s`` after the trip, by exertion (hip_extension, knee_flexion,
-    ankle_plantarflexion, ...), as Pijnappels et al. 2005 report them; None for muscles
-    (their forces are not joint moments) or without actuator forces."""
-    if rec.actuator_force is None or not len(rec.time_s):
-        return None
-    side = {"r": "l", "l": "r"}[tripped_side]
-    inside = (rec.time_s >= 0.0) & (rec.time_s <= window_s + 1e-9)
-    out = {}
-    for hinge, minus, plus in _EXERTIONS:
-        i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{hinge}_{side}")
-        if i < 0 or m.actuator_trntype[i] != mujoco.mjtTrn.mjTRN_JOINT:
-            return None
-        tau = rec.actuator_force[inside, i]
-        out[minus] = round(float(max(0.0, -tau.min())), 1)
-        out[plus] = round(float(max(0.0, tau.max())), 1)
-    return out
 
 
 @dataclass
@@ -498,7 +454,7 @@ def simulate_walking_step(network=None, trunk_balance: bool = True,
     t0 = next(t for t in pb.events.heel_strike_s["r"] if t >= WALK_BEFORE_TRIP_S)
     d = mujoco.MjData(m)
     d.qpos[:], d.qvel[:] = pb.state_at(t0)
-    _rest_support_foot(m, d, planar=True)
+    rest_support_foot(m, d, planar=True)
     ctrl = _reflex_controller(net, pb, t0, 1.0, trunk_balance)
     stop = StopRule("elevating", "l", FALL_PELVIS_FRACTION * _standing_pelvis(body))
     duration = 0.5 * pb.stride_s
@@ -579,7 +535,7 @@ def simulate_walk(controller: str = "gh2010", duration_s: float = 20.0,
     t0 = next(t for t in pb.events.heel_strike_s["r"] if t >= WALK_BEFORE_TRIP_S)
     d = mujoco.MjData(m)
     d.qpos[:], d.qvel[:] = pb.state_at(t0)
-    _rest_support_foot(m, d, planar=True)
+    rest_support_foot(m, d, planar=True)
     ctrl = walk_controller(controller, pb, t0, params, network, delay_scale, trunk_balance)
     if controller == "network":
         _network_every(ctrl.net, m)

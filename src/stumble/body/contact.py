@@ -303,3 +303,10 @@ class PenaltyContact:
         np.add.at(out, self.slot, np.hstack([f, torque]))
         data.xfrc_applied[self.bodies] = out
         return f
+
+
+def rest_support_foot(m: mujoco.MjModel, d: mujoco.MjData, planar: bool) -> None:
+    """SCA 2009 §4.2: the support foot on the ground, at the penalty law's static depth
+    under the body's weight on one foot (96 points)."""
+    height = m.jnt_qposadr[m.joint("pelvis_ty").id] if planar else 2  # z of the root
+    d.qpos[height] -= m.body_mass.sum() * 9.81 / (96 * STIFFNESS_N_PER_M)

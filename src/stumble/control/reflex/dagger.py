@@ -121,12 +121,12 @@ def collect(net: Network, params: GH2010Params, beta: float, seed: int,
             speed_m_per_s: float, duration_s: float = EPISODE_S) -> Episode:
     """One episode of walking under the mixture, from the played-back walk."""
     from stumble.analysis import FALL_PELVIS_FRACTION, WalkStop
+    from stumble.body.contact import rest_support_foot
     from stumble.control.reflex.identify import history_before
     from stumble.pipeline import (
         DEFAULT_CONTACT,
         WALK_BEFORE_TRIP_S,
         _phase,
-        _rest_support_foot,
         _standing_pelvis,
         _walk,
     )
@@ -140,7 +140,7 @@ def collect(net: Network, params: GH2010Params, beta: float, seed: int,
     t0 = next(t for t in pb.events.heel_strike_s["r"] if t >= WALK_BEFORE_TRIP_S)
     d = mujoco.MjData(m)
     d.qpos[:], d.qvel[:] = pb.state_at(t0)
-    _rest_support_foot(m, d, planar=True)
+    rest_support_foot(m, d, planar=True)
     history = history_before(net.walk_rates, _phase(pb, t0), 2 * net.topology.max_lag + 2,
                              net.topology.rate_hz)
     student = ReflexController(net, history, balance_of(params))
