@@ -83,6 +83,9 @@ def main() -> None:
     ap.add_argument("--method", choices=("random", "cma"), default="random")
     ap.add_argument("--generations", type=int, default=20, help="cma: generations")
     ap.add_argument("--popsize", type=int, default=12, help="cma: candidates per generation")
+    ap.add_argument("--sigma", type=float, default=0.12,
+                    help="cma: initial step, as a fraction of each range (default 0.12; "
+                    "smaller to refine tuned values)")
     ap.add_argument("--out", default=None, metavar="FILE",
                     help="cma: the best so far, as JSON, rewritten every generation")
     ap.add_argument("--strength", choices=("anderson2007", "fixed"), default="fixed",
@@ -149,7 +152,7 @@ def _cma(args, base: dict, space: dict) -> None:
     lo = np.array([space[k][1] for k in names])
     hi = np.array([space[k][2] for k in names])
     x0 = np.clip((np.array([base[k] for k in names]) - lo) / (hi - lo), 0.0, 1.0)
-    opt = CMA(mean=x0, sigma=0.12, bounds=np.array([[0.0, 1.0]] * len(names)),
+    opt = CMA(mean=x0, sigma=args.sigma, bounds=np.array([[0.0, 1.0]] * len(names)),
               seed=args.seed, population_size=args.popsize)
 
     def point(u: np.ndarray) -> dict:
