@@ -124,13 +124,14 @@ def test_trip_with_human_strength_stays_within_it_and_reports_push_off():
 
 def test_older_population_is_weaker_and_slower():
     from stumble.control.fsm_params import FSMParams
-    from stumble.pipeline import _controller, simulate_trip
+    from stumble.control.make import trip_controller
+    from stumble.pipeline import simulate_trip
     from stumble.trip import POPULATIONS, Scenario
 
     older = POPULATIONS["older"]
     assert older.age == "older" and older.preferred_speed_m_per_s == 1.17
     sc = Scenario(swing_fraction=0.2, population="older", duration_after_trip_s=0.5)
-    ctl = _controller(sc.validated(), "elevating", None, None, None, 0.0)
+    ctl = trip_controller(sc.validated(), "elevating", None, None, None, 0.0)
     assert ctl.p.latency_s["sup.ankle_angle"] == pytest.approx(
         FSMParams().latency_s["sup.ankle_angle"] + 0.011)  # Pijnappels et al. 2005 (EBR)
     m = simulate_trip(sc).body.model

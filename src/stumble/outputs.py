@@ -178,7 +178,7 @@ def write_muscle_tensions(out: Path, result: TripResult) -> None:
     """``muscle_tensions.png`` (seed 003 Fig. 5): tensions of a reflex trip vs walking."""
     from stumble.control.reflex.identify import default_network, leg_muscles
     from stumble.control.reflex.receptors import IB_FORCE_N, IB_GAIN
-    from stumble.pipeline import _phase
+    from stumble.gait.playback import stride_phase
     from stumble.viz.reflex_plots import plot_muscle_tensions
 
     rec, m, s = result.recording, result.body.model, result.summary
@@ -200,7 +200,7 @@ def write_muscle_tensions(out: Path, result: TripResult) -> None:
                                               -own.actuator_force[:, a])
     elif net.walk_rates is not None and net.topology.muscles == muscles:
         T = net.walk_rates.shape[1]
-        phase = _phase(result.playback, s["trip_time_s"]) + t_walk / result.playback.stride_s
+        phase = stride_phase(result.playback, s["trip_time_s"]) + t_walk / result.playback.stride_s
         k = np.round(phase * T).astype(int) % T
         for col, side in enumerate(legs):
             ib = net.walk_rates["rl".index(side)][k][:, 2:3 * len(muscles):3]

@@ -8,7 +8,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from functools import lru_cache
 
 import mujoco
@@ -32,8 +32,14 @@ from stumble.body.contact import DEFAULT_MODE as DEFAULT_CONTACT
 from stumble.body.contact import PenaltyContact, rest_support_foot
 from stumble.body.muscles import DEFAULT_MUSCLE_SET
 from stumble.body.strength import Strength, age_fixed_limits
-from stumble.control.fsm import TripFSM
 from stumble.control.fsm_params import FSMParams, human_strength_params
+from stumble.control.make import (
+    muscle_set_of,
+    network_controller,
+    network_steps_per_tick,
+    trip_controller,
+    walk_controller,
+)
 from stumble.errors import InputError
 from stumble.gait.playback import Playback
 from stumble.gait.reference import load_reference
@@ -88,20 +94,6 @@ def perturb_initial_state(body: Body, data: mujoco.MjData, seed: int) -> None:
     data.qvel[v] += rng.normal(0.0, SEED_VELOCITY_SD_RAD_S, len(v))
 
 
-def _controller(sc: Scenario, strategy: str | None, params: FSMParams | None,
-                network, pb: Playback, t_trip: float, trunk_balance: bool = True,
-                gh2010=None):
-    if sc.controller == "reflex":
-        return _reflex_controller(network, pb, t_trip, sc.delay_scale, trunk_balance)
-    if sc.controller == "gh2010":
-        return walk_controller("gh2010", pb, t_trip, gh2010, delay_scale=sc.delay_scale)
-    p = replace(params or FSMParams(), delay_scale=sc.delay_scale)
-    extra = POPULATIONS[sc.population].extra_latency_s
-    if extra:  # the population's slower responses (trip.POPULATIONS)
-        p = replace(p, latency_s={k: v + extra.get(k, 0.0) for k, v in p.latency_s.items()})
-    return TripFSM(strategy, sc.side, sc.speed_m_per_s, p)
-
-
 def _strength(m: mujoco.MjModel, sc: Scenario, reflex: bool) -> Strength | None:
     """The servos' human strength (``stumble.body.strength``) for the scenario's body,
     age group and strength scale; None for muscles and for the fixed limits (which an
@@ -114,42 +106,6 @@ def _strength(m: mujoco.MjModel, sc: Scenario, reflex: bool) -> Strength | None:
             age_fixed_limits(m, sc.sex, age)
         return None
     return Strength.for_model(m, sc.mass_kg, sc.height_m, sc.sex, age, sc.strength_scale)
-
-
-def _reflex_controller(network, pb: Playback, t: float, delay_scale: float,
-                       trunk_balance: bool):
-    """The reflex network (given or shipped) taking over from the walk at time ``t``."""
-    from stumble.control.reflex.controller import ReflexController, TrunkBalance
-    from stumble.control.reflex.identify import default_network, history_before
-
-    net = (network or default_network()).with_delay_scale(delay_scale)
-    history = None
-    if net.walk_rates is not None:
-        history = history_before(net.walk_rates, _phase(pb, t),
-                                 2 * net.topology.max_lag + 2, net.topology.rate_hz)
-    balance = None
-    if trunk_balance:  # its vestibulospinal latency scales with the nerve delays
-        balance = TrunkBalance.from_info(net.info, TrunkBalance.DELAY_S * delay_scale,
-                                         net.topology.rate_hz)
-    return ReflexController(net, history, balance)
-
-
-def _network_every(net, m: mujoco.MjModel) -> int:
-    """Physics steps per network tick (``network.steps_per_tick``: the rule is checked
-    with the scenario, ``Scenario.validated``)."""
-    from stumble.control.reflex.network import steps_per_tick
-
-    return steps_per_tick(m.opt.timestep, net.topology.rate_hz)
-
-
-def _phase(pb: Playback, t: float) -> float:
-    """Fraction of the stride (from right heel strike) at time ``t`` of a playback."""
-    hs = np.asarray(pb.events.heel_strike_s["r"])
-    before = hs[hs <= t]
-    after = hs[hs > t]
-    if len(before) and len(after):
-        return float((t - before[-1]) / (after[0] - before[-1]))
-    return float(((t - (before[-1] if len(before) else after[0])) / pb.stride_s) % 1.0)
 
 
 def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
@@ -217,9 +173,9 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     if strength is not None:
         strength.apply(m, d)
     ctx = Context(m, d, body, Sensors(), t0=0.0, strength=strength)
-    controller = _controller(sc, strategy, p, network, pb, t_start, trunk_balance, gh2010)
+    controller = trip_controller(sc, strategy, p, network, pb, t_start, trunk_balance, gh2010)
     if sc.controller == "reflex":
-        _network_every(controller.net, m)
+        network_steps_per_tick(controller.net, m)
     fall_height = FALL_PELVIS_FRACTION * _standing_pelvis(body)
     walk_in = None
     if own:
@@ -455,10 +411,10 @@ def simulate_walking_step(network=None, trunk_balance: bool = True,
     d = mujoco.MjData(m)
     d.qpos[:], d.qvel[:] = pb.state_at(t0)
     rest_support_foot(m, d, planar=True)
-    ctrl = _reflex_controller(net, pb, t0, 1.0, trunk_balance)
+    ctrl = network_controller(net, pb, t0, 1.0, trunk_balance)
     stop = StopRule("elevating", "l", FALL_PELVIS_FRACTION * _standing_pelvis(body))
     duration = 0.5 * pb.stride_s
-    _network_every(net, m)
+    network_steps_per_tick(net, m)
     rec = run(Context(m, d, body, Sensors(), t0=0.0), ctrl, duration, stop=stop)
     ref = np.array([pb.state_at(t0 + t)[0] for t in rec.time_s])
     names = ["pelvis_tilt", *body.joints]
@@ -490,31 +446,6 @@ def reference_stride(pb: Playback) -> dict[str, np.ndarray]:
     return {n: c.mean(axis=0) for n, c in curves.items()}
 
 
-def walk_controller(kind: str, pb: Playback, t: float, params=None, network=None,
-                    delay_scale: float = 1.0, trunk_balance: bool = True):
-    """The reflex controller ``kind`` (``network``: seed 003's; ``gh2010``) taking over
-    from the walk at time ``t``."""
-    from dataclasses import replace as _replace
-
-    if kind == "gh2010":
-        from stumble.control.reflex.gh2010 import GH2010Controller, shipped_params
-
-        return GH2010Controller(_replace(params or shipped_params(), delay_scale=delay_scale))
-    if kind == "network":
-        return _reflex_controller(network, pb, t, delay_scale, trunk_balance)
-    raise InputError(f"reflex controller {kind!r} is not 'network' or 'gh2010'")
-
-
-def muscle_set_of(kind: str, network=None) -> str:
-    """The body's muscle set a reflex controller drives (GH2010: with the iliopsoas;
-    the network: the set it was identified for)."""
-    if kind == "gh2010":
-        return "hfl"
-    from stumble.control.reflex.identify import default_network
-
-    return (network or default_network()).muscle_set
-
-
 def simulate_walk(controller: str = "gh2010", duration_s: float = 20.0,
                   speed_m_per_s: float | None = None, params=None, network=None,
                   delay_scale: float = 1.0, trunk_balance: bool = True,
@@ -538,7 +469,7 @@ def simulate_walk(controller: str = "gh2010", duration_s: float = 20.0,
     rest_support_foot(m, d, planar=True)
     ctrl = walk_controller(controller, pb, t0, params, network, delay_scale, trunk_balance)
     if controller == "network":
-        _network_every(ctrl.net, m)
+        network_steps_per_tick(ctrl.net, m)
     stop = WalkStop(FALL_PELVIS_FRACTION * _standing_pelvis(body))
     rec = run(Context(m, d, body, Sensors(), t0=0.0), ctrl, duration_s, stop=stop)
     ref = reference_stride(pb)

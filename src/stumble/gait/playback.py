@@ -413,3 +413,13 @@ def foot_slip(pb: Playback, side: str, near_m: float = 0.01) -> list[float]:
         sel = (pb.time_s[:-1] >= t_a) & (pb.time_s[:-1] < offs[0]) & on
         out.append(float(step[sel].sum()))
     return out
+
+
+def stride_phase(pb: Playback, t: float) -> float:
+    """Fraction of the stride (from right heel strike) at time ``t`` (s) of a playback."""
+    hs = np.asarray(pb.events.heel_strike_s["r"])
+    before = hs[hs <= t]
+    after = hs[hs > t]
+    if len(before) and len(after):
+        return float((t - before[-1]) / (after[0] - before[-1]))
+    return float(((t - (before[-1] if len(before) else after[0])) / pb.stride_s) % 1.0)

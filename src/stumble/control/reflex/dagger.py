@@ -123,10 +123,10 @@ def collect(net: Network, params: GH2010Params, beta: float, seed: int,
     from stumble.analysis import FALL_PELVIS_FRACTION, WalkStop
     from stumble.body.contact import rest_support_foot
     from stumble.control.reflex.identify import history_before
+    from stumble.gait.playback import stride_phase
     from stumble.pipeline import (
         DEFAULT_CONTACT,
         WALK_BEFORE_TRIP_S,
-        _phase,
         _standing_pelvis,
         _walk,
     )
@@ -141,8 +141,8 @@ def collect(net: Network, params: GH2010Params, beta: float, seed: int,
     d = mujoco.MjData(m)
     d.qpos[:], d.qvel[:] = pb.state_at(t0)
     rest_support_foot(m, d, planar=True)
-    history = history_before(net.walk_rates, _phase(pb, t0), 2 * net.topology.max_lag + 2,
-                             net.topology.rate_hz)
+    history = history_before(net.walk_rates, stride_phase(pb, t0),
+                             2 * net.topology.max_lag + 2, net.topology.rate_hz)
     student = ReflexController(net, history, balance_of(params))
     student.trace = {"inputs": [], "balance": []}
     mix = Mixed(student, GH2010Controller(params), beta, np.random.default_rng(seed))
