@@ -242,7 +242,7 @@ class ReflexController:
         for k, (_s, j, _lag) in enumerate(conns):
             mv[k * H:(k + 1) * H, j] = net.v[k]
         self.mv = mv
-        self._in_at: dict[int, np.ndarray] = {}  # (``_in_idx``, ``_mn_idx``)
+        self._in_at: dict[int, np.ndarray] = {}  # ``_gather_idx``'s, per ring slot
         self._mn_at: dict[int, np.ndarray] = {}
         self.k = 0  # ticks sensed so far
         self.h_done = 0  # interneuron ticks evaluated so far
@@ -266,27 +266,18 @@ class ReflexController:
         slots = (first + np.arange(n)) % self.n_buf
         self.sig_buf.reshape(self.n_buf, -1)[slots] = z
 
-    def _in_idx(self, first: int, n: int) -> np.ndarray:
-        """Flat indices (n, 2, n_inputs) of what the interneurons of ticks first … read;
-        a whole block's kept per ring slot (the same few slots recur)."""
+    def _gather_idx(self, cache: dict, lag: np.ndarray, row: int, off: np.ndarray,
+                    first: int, n: int) -> np.ndarray:
+        """Flat indices (n, 2, len(lag)) into a ring buffer of rows ``row`` long of what
+        ticks first … first+n−1 read, each channel ``off`` ``lag`` ticks back; a whole
+        block's kept in ``cache`` per ring slot (the same few slots recur)."""
         key = first % self.n_buf
-        idx = self._in_at.get(key) if n == self.block else None
+        idx = cache.get(key) if n == self.block else None
         if idx is None:
             ticks = np.arange(first, first + n)
-            idx = ((ticks[:, None, None] - self.in_lag) % self.n_buf) * self.sig_row + self.in_off
+            idx = ((ticks[:, None, None] - lag) % self.n_buf) * row + off
             if n == self.block:
-                self._in_at[key] = idx
-        return idx
-
-    def _mn_idx(self, first: int, n: int) -> np.ndarray:
-        """Flat indices (n, 2, C·H) of what the motor neurons of ticks first … read."""
-        key = first % self.n_buf
-        idx = self._mn_at.get(key) if n == self.block else None
-        if idx is None:
-            ticks = np.arange(first, first + n)
-            idx = ((ticks[:, None, None] - self.c_lag) % self.n_buf) * self.hid_row + self.hid_off
-            if n == self.block:
-                self._mn_at[key] = idx
+                cache[key] = idx
         return idx
 
     def _interneurons(self, upto: int) -> None:
@@ -294,7 +285,8 @@ class ReflexController:
         if upto <= self.h_done:
             return
         ticks = np.arange(self.h_done, upto)
-        idx = self._in_idx(self.h_done, len(ticks))
+        idx = self._gather_idx(self._in_at, self.in_lag, self.sig_row, self.in_off,
+                               self.h_done, len(ticks))
         x = self.sig_buf.take(idx)  # (n, 2, n_inputs): the delayed standardised inputs
         if self.trace is not None:
             self.trace["inputs"].append(x)
@@ -304,7 +296,8 @@ class ReflexController:
 
     def _motor(self, first: int, n: int) -> np.ndarray:
         """Excitation (n, 2, 7) of ticks first … first+n−1."""
-        idx = self._mn_idx(first, n)
+        idx = self._gather_idx(self._mn_at, self.c_lag, self.hid_row, self.hid_off,
+                               first, n)
         return 1.0 / (1.0 + np.exp(-(self.hid_buf.take(idx) @ self.mv + self.c)))
 
     def _tick(self, rates: np.ndarray) -> np.ndarray:
