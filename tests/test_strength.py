@@ -134,6 +134,13 @@ def test_older_population_is_weaker_and_slower():
     ctl = trip_controller(sc.validated(), "elevating", None, None, None, 0.0)
     assert ctl.p.latency_s["sup.ankle_angle"] == pytest.approx(
         FSMParams().latency_s["sup.ankle_angle"] + 0.011)  # Pijnappels et al. 2005 (EBR)
+    # torque develops 30 % slower (Thelen et al. 1996): 50 ms from activation to torque
+    # become 71 ms, for every response
+    assert ctl.p.activation_to_torque_s == pytest.approx(0.050 / 0.7)
+    assert ctl.p.delay("sup.hip_flexion") == pytest.approx(0.050 + 0.050 / 0.7)
+    young = trip_controller(Scenario(swing_fraction=0.2).validated(), "elevating", None,
+                            None, None, 0.0)
+    assert young.p.activation_to_torque_s == 0.050
     m = simulate_trip(sc).body.model
     hip = m.actuator("hip_flexion_l").id
     ratio = (ANDERSON_2007[("hip", "extension", "male", "older")][0]

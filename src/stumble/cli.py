@@ -153,7 +153,8 @@ def _parser() -> argparse.ArgumentParser:
                    "the end of --duration (as the reflex controllers)")
     t.add_argument("--population", choices=("young", "older"), default="young",
                    help="young (default) or older adults (fsm): strength, response "
-                   "latencies and walking speed of healthy older adults")
+                   "latencies, torque development and walking speed of healthy older "
+                   "adults")
     t.add_argument("--mechanism", choices=("force", "obstacle"), default=None,
                    help="force: SCA 2009 eq. 2-3 on the swing toe; obstacle: a rigid box "
                    "(default: force for fsm, obstacle for reflex, as each seed)")

@@ -32,9 +32,12 @@ def trip_controller(sc: Scenario, strategy: str | None, params: FSMParams | None
     if sc.controller == "gh2010":
         return walk_controller("gh2010", pb, t_trip, gh2010, delay_scale=sc.delay_scale)
     p = replace(params or FSMParams(), delay_scale=sc.delay_scale)
-    extra = POPULATIONS[sc.population].extra_latency_s
-    if extra:  # the population's slower responses (trip.POPULATIONS)
-        p = replace(p, latency_s={k: v + extra.get(k, 0.0) for k, v in p.latency_s.items()})
+    pop = POPULATIONS[sc.population]
+    if pop.extra_latency_s:  # the population's slower responses (trip.POPULATIONS)
+        p = replace(p, latency_s={k: v + pop.extra_latency_s.get(k, 0.0)
+                                  for k, v in p.latency_s.items()})
+    if pop.activation_scale != 1.0:  # and slower torque development
+        p = replace(p, activation_to_torque_s=p.activation_to_torque_s * pop.activation_scale)
     return TripFSM(strategy, sc.side, sc.speed_m_per_s, p)
 
 

@@ -67,7 +67,7 @@ AXES: dict[str, Axis] = {a.name: a for a in (
     Axis("recovery", "recovery", str, "what recovered means (fsm): step (1 s after the "
          "recovery step, default) or walk_on (still walking at the end of --duration)"),
     Axis("population", "population", str, "young (default) or older (fsm): strength, "
-         "response latencies"),
+         "response latencies, torque development"),
     Axis("duration", "duration_after_trip_s", float, "seconds of physics after the trip at most"),
     Axis("start", "start", str, "playback (the recorded walk to the trip) or own (the reflex "
          "controller's own gait; default gh2010)"),
