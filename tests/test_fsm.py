@@ -218,3 +218,21 @@ def test_walks_on_for_six_seconds_after_the_trip(swing, strategy):
                                duration_after_trip_s=6.0)).summary
     assert s["strategy"] == strategy and s["recovered"] and not s["fell"]
     assert s["sim_time_s"] > 5.9 and s["steps_after_recovery_step"] >= 4
+
+
+def test_pelvis_attitude_damped_by_its_own_rate_keeps_the_trunk_up():
+    """``attitude_damping`` pelvis (SIMBICON's torso PD on the world rate, an untuned
+    option): the same early-swing trip recovers with the trunk at recovery contact about
+    15° from vertical, against about 23° when the hip's own joint rate damps it."""
+    from dataclasses import replace
+
+    from stumble.errors import InputError
+
+    sc = Scenario(swing_fraction=0.05, speed_m_per_s=1.2, mechanism="force")
+    joint = simulate_trip(sc).summary
+    pelvis = simulate_trip(sc, params=replace(FSMParams(), attitude_damping="pelvis")).summary
+    assert joint["recovered"] and pelvis["recovered"]
+    assert pelvis["trunk_tilt_at_recovery_contact_deg"] < 16.0
+    assert joint["trunk_tilt_at_recovery_contact_deg"] > 21.0
+    with pytest.raises(InputError, match="attitude damping"):
+        simulate_trip(sc, params=replace(FSMParams(), attitude_damping="torso"))

@@ -23,8 +23,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from stumble.control.fsm_params import FSMParams
+from stumble.control.fsm_params import ATTITUDE_DAMPING, FSMParams
 from stumble.control.pd import ServoBank
+from stumble.errors import InputError
 from stumble.sim import CONTROL_HZ, Context
 
 FIXED, HOLD, ATT_PITCH, ATT_ROLL = 0, 1, 2, 3
@@ -58,6 +59,9 @@ class TripFSM:
     def __init__(self, strategy: str, tripped_side: str, speed_m_per_s: float,
                  params: FSMParams | None = None):
         self.p = params or FSMParams()
+        if self.p.attitude_damping not in ATTITUDE_DAMPING:
+            raise InputError(f"attitude damping {self.p.attitude_damping!r} is not one of "
+                             f"{', '.join(ATTITUDE_DAMPING)}")
         self.strategy = strategy
         self.tripped = tripped_side
         self.kc = self.p.kc(speed_m_per_s)
@@ -116,7 +120,8 @@ class TripFSM:
         """Views of the MuJoCo arrays read at every update, and the ids they are read at
         (name look-ups cost microseconds; MjData's arrays never move)."""
         m, d = ctx.model, ctx.data
-        self._qpos, self._ctrl = d.qpos, d.ctrl
+        self._qpos, self._ctrl, self._qvel = d.qpos, d.ctrl, d.qvel
+        self._att_prev = (-1.0, 0.0, 0.0)  # (t, tilt, list) at the last update
         self._xpos, self._site_xpos = d.xpos, d.site_xpos
         self._pelvis_xmat = d.xmat[m.body("pelvis").id]
         self._foot_id = {s: m.body(f"foot_{s}").id for s in OTHER}
@@ -334,10 +339,22 @@ class TripFSM:
         target = self.target.copy()
         tilt, lst = attitude_of(self._pelvis_xmat)
         d_tilt, d_list = tilt - self.att_ref[0], lst - self.att_ref[1]
+        world_damping = self.p.attitude_damping == "pelvis"
+        if world_damping:  # the attitude's rates, by difference since the last update
+            t = ctx.sensors.t
+            dt = t - self._att_prev[0]
+            rates = ((tilt - self._att_prev[1]) / dt, (lst - self._att_prev[2]) / dt) \
+                if 0.0 < dt < 0.05 else (0.0, 0.0)
+            self._att_prev = (t, tilt, lst)
+            qdot = self._qvel
+            c = self.bank.kd_over_kp
         for i, pitch, sign in self._attitude_joints():
             # pitch: the hip flexes with the pelvis tilt error; roll: right adduction about
             # +x, left about -x
             target[i] = q[qadr[i]] + (d_tilt if pitch else sign * d_list)
+            if world_damping:  # the servo's force kp·err − kd·q̇ becomes kp·err + kd·ω
+                target[i] += c * ((rates[0] if pitch else sign * rates[1])
+                                  + qdot[self.bank.vadr[i]])
         st = self._state
         if st in ("step_reach", "fall", "flight"):
             self._place_foot(ctx, target, tilt)

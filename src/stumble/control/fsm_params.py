@@ -284,6 +284,9 @@ TUNED_WITH = ("python scripts/tune_fsm.py --method cma --gains --grid full --wal
               "--around \"$(cat scripts/fsm_start_lowering.json)\"")
 
 
+ATTITUDE_DAMPING = ("joint", "pelvis")  # FSMParams.attitude_damping
+
+
 @dataclass
 class FSMParams:
     """Every number of the trip controllers; override any field to experiment."""
@@ -306,6 +309,13 @@ class FSMParams:
     # gains are the reference body's (70 kg, 1.75 m); dynamic: scaled to each body by
     # m·h (k_d/k_p by √h), stumble.control.pd.ServoBank; none: the same for every body
     body_scaling: str = "dynamic"
+    # what damps the pelvis attitude the stance hip holds: "joint", the hip servo's own
+    # damping on the hip's joint rate (as tuned: in stance the hip extends at 1-2 rad/s as
+    # the body passes over the foot, and that damping leaves the pelvis 10-16° forward of
+    # its reference in the walk after a recovery), or "pelvis": the pelvis's pitch and roll
+    # rates in the world, as SIMBICON's torso PD (Yin et al. 2007), through the servo's
+    # target (an experiment: not tuned, README "Trips")
+    attitude_damping: str = "joint"  # ATTITUDE_DAMPING
     # SCA 2009 §5 uses 50 and 300 for slow and fast walking; on our body 300 lifts the
     # support foot off and stalls the recovery; tuned (TUNED_WITH above; 39.5 and 66.7
     # before the tuning for walking on)
