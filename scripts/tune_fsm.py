@@ -41,11 +41,16 @@ LOWERING_GRID = [(f, v, mech) for mech in ("force", "obstacle") for f in (0.55, 
                  for v in (1.0, 1.2, 1.4)]
 
 
+ATTITUDE_DAMPING = "joint"  # --attitude-damping (FSMParams.attitude_damping)
+
+
 def params_from(x: dict):
     """An FSMParams with the searched values set."""
+    from dataclasses import replace
+
     from stumble.control.fsm_params import FSMParams
 
-    return FSMParams().with_values(x)
+    return replace(FSMParams(), attitude_damping=ATTITUDE_DAMPING).with_values(x)
 
 
 STRENGTH = "fixed"  # the servos' torque limits (Scenario.strength_model, --strength)
@@ -93,11 +98,14 @@ def main() -> None:
     ap.add_argument("--walk-on", type=float, default=None, metavar="S",
                     help="recovered = still walking S s after the trip (Scenario recovery "
                     "walk_on) instead of 1 s after the recovery step")
+    ap.add_argument("--attitude-damping", choices=("joint", "pelvis"), default="joint",
+                    help="FSMParams.attitude_damping of every candidate (default joint)")
     ap.add_argument("--gains", action="store_true",
                     help="search the servo gains too (GAINS) as well as the targets")
     args = ap.parse_args()
-    global GRID, STRENGTH, WALK_ON_S
+    global GRID, STRENGTH, WALK_ON_S, ATTITUDE_DAMPING
     GRID = {"small": GRID, "full": FULL_GRID, "lowering": LOWERING_GRID}[args.grid]
+    ATTITUDE_DAMPING = args.attitude_damping
     STRENGTH, WALK_ON_S = args.strength, args.walk_on
     space = {k: v for k, v in SPACE.items() if args.only == "all" or k in LOWERING}
     if args.gains:
@@ -139,9 +147,10 @@ def main() -> None:
     print(json.dumps({"recovered": best[1][0], "of": len(GRID), "params": best[0]}, indent=1))
 
 
-def _worker_init(strength: str, grid: list, walk_on_s: float | None) -> None:
-    global STRENGTH, GRID, WALK_ON_S
-    STRENGTH, GRID, WALK_ON_S = strength, grid, walk_on_s
+def _worker_init(strength: str, grid: list, walk_on_s: float | None,
+                 attitude_damping: str = "joint") -> None:
+    global STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING
+    STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING = strength, grid, walk_on_s, attitude_damping
 
 
 def _cma(args, base: dict, space: dict) -> None:
@@ -159,7 +168,8 @@ def _cma(args, base: dict, space: dict) -> None:
         return {**base, **{k: float(v) for k, v in zip(names, lo + u * (hi - lo), strict=True)}}
 
     ex = ProcessPoolExecutor(args.workers, initializer=_worker_init,
-                             initargs=(STRENGTH, GRID, WALK_ON_S)) if args.workers > 1 else None
+                             initargs=(STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING)
+                             ) if args.workers > 1 else None
     t0, best = time.time(), None
     span = (WALK_ON_S or 3.0) * len(GRID)  # the grid's time budget
     try:
