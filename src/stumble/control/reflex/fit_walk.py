@@ -217,9 +217,10 @@ SCR_BOUNDS = {"g_scr_ham": (0.0, 1.0), "g_scr_ta": (0.0, 1.0), "g_scr_flex": (0.
               "g_scr_vas": (0.0, 1.0), "scr_hold_s": (0.05, 0.5),
               "scr_vas_after_s": (0.0, 0.4), "g_scr_ext_rf": (0.0, 1.0),
               "g_scr_ext_sol": (0.0, 1.0), "g_scr_ext_glu": (0.0, 1.0),
-              "g_scr_ext_ham": (0.0, 1.0)}
+              "g_scr_ext_ham": (0.0, 1.0), "scr_ahead_m": (-0.8, 0.2)}
 # the extension set acts only with ``scr_phase`` foot: fitted only then
-SCR_EXTENSION = ("g_scr_ext_rf", "g_scr_ext_sol", "g_scr_ext_glu", "g_scr_ext_ham")
+SCR_EXTENSION = ("g_scr_ext_rf", "g_scr_ext_sol", "g_scr_ext_glu", "g_scr_ext_ham",
+                 "scr_ahead_m")
 SCR_MIN_SCALE = 0.15
 
 
