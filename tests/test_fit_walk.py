@@ -146,3 +146,61 @@ def test_the_ta_bound_option_narrows_the_ta_length_reflex_only():
     assert "--ta-bound" not in _fit_command("gh2010", False, ((110, 15.0, ()),), None, 1)
     assert "--ta-bound paper" in _fit_command("gh2010", False, ((110, 15.0, ()),), None, 1,
                                               "paper")
+
+
+def test_the_strategy_cost_charges_a_window_trip_taken_otherwise_than_humans_do():
+    """``--strategy-cost W``: a trip in the lowering window taken as elevating costs W
+    more than taken as lowering, in the early window the other way round, between the
+    windows and by default (0) nothing; a trip whose foot never came down (no strategy)
+    is not the human one; the command of such a fit says so."""
+    from stumble.control.reflex.fit_walk import (
+        HUMAN_WINDOWS,
+        W_STRATEGY,
+        W_TRIP,
+        _fit_command,
+        human_strategy,
+        trip_terms,
+    )
+    from stumble.validate import WINDOWS
+
+    assert HUMAN_WINDOWS == tuple(w for w in WINDOWS if w[2] != "either")
+
+    def cost(swing, walked, strategy, w=W_STRATEGY):
+        return sum(trip_terms(swing, 1.2, walked, strategy, w).values())
+
+    assert W_STRATEGY == 10.0
+    assert cost(0.65, 3.0, "elevating") - cost(0.65, 3.0, "lowering") == 10.0
+    assert cost(0.65, 1.5, "lowering") == pytest.approx(0.5 * W_TRIP)
+    assert cost(0.65, 1.5, "elevating") == pytest.approx(0.5 * W_TRIP + 10.0)
+    assert cost(0.15, 3.0, "lowering") - cost(0.15, 3.0, "elevating") == 10.0
+    assert cost(0.75, 3.0, None) == cost(0.05, 0.0, None) - W_TRIP == 10.0
+    assert cost(0.4, 3.0, "elevating") == cost(0.4, 3.0, "lowering") == 0.0
+    assert cost(0.65, 3.0, "elevating", w=2.5) == 2.5
+    # the default adds nothing: the terms are the trip's alone, as before the option
+    assert trip_terms(0.65, 1.2, 3.0, "elevating") == {"trip_0.65_1.2": 0.0}
+    assert trip_terms(0.65, 1.2, 1.5, None) == {"trip_0.65_1.2": pytest.approx(10.0)}
+    assert [human_strategy(s) for s in (0.05, 0.25, 0.3, 0.5, 0.55, 0.75, 0.8)] == [
+        "elevating", "elevating", None, None, "lowering", "lowering", None]
+    stages = ((9, 10.0, ((0.1, 1.2),)),)
+    assert "--strategy-cost" not in _fit_command("gh2010", True, stages, None, 1)
+    assert "--strategy-cost 10 " in _fit_command("gh2010", True, stages, None, 1,
+                                                 "paper", 10.0)
+
+
+def test_the_trip_stage_records_its_strategy_cost(tmp_path):
+    """One generation of two candidates, each a 1 s walk and a lowering-window trip: the
+    strategy term is among the objective's terms and the fit records its weight."""
+    import json
+
+    from stumble.control.reflex.fit_walk import fit_gh2010
+
+    with pytest.raises(ValueError):
+        fit_gh2010(strategy_cost=-1.0, trips=True)
+    with pytest.raises(ValueError):
+        fit_gh2010(strategy_cost=5.0)
+    res = fit_gh2010(seed=2, stages=((1, 1.0, ((0.65, 1.2),)),), popsize=2, trips=True,
+                     out=tmp_path, strategy_cost=7.0)
+    if res.best_terms["fall"] == 0.0:  # the trip was run: its strategy term is 0 or 7
+        assert res.best_terms["strategy_0.65_1.2"] in (0.0, 7.0)
+    fit = json.loads((tmp_path / "gh2010.json").read_text())["fit"]
+    assert fit["strategy_cost"] == 7.0 and "--strategy-cost 7" in fit["command"]

@@ -202,8 +202,9 @@ def test_stumble_reflex_by_foot_phase_reverses_with_where_the_foot_was():
                  g_scr_gas=0.15, g_scr_glu=0.16, g_scr_ext_rf=0.21, g_scr_ext_sol=0.22,
                  g_scr_ext_glu=0.23, g_scr_ext_ham=0.24)
 
-    def response(phase, x_left, then=None):
-        c = GH2010Controller(GH2010Params(**gains, scr_phase=phase, scr_hold_s=0.3))
+    def response(phase, x_left, then=None, ahead=0.0):
+        c = GH2010Controller(GH2010Params(**gains, scr_phase=phase, scr_hold_s=0.3,
+                                          scr_ahead_m=ahead))
         c.start(Context(m, d, body, Sensors(), 0.0))
         nm = c.nm
         F, L = np.full((2, nm), 0.2), np.full((2, nm), 0.8)
@@ -236,6 +237,17 @@ def test_stumble_reflex_by_foot_phase_reverses_with_where_the_foot_was():
     _, du = response("any", 0.3)
     expect[1, [ix["HAMS"], ix["TA"], ix["HFL"]]] = [0.11 + 0.24, 0.12, 0.13]
     np.testing.assert_allclose(du, expect, atol=1e-12)
+    # ``scr_ahead_m``: "ahead" past a threshold: at -0.3 m a foot 0.2 m behind is ahead
+    ext = expect.copy()
+    ext[1] = 0.0
+    ext[1, [ix["RF"], ix["SOL"], ix["GLU"], ix["HAMS"]]] = [0.21, 0.22, 0.23, 0.24]
+    _, du = response("foot", -0.2, ahead=-0.3)
+    np.testing.assert_allclose(du, ext, atol=1e-12)
+    _, du = response("foot", -0.4, ahead=-0.3)  # 0.4 m behind: the flexion set
+    flex = ext.copy()
+    flex[1] = 0.0
+    flex[1, [ix["HAMS"], ix["TA"], ix["HFL"]]] = [0.11, 0.12, 0.13]
+    np.testing.assert_allclose(du, flex, atol=1e-12)
     from stumble.errors import InputError
 
     with pytest.raises(InputError, match="scr_phase 'late' is not one of any, foot"):

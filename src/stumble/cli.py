@@ -249,6 +249,11 @@ def _parser() -> argparse.ArgumentParser:
                    help="gh2010 --trips: the stumbling corrective reflex the same at every "
                    "phase (any), or reversing as the tripped foot is behind or ahead of "
                    "the other (foot); default: the starting fit's")
+    f.add_argument("--strategy-cost", type=float, default=None, metavar="W",
+                   help="gh2010 --trips: each of the stage's trips in a human window "
+                   "(elevating at 0.05-0.25 of swing, lowering at 0.55-0.75) costs W more "
+                   "when the strategy read from the motion is not the human one (default "
+                   "0: recovery alone; fit_walk.W_STRATEGY, 10, is half a lost trip)")
     f.add_argument("--ta-bound", choices=("wide", "paper"), default="wide",
                    help="gh2010: bounds of the TA length reflex (l_off_ta, g_ta): wide (the "
                    "default, as shipped: 0.3-1.5 l_opt, 0.2-5x the paper's gain) or paper "
@@ -579,6 +584,7 @@ def cmd_reflex_walk(args) -> int:
 
 def cmd_reflex_fit_gh2010(args) -> int:
     """``stumble reflex fit --controller gh2010``: the closed-loop CMA-ES of its gains."""
+    import math
     import os
 
     from stumble.control.reflex.fit_walk import (
@@ -593,7 +599,8 @@ def cmd_reflex_fit_gh2010(args) -> int:
     if args.trips and args.wiring != "gh2010":
         raise InputError("--trips is for --wiring gh2010")
     for flag, given in (("--params", args.params), ("--trip-set", args.trip_set),
-                        ("--scr-phase", args.scr_phase)):
+                        ("--scr-phase", args.scr_phase),
+                        ("--strategy-cost", args.strategy_cost)):
         if given is not None and not args.trips:
             raise InputError(f"{flag} is for --trips (the trip stage)")
     start = start_fit = None
@@ -621,6 +628,9 @@ def cmd_reflex_fit_gh2010(args) -> int:
             raise InputError(f"--generations must be at least 1, got {args.generations}")
         stages = tuple((max(1, round(args.generations * g / sum(x[0] for x in stages))), w, t)
                        for g, w, t in stages)
+    strategy_cost = args.strategy_cost or 0.0
+    if not (math.isfinite(strategy_cost) and strategy_cost >= 0):
+        raise InputError(f"--strategy-cost must be a number >= 0, got {args.strategy_cost}")
     gens = sum(g for g, _w, _t in stages)
     workers = args.workers or os.cpu_count() or 1
     if workers < 1:
@@ -631,7 +641,7 @@ def cmd_reflex_fit_gh2010(args) -> int:
                      progress=lambda row: bar(row["generation"] + 1, gens),
                      wiring=args.wiring, trips=args.trips, start=start,
                      start_fit=start_fit, scr_phase=args.scr_phase,
-                     ta_bound=args.ta_bound)
+                     ta_bound=args.ta_bound, strategy_cost=strategy_cost)
     bar.done()
     written, walk = write_gh2010_fit(out, res)
     s = walk.summary
@@ -648,9 +658,9 @@ def cmd_reflex(args) -> int:
     if args.controller == "gh2010":
         return cmd_reflex_fit_gh2010(args)
     if (args.trips or args.params is not None or args.trip_set or args.scr_phase
-            or args.ta_bound != "wide"):
-        raise InputError("--trips, --params, --trip-set, --scr-phase and --ta-bound are for "
-                         "--controller gh2010")
+            or args.ta_bound != "wide" or args.strategy_cost is not None):
+        raise InputError("--trips, --params, --trip-set, --scr-phase, --strategy-cost and "
+                         "--ta-bound are for --controller gh2010")
     from stumble.control.reflex.identify import ITERATIONS, REFINE_ITERATIONS, fit
     from stumble.outputs import prepare_dir, write_fit
 

@@ -217,9 +217,10 @@ SCR_BOUNDS = {"g_scr_ham": (0.0, 1.0), "g_scr_ta": (0.0, 1.0), "g_scr_flex": (0.
               "g_scr_vas": (0.0, 1.0), "scr_hold_s": (0.05, 0.5),
               "scr_vas_after_s": (0.0, 0.4), "g_scr_ext_rf": (0.0, 1.0),
               "g_scr_ext_sol": (0.0, 1.0), "g_scr_ext_glu": (0.0, 1.0),
-              "g_scr_ext_ham": (0.0, 1.0)}
+              "g_scr_ext_ham": (0.0, 1.0), "scr_ahead_m": (-0.8, 0.2)}
 # the extension set acts only with ``scr_phase`` foot: fitted only then
-SCR_EXTENSION = ("g_scr_ext_rf", "g_scr_ext_sol", "g_scr_ext_glu", "g_scr_ext_ham")
+SCR_EXTENSION = ("g_scr_ext_rf", "g_scr_ext_sol", "g_scr_ext_glu", "g_scr_ext_ham",
+                 "scr_ahead_m")
 SCR_MIN_SCALE = 0.15
 
 
@@ -259,12 +260,15 @@ _EVAL: dict = {}
 
 
 def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dict,
-                   trips: tuple = (), stumble_reflex: bool = False) -> None:
+                   trips: tuple = (), stumble_reflex: bool = False,
+                   strategy_cost: float = 0.0) -> None:
     """Worker set-up: what ``evaluate_walk`` simulates: a walk, and the obstacle trips
     ``trips`` ((swing fraction, speed) pairs) the walker must walk on from; GH2010
-    candidates in ``gh2010_space(stumble_reflex=...)``."""
+    candidates in ``gh2010_space(stumble_reflex=...)``; ``strategy_cost``: what a trip in
+    a human window taken otherwise than humans take it costs (``trip_terms``)."""
     _EVAL.update(kind=kind, duration_s=duration_s, speed=speed_m_per_s, base=base,
-                 trips=tuple(trips), stumble_reflex=stumble_reflex)
+                 trips=tuple(trips), stumble_reflex=stumble_reflex,
+                 strategy_cost=float(strategy_cost))
 
 
 def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
@@ -291,17 +295,23 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
     terms["walked_s"] = r.summary["walked_s"]
     terms["speed_m_per_s"] = r.summary["speed_m_per_s"]
     trips = _EVAL.get("trips") or ()
+    w_strategy = _EVAL.get("strategy_cost", 0.0)
     if trips and terms["fall"] == 0.0:  # trips only once it walks: they cost 3 s each
-        ok = 0
+        ok = human = 0
         for swing, speed in trips:
-            t_walked = trip_walked_s(kind, swing, speed, params if kind == "gh2010" else None,
-                                     net if kind == "network" else None)
-            terms[f"trip_{swing}_{speed}"] = W_TRIP * (1.0 - t_walked / WALK_ON_TRIP_S)
+            t_walked, strategy = trip_outcome(kind, swing, speed,
+                                              params if kind == "gh2010" else None,
+                                              net if kind == "network" else None)
+            terms.update(trip_terms(swing, speed, t_walked, strategy, w_strategy))
             ok += t_walked >= WALK_ON_TRIP_S
+            human += strategy is not None and strategy == human_strategy(swing)
         terms["trips_recovered"] = ok
-        cost += sum(v for k, v in terms.items() if k.startswith("trip_"))
-    elif trips:
-        cost += W_TRIP * len(trips)
+        if w_strategy:
+            terms["trips_human_strategy"] = human
+        cost += sum(v for k, v in terms.items() if k.startswith(("trip_", "strategy_")))
+    elif trips:  # a walker that falls: every trip lost, no window trip taken as humans do
+        cost += W_TRIP * len(trips) + w_strategy * sum(
+            human_strategy(s) is not None for s, _v in trips)
     return cost, terms
 
 
@@ -310,11 +320,56 @@ WALK_ON_TRIP_S = 3.0  # walked on this long after a trip: recovered (the issue's
 FIT_TRIPS = ((0.15, 1.2), (0.6, 1.2), (0.35, 1.0), (0.65, 1.4))  # (swing, m/s) obstacle
 
 
+# The human strategy windows (``stumble.validate.WINDOWS`` without the middle one, where
+# either strategy is human): Eng et al. 1994, Schillings et al. 2000
+HUMAN_WINDOWS = ((0.05, 0.25, "elevating"), (0.55, 0.75, "lowering"))
+# ``--strategy-cost`` (``fit_gh2010(strategy_cost=...)``, default 0: the objective as
+# before): a trip of a stage's set in a human window whose strategy, read from the motion
+# (the trip summary's ``strategy``: elevating, lowering, or none when the foot never came
+# down, the trip could not be set or the walker fell before it), is not the human one
+# costs this much more. W_TRIP (20) is a trip not walked on from: a cost below it still
+# prefers stepping over and walking on to lowering and falling, but of two recoveries
+# the human one
+W_STRATEGY = 10.0  # a suggested value (not the default)
+
+
+def human_strategy(swing: float) -> str | None:
+    """The strategy humans take for a trip at ``swing`` of the swing (``HUMAN_WINDOWS``),
+    or None between the windows, where either is human."""
+    for lo, hi, strategy in HUMAN_WINDOWS:
+        if lo - 1e-9 <= swing <= hi + 1e-9:
+            return strategy
+    return None
+
+
+def trip_terms(swing: float, speed: float, walked_s: float, strategy: str | None,
+               strategy_cost: float = 0.0) -> dict:
+    """The objective's terms of one trip of a trip stage: ``trip_<swing>_<speed>``,
+    ``W_TRIP`` times the part of ``WALK_ON_TRIP_S`` after it not walked on, and, when
+    ``strategy_cost`` is not 0, ``strategy_<swing>_<speed>``: ``strategy_cost`` if the
+    trip is in a human window (``human_strategy``) and ``strategy`` is not the human one,
+    else 0."""
+    terms = {f"trip_{swing}_{speed}": W_TRIP * (1.0 - walked_s / WALK_ON_TRIP_S)}
+    if strategy_cost:
+        want = human_strategy(swing)
+        terms[f"strategy_{swing}_{speed}"] = (
+            float(strategy_cost) if want is not None and strategy != want else 0.0)
+    return terms
+
+
 def trip_walked_s(kind: str, swing: float, speed: float, params=None, network=None,
                   start: str | None = None) -> float:
     """How long (s, at most ``WALK_ON_TRIP_S``) a reflex walker walks on after a 10 cm
     obstacle trip (``start``: the scenario's, default the controller's), counting a fall,
     or walking no more, as the end; a fall before the trip counts as no time."""
+    return trip_outcome(kind, swing, speed, params, network, start)[0]
+
+
+def trip_outcome(kind: str, swing: float, speed: float, params=None, network=None,
+                 start: str | None = None) -> tuple[float, str | None]:
+    """``trip_walked_s`` and the strategy read from the motion (the trip summary's
+    ``strategy``: elevating, lowering, or None when the tripped foot never came down, the
+    trip could not be set or the walker fell before it)."""
     from stumble.errors import InputError
     from stumble.pipeline import simulate_trip
     from stumble.trip import Scenario
@@ -325,15 +380,16 @@ def trip_walked_s(kind: str, swing: float, speed: float, params=None, network=No
     try:
         r = simulate_trip(sc, network=network, gh2010=params)
     except InputError:  # the toe is over the obstacle at that instant of its own swing
-        return 0.0
+        return 0.0, None
     s = r.summary
     if s.get("trip_time_s") is None:  # fell before the trip
-        return 0.0
+        return 0.0, None
+    strategy = s.get("strategy")
     if s["recovered"]:
-        return WALK_ON_TRIP_S
+        return WALK_ON_TRIP_S, strategy
     if s["stop_reason"] == "stopped walking":  # upright but not walking on: half
-        return 0.5 * WALK_ON_TRIP_S
-    return float(min(s["sim_time_s"], WALK_ON_TRIP_S - 1e-3))
+        return 0.5 * WALK_ON_TRIP_S, strategy
+    return float(min(s["sim_time_s"], WALK_ON_TRIP_S - 1e-3)), strategy
 
 
 # The shipped fit: stages of (generations, walk s, obstacle trips), each continuing from
@@ -367,7 +423,7 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                workers: int = 1, out: Path | None = None, progress=None,
                wiring: str = "gh2010", trips: bool = False, start=None,
                start_fit: dict | None = None, scr_phase: str | None = None,
-               ta_bound: str = "wide") -> FitResult:
+               ta_bound: str = "wide", strategy_cost: float = 0.0) -> FitResult:
     """Optimise the GH2010 gains in closed loop: per stage (generations, walk s, obstacle
     trips), CMA-ES on ``walk_cost`` plus, for each trip, ``W_TRIP`` times the part of the
     3 s after it not walked on. ``wiring`` ``gh2010`` starts from the paper's values
@@ -381,8 +437,15 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     phase law for the stage (``GH2010Params.scr_phase``; default ``start``'s), with its
     extension set fitted only where it is ``foot``; ``ta_bound``: the TA length reflex's
     bounds (``TA_BOUNDS``; ``wide`` as shipped, ``paper`` near the paper's), in every
-    stage. Writes ``gh2010.json`` to ``out`` (the best parameters and the fit's figures)
+    stage; ``strategy_cost`` (trip stages): what each of the stage's trips in a human
+    window (``HUMAN_WINDOWS``) costs more when its strategy, read from the motion, is not
+    the human one (``trip_terms``; 0, the default, leaves the objective as it was).
+    Writes ``gh2010.json`` to ``out`` (the best parameters and the fit's figures)
     when given."""
+    if strategy_cost < 0 or not math.isfinite(strategy_cost):
+        raise ValueError(f"strategy_cost must be a finite number >= 0, got {strategy_cost}")
+    if strategy_cost and not trips:
+        raise ValueError("strategy_cost is for the trip stage (trips=True)")
     from dataclasses import replace
 
     from stumble.control.reflex.gh2010 import SCR_GAINS, GH2010Params, shipped_params
@@ -413,7 +476,7 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                       initializer=init_walk_eval,
                       initargs=("gh2010", walk_s, GH2010_SPEED_M_PER_S,
                                 fixed if with_trips else {"wiring": wiring}, trips,
-                                with_trips),
+                                with_trips, strategy_cost),
                       first_generation=total, stage="walk" if not trips else "walk+trips")
         params = replace(params, **dict(zip(space.names, map(float, res.best_theta),
                                             strict=True)))
@@ -441,13 +504,14 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                     "wiring": wiring,
                     "scr_phase": params.scr_phase,
                     "ta_bound": ta_bound,
+                    "strategy_cost": strategy_cost,
                     "command": _fit_command(wiring, with_trips, stages, scr_phase, seed,
-                                            ta_bound)}})
+                                            ta_bound, strategy_cost)}})
     return res
 
 
 def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: int,
-                 ta_bound: str = "wide") -> str:
+                 ta_bound: str = "wide", strategy_cost: float = 0.0) -> str:
     """The ``stumble reflex fit`` command of a GH2010 fit (``--params`` aside)."""
     opts = ["--trips"] if trips else []
     if ta_bound != "wide":
@@ -458,6 +522,8 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
             opts.append(f"--trip-set {named[0]}")
         if scr_phase is not None:
             opts.append(f"--scr-phase {scr_phase}")
+        if strategy_cost:
+            opts.append(f"--strategy-cost {strategy_cost:g}")
     default = (TRIP_STAGES if trips else GH2010_STAGES if wiring == "gh2010"
                else SEED003_STAGES)
     total = sum(g for g, _w, _t in stages)

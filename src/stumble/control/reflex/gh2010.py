@@ -137,6 +137,12 @@ class GH2010Params:
     g_scr_ext_glu: float = 0.0
     g_scr_ext_ham: float = 0.0
     scr_phase: str = "any"  # "any" or "foot" (``SCR_PHASES``)
+    # ``scr_phase`` foot: the tripped foot counts as ahead of the other (the extension
+    # set) when its ankle is more than this in front of the other's at the touch (m; 0,
+    # the default, is "ahead"; a negative value also counts a foot a little behind: a
+    # walker whose swing ankle passes the other late, as the TA-bounded fits', whose
+    # tripped ankle is still 0.16-0.45 m behind the other's at 0.55-0.75 of swing)
+    scr_ahead_m: float = 0.0
     delay_scale: float = 1.0  # every delay multiplied by this
     wiring: str = "gh2010"  # "gh2010" or "seed003" (see GH2010Controller)
 
@@ -540,7 +546,7 @@ class GH2010Controller:
             onset = np.where(touched & ~before, k, -1)
             first = np.maximum.accumulate(onset, axis=0)
             fx = x[:, self._iXTouch]
-            now = fx > fx[:, ::-1]  # (n, 2): the foot ahead of the other, as sensed
+            now = fx - fx[:, ::-1] > self.p.scr_ahead_m  # (n, 2): ahead of the other
             ahead = np.where(first >= 0, np.take_along_axis(now, np.maximum(first, 0), axis=0),
                              self._ahead)
             self._touched, self._ahead = touched[-1].copy(), ahead[-1].copy()

@@ -1,0 +1,86 @@
+"""The 45 own-gait obstacle trips of a GH2010 parameter file (``stumble study`` takes none).
+
+The grid of ``stumble study --controller gh2010 --mechanism obstacle --swing
+0.05:0.75:15 --speed 1.0,1.2,1.4`` (10 cm box, the walker's own gait, 3 s after the
+trip), run by ``simulate_trip`` in this one process, for a ``gh2010.json`` (or ``walk``,
+or nothing: the shipped trip fit). Prints the strategy map (E elevating, L lowering,
+- neither, x not set; * recovered), the recoveries of 45, the human strategy in the 30
+window trips (elevating at 0.05-0.25, lowering at 0.55-0.75) and the lowering-window
+recoveries; ``--out FILE`` writes each trip's figures as JSON.
+
+Run:  python scripts/measure_gh2010_trips.py [PARAMS] [--out FILE]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+
+from stumble.control.reflex.fit_walk import human_strategy
+from stumble.control.reflex.gh2010 import load_params, shipped_params
+from stumble.errors import InputError
+from stumble.pipeline import simulate_trip
+from stumble.trip import Scenario
+
+SWINGS = tuple(round(float(s), 2) for s in np.linspace(0.05, 0.75, 15))
+SPEEDS = (1.0, 1.2, 1.4)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("params", nargs="?", default=None)
+    ap.add_argument("--out", default=None)
+    args = ap.parse_args()
+    p = shipped_params("gh2010") if args.params is None else load_params(args.params)
+    t0 = time.perf_counter()
+    rows = []
+    for v in SPEEDS:
+        for s in SWINGS:
+            sc = Scenario(controller="gh2010", mechanism="obstacle", swing_fraction=s,
+                          speed_m_per_s=v)
+            try:
+                summ = simulate_trip(sc, gh2010=p).summary
+                row = {"swing": s, "speed": v, "set": True,
+                       "tripped": summ.get("trip_time_s") is not None,
+                       "strategy": summ.get("strategy"),
+                       "recovered": bool(summ.get("recovered")),
+                       "stop_reason": summ.get("stop_reason")}
+            except InputError as e:
+                row = {"swing": s, "speed": v, "set": False, "strategy": None,
+                       "recovered": False, "error": str(e)}
+            rows.append(row)
+    wall = time.perf_counter() - t0
+    print("speed | " + " ".join(f"{s:.2f}" for s in SWINGS))
+    for v in SPEEDS:
+        cells = []
+        for r in (r for r in rows if r["speed"] == v):
+            c = ("x" if not r["set"] else {"elevating": "E", "lowering": "L"}.get(
+                r["strategy"], "-")) + ("*" if r["recovered"] else "")
+            cells.append(f"{c:>4}")
+        print(f"{v:5.1f} | " + " ".join(cells))
+    window = [r for r in rows if human_strategy(r["swing"]) is not None]
+    human = sum(r["strategy"] == human_strategy(r["swing"]) for r in window)
+    low = [r for r in rows if human_strategy(r["swing"]) == "lowering"]
+    early = [r for r in rows if human_strategy(r["swing"]) == "elevating"]
+    rec = sum(r["recovered"] for r in rows)
+    figures = {
+        "recovered": rec, "of": len(rows),
+        "human_strategy": human, "window_trips": len(window),
+        "human_early": sum(r["strategy"] == "elevating" for r in early),
+        "human_late": sum(r["strategy"] == "lowering" for r in low),
+        "lowering_window_recovered": sum(r["recovered"] for r in low),
+        "lowering_window_recovered_by_lowering": sum(
+            r["recovered"] and r["strategy"] == "lowering" for r in low),
+        "not_set": sum(not r["set"] for r in rows),
+        "wall_time_s": round(wall, 1)}
+    print(json.dumps(figures))
+    if args.out:
+        with open(args.out, "w") as f:
+            json.dump({"params": args.params, "figures": figures, "trips": rows}, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()
