@@ -175,7 +175,8 @@ def _targets() -> dict[str, dict[str, float | str]]:
             # this swing). With the targets above (knee 75°) its toe caught the box again
             # in every obstacle trip at 0.55 of swing, 1.0-1.4 m/s, and the body fell
             # ~0.6 s after the recovery step. A trailing limb crossing an obstacle flexes
-            # its knee further (about 100-110° at the crossing, Chou & Draganich 1997), so
+            # its knee further than in walking (Chou & Draganich 1997, J Biomech 30:331;
+            # their angles were not read: the values here are ours), so
             # the knee and ankle start from Double Support's crossing targets
             # (double_support_lowering: its knee flexion and toe-up ankle), the hip from
             # the one above; tuned (TUNED_WITH[1], after these tables).
