@@ -95,8 +95,13 @@ def test_the_trip_stage_fits_the_stumbling_reflex_from_the_walking_fit(tmp_path)
     how to reproduce it."""
     import json
 
-    from stumble.control.reflex.fit_walk import SCR_BOUNDS, SCR_EXTENSION, fit_gh2010
-    from stumble.control.reflex.gh2010 import SCR_GAINS, load_params
+    from stumble.control.reflex.fit_walk import (
+        CROSS_BOUNDS,
+        SCR_BOUNDS,
+        SCR_EXTENSION,
+        fit_gh2010,
+    )
+    from stumble.control.reflex.gh2010 import CROSS_GAINS, SCR_GAINS, load_params
 
     assert not set(SCR_BOUNDS) & set(gh2010_space().names)  # walking fits: not in it
     res = fit_gh2010(seed=2, stages=((1, 2.0, ((0.1, 1.2),)),), popsize=4, trips=True,
@@ -117,6 +122,17 @@ def test_the_trip_stage_fits_the_stumbling_reflex_from_the_walking_fit(tmp_path)
     assert fitted.scr_phase == "foot" and all(getattr(fitted, n) > 0.0 for n in SCR_GAINS)
     fit = json.loads((tmp_path / "gh2010.json").read_text())["fit"]
     assert "--scr-phase foot" in fit["command"] and fit["scr_phase"] == "foot"
+    assert not set(CROSS_BOUNDS) & set(res.space.names)  # no crossing unless asked
+    # with the crossing step: its gains join the space, start on, and the command says so
+    res = fit_gh2010(seed=2, stages=((1, 2.0, ((0.1, 1.2),)),), popsize=4, trips=True,
+                     out=tmp_path, crossing=True)
+    assert set(CROSS_BOUNDS) <= set(res.space.names)
+    fitted = load_params(tmp_path / "gh2010.json")
+    assert fitted.crossing and all(getattr(fitted, n) > 0.0 for n in CROSS_GAINS)
+    fit = json.loads((tmp_path / "gh2010.json").read_text())["fit"]
+    assert "--crossing" in fit["command"] and fit["crossing"] is True
+    with pytest.raises(ValueError, match="crossing is for the trip stage"):
+        fit_gh2010(crossing=True)
 
 
 def test_the_ta_bound_option_narrows_the_ta_length_reflex_only():

@@ -252,3 +252,51 @@ def test_stumble_reflex_by_foot_phase_reverses_with_where_the_foot_was():
 
     with pytest.raises(InputError, match="scr_phase 'late' is not one of any, foot"):
         GH2010Params.from_json({"scr_phase": "late"})
+
+
+def test_crossing_step_after_a_touch_launches_the_other_legs_step_when_a_foot_lands():
+    """The crossing step: nothing before a touch; a sensed touch arms both legs; when the
+    touched (left) foot lands, the right leg gets g_cross_* on HFL, HAMS, TA and GAS for
+    cross_hold_s; when the right lands after that, the left gets them; once each."""
+    body, m, d = _obstacle_body()
+    gains = dict(g_cross_flex=0.11, g_cross_ham=0.12, g_cross_ta=0.13, g_cross_gas=0.14,
+                 cross_hold_s=0.05)
+    c = GH2010Controller(GH2010Params(**gains))
+    c.start(Context(m, d, body, Sensors(), 0.0))
+    ix, nm = c.idx, c.nm
+    F, L = np.full((2, nm), 0.2), np.full((2, nm), 0.8)
+
+    def row(load, touch=(0.0, 0.0)):
+        return np.concatenate([np.ravel(F), np.ravel(L), [0.3, 0.3], [0.0, 0.0], load,
+                               [0.0, 0.3], touch, [0.0, 0.1]])
+
+    def drive(rows):
+        """The crossing part of each tick's excitations (ticks, 2, nm)."""
+        out = []
+        for r in rows:
+            c.delay.push(r[None])
+            out.append(c._stumble(c.delay.read(1))[0])
+        return np.array(out)
+
+    expect = np.zeros(nm)
+    expect[[ix["HFL"], ix["HAMS"], ix["TA"], ix["GAS"]]] = [0.11, 0.12, 0.13, 0.14]
+    left_off, both_on = [0.9, 0.0], [0.9, 0.9]  # loads (body weights): right, left
+    # walking, no touch: the left foot lands, nothing happens
+    quiet = drive([row(left_off)] * 10 + [row(both_on)] * 80)
+    assert not quiet.any()
+    # the left foot touches the box in swing (sensed 65 ms later), then lands 100 ms on
+    lag = c.delay.lags[c.at[("touch", 1)]]
+    rows = ([row(left_off, (0.0, 1.0))] * 20 + [row(left_off)] * 100 + [row(both_on)] * 30
+            + [row([0.0, 0.9])] * 100 + [row(both_on)] * 100)
+    u = drive(rows)
+    on_r, on_l = u[:, 0].any(axis=1), u[:, 1].any(axis=1)
+    land_l = int(np.argmax(on_r))  # the right's drive starts with the left's landing,
+    lag_load = c.delay.lags[c.at[("vest_load", 1)]]  # as sensed through the hip delay
+    assert lag < 120 <= land_l <= 120 + lag_load
+    np.testing.assert_allclose(u[land_l:land_l + 50, 0], np.tile(expect, (50, 1)))
+    assert on_r.sum() == 50 and not on_l[:land_l + 50].any()
+    land_r = int(np.argmax(on_l))  # the left's, with the right's landing after it
+    assert 250 <= land_r <= 250 + lag_load
+    np.testing.assert_allclose(u[land_r:land_r + 50, 1], np.tile(expect, (50, 1)))
+    assert on_l.sum() == 50  # once each per touch
+    assert GH2010Params(**gains).crossing and not GH2010Params().crossing

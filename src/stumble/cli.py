@@ -254,6 +254,10 @@ def _parser() -> argparse.ArgumentParser:
                    "(elevating at 0.05-0.25 of swing, lowering at 0.55-0.75) costs W more "
                    "when the strategy read from the motion is not the human one (default "
                    "0: recovery alone; fit_walk.W_STRATEGY, 10, is half a lost trip)")
+    f.add_argument("--crossing", action="store_true",
+                   help="gh2010 --trips: fit the crossing step after a touch too (each "
+                   "leg's next step after the foot's obstacle touch, launched when the "
+                   "other foot lands, with extra hip flexor, HAMS, TA and GAS drive)")
     f.add_argument("--ta-bound", choices=("wide", "paper"), default="wide",
                    help="gh2010: bounds of the TA length reflex (l_off_ta, g_ta): wide (the "
                    "default, as shipped: 0.3-1.5 l_opt, 0.2-5x the paper's gain) or paper "
@@ -600,7 +604,8 @@ def cmd_reflex_fit_gh2010(args) -> int:
         raise InputError("--trips is for --wiring gh2010")
     for flag, given in (("--params", args.params), ("--trip-set", args.trip_set),
                         ("--scr-phase", args.scr_phase),
-                        ("--strategy-cost", args.strategy_cost)):
+                        ("--strategy-cost", args.strategy_cost),
+                        ("--crossing", args.crossing or None)):
         if given is not None and not args.trips:
             raise InputError(f"{flag} is for --trips (the trip stage)")
     start = start_fit = None
@@ -641,7 +646,8 @@ def cmd_reflex_fit_gh2010(args) -> int:
                      progress=lambda row: bar(row["generation"] + 1, gens),
                      wiring=args.wiring, trips=args.trips, start=start,
                      start_fit=start_fit, scr_phase=args.scr_phase,
-                     ta_bound=args.ta_bound, strategy_cost=strategy_cost)
+                     ta_bound=args.ta_bound, strategy_cost=strategy_cost,
+                     crossing=args.crossing)
     bar.done()
     written, walk = write_gh2010_fit(out, res)
     s = walk.summary
@@ -658,9 +664,9 @@ def cmd_reflex(args) -> int:
     if args.controller == "gh2010":
         return cmd_reflex_fit_gh2010(args)
     if (args.trips or args.params is not None or args.trip_set or args.scr_phase
-            or args.ta_bound != "wide" or args.strategy_cost is not None):
-        raise InputError("--trips, --params, --trip-set, --scr-phase, --strategy-cost and "
-                         "--ta-bound are for --controller gh2010")
+            or args.ta_bound != "wide" or args.strategy_cost is not None or args.crossing):
+        raise InputError("--trips, --params, --trip-set, --scr-phase, --strategy-cost, "
+                         "--crossing and --ta-bound are for --controller gh2010")
     from stumble.control.reflex.identify import ITERATIONS, REFINE_ITERATIONS, fit
     from stumble.outputs import prepare_dir, write_fit
 

@@ -221,17 +221,23 @@ SCR_BOUNDS = {"g_scr_ham": (0.0, 1.0), "g_scr_ta": (0.0, 1.0), "g_scr_flex": (0.
 # the extension set acts only with ``scr_phase`` foot: fitted only then
 SCR_EXTENSION = ("g_scr_ext_rf", "g_scr_ext_sol", "g_scr_ext_glu", "g_scr_ext_ham",
                  "scr_ahead_m")
+# the crossing step after a touch (``gh2010.CROSS_GAINS``): fitted only with ``crossing``
+CROSS_BOUNDS = {"g_cross_flex": (0.0, 1.0), "g_cross_ham": (0.0, 1.0),
+                "g_cross_ta": (0.0, 1.0), "g_cross_gas": (0.0, 1.0),
+                "cross_hold_s": (0.05, 0.5)}
 SCR_MIN_SCALE = 0.15
 
 
 def gh2010_space(start=None, stumble_reflex: bool = False,
-                 scr_phase: str | None = None, ta_bound: str = "wide") -> Space:
+                 scr_phase: str | None = None, ta_bound: str = "wide",
+                 crossing: bool = False) -> Space:
     """The GH2010 gains a fit may change, scaled to about 30 % of the paper's values
     (or of ``start``'s), each within its bounds; ``stumble_reflex``: with the gains of
     the stumbling corrective reflex (``SCR_BOUNDS``; its extension set only where
     ``scr_phase``, default ``start``'s, is ``foot``); ``ta_bound``: the TA length
     reflex's bounds (``TA_BOUNDS``: ``wide``, the default, or ``paper``, near the
-    paper's). A start outside the bounds is clipped into them at the first candidate."""
+    paper's); ``crossing``: with the crossing step after a touch (``CROSS_BOUNDS``). A
+    start outside the bounds is clipped into them at the first candidate."""
     from stumble.control.reflex.gh2010 import GH2010Params
 
     p = start or GH2010Params()
@@ -239,18 +245,20 @@ def gh2010_space(start=None, stumble_reflex: bool = False,
     phase = scr_phase or p.scr_phase
     names = tuple(n for n in p.free() if n not in GH2010_FIXED
                   and (stumble_reflex or n not in SCR_BOUNDS)
+                  and (crossing or n not in CROSS_BOUNDS)
                   and (phase == "foot" or n not in SCR_EXTENSION))
     theta = np.array([getattr(p, n) for n in names])
-    scale = np.maximum(0.3 * np.abs(theta), [SCR_MIN_SCALE if n in SCR_BOUNDS else 0.02
-                                             for n in names])
+    scale = np.maximum(0.3 * np.abs(theta), [SCR_MIN_SCALE if n in SCR_BOUNDS
+                                             or n in CROSS_BOUNDS else 0.02 for n in names])
     if ta_bound not in TA_BOUNDS:
         raise ValueError(f"ta_bound must be one of {sorted(TA_BOUNDS)}, got {ta_bound!r}")
     ta = {n: (a * getattr(paper, n), b * getattr(paper, n)) if n in TA_BOUND_GAINS else (a, b)
           for n, (a, b) in TA_BOUNDS[ta_bound].items()}
     lo, hi = [], []
     for n in names:
-        a, b = {**GH2010_BOUNDS, **SCR_BOUNDS, **ta}.get(n, (GAIN_RANGE[0] * getattr(paper, n),
-                                                             GAIN_RANGE[1] * getattr(paper, n)))
+        bounds = {**GH2010_BOUNDS, **SCR_BOUNDS, **CROSS_BOUNDS, **ta}
+        a, b = bounds.get(n, (GAIN_RANGE[0] * getattr(paper, n),
+                              GAIN_RANGE[1] * getattr(paper, n)))
         lo.append(a)
         hi.append(b)
     return Space(names, theta, scale, np.array(lo), np.array(hi))
@@ -261,14 +269,15 @@ _EVAL: dict = {}
 
 def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dict,
                    trips: tuple = (), stumble_reflex: bool = False,
-                   strategy_cost: float = 0.0) -> None:
+                   strategy_cost: float = 0.0, crossing: bool = False) -> None:
     """Worker set-up: what ``evaluate_walk`` simulates: a walk, and the obstacle trips
     ``trips`` ((swing fraction, speed) pairs) the walker must walk on from; GH2010
     candidates in ``gh2010_space(stumble_reflex=...)``; ``strategy_cost``: what a trip in
-    a human window taken otherwise than humans take it costs (``trip_terms``)."""
+    a human window taken otherwise than humans take it costs (``trip_terms``);
+    ``crossing``: with the crossing step's gains."""
     _EVAL.update(kind=kind, duration_s=duration_s, speed=speed_m_per_s, base=base,
                  trips=tuple(trips), stumble_reflex=stumble_reflex,
-                 strategy_cost=float(strategy_cost))
+                 strategy_cost=float(strategy_cost), crossing=crossing)
 
 
 def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
@@ -280,7 +289,8 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
         from stumble.control.reflex.gh2010 import GH2010Params
 
         names = gh2010_space(stumble_reflex=_EVAL.get("stumble_reflex", False),
-                             scr_phase=_EVAL["base"].get("scr_phase", "any")).names
+                             scr_phase=_EVAL["base"].get("scr_phase", "any"),
+                             crossing=_EVAL.get("crossing", False)).names
         params = GH2010Params(**{**_EVAL["base"],
                                  **dict(zip(names, map(float, theta), strict=True))})
         r = simulate_walk("gh2010", _EVAL["duration_s"], _EVAL["speed"], params=params)
@@ -423,7 +433,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                workers: int = 1, out: Path | None = None, progress=None,
                wiring: str = "gh2010", trips: bool = False, start=None,
                start_fit: dict | None = None, scr_phase: str | None = None,
-               ta_bound: str = "wide", strategy_cost: float = 0.0) -> FitResult:
+               ta_bound: str = "wide", strategy_cost: float = 0.0,
+               crossing: bool = False) -> FitResult:
     """Optimise the GH2010 gains in closed loop: per stage (generations, walk s, obstacle
     trips), CMA-ES on ``walk_cost`` plus, for each trip, ``W_TRIP`` times the part of the
     3 s after it not walked on. ``wiring`` ``gh2010`` starts from the paper's values
@@ -439,16 +450,25 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     bounds (``TA_BOUNDS``; ``wide`` as shipped, ``paper`` near the paper's), in every
     stage; ``strategy_cost`` (trip stages): what each of the stage's trips in a human
     window (``HUMAN_WINDOWS``) costs more when its strategy, read from the motion, is not
-    the human one (``trip_terms``; 0, the default, leaves the objective as it was).
+    the human one (``trip_terms``; 0, the default, leaves the objective as it was);
+    ``crossing`` (trip stages): the crossing step after a touch (``CROSS_BOUNDS``) joins
+    the fit, its gains restarting at ``SCR_START`` where ``start`` has them at zero.
     Writes ``gh2010.json`` to ``out`` (the best parameters and the fit's figures)
     when given."""
     if strategy_cost < 0 or not math.isfinite(strategy_cost):
         raise ValueError(f"strategy_cost must be a finite number >= 0, got {strategy_cost}")
     if strategy_cost and not trips:
         raise ValueError("strategy_cost is for the trip stage (trips=True)")
+    if crossing and not trips:
+        raise ValueError("crossing is for the trip stage (trips=True)")
     from dataclasses import replace
 
-    from stumble.control.reflex.gh2010 import SCR_GAINS, GH2010Params, shipped_params
+    from stumble.control.reflex.gh2010 import (
+        CROSS_GAINS,
+        SCR_GAINS,
+        GH2010Params,
+        shipped_params,
+    )
 
     if trips:
         params = start or shipped_params("gh2010", walking_only=True)
@@ -456,6 +476,9 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
             params = replace(params, scr_phase=scr_phase)
         params = replace(params, **{n: getattr(params, n) or SCR_START for n in SCR_GAINS
                                     if params.scr_phase == "foot" or n not in SCR_EXTENSION})
+        if crossing:
+            params = replace(params, **{n: getattr(params, n) or SCR_START
+                                        for n in CROSS_GAINS})
         stages = stages or TRIP_STAGES
     elif wiring == "gh2010":
         params, stages = GH2010Params(), stages or GH2010_STAGES
@@ -466,7 +489,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     history: list[dict] = []
     with_trips = trips
     for k, (gens, walk_s, trips) in enumerate(stages):
-        space = gh2010_space(params, stumble_reflex=with_trips, ta_bound=ta_bound)
+        space = gh2010_space(params, stumble_reflex=with_trips, ta_bound=ta_bound,
+                             crossing=crossing)
         first = k == 0 and wiring == "gh2010"
         sigma = (TRIP_SIGMA if with_trips else GH2010_SIGMA if first else GH2010_SIGMA_TRIPS)
         fixed = {n: v for n, v in params.to_json().items() if n not in space.names}
@@ -476,7 +500,7 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                       initializer=init_walk_eval,
                       initargs=("gh2010", walk_s, GH2010_SPEED_M_PER_S,
                                 fixed if with_trips else {"wiring": wiring}, trips,
-                                with_trips, strategy_cost),
+                                with_trips, strategy_cost, crossing),
                       first_generation=total, stage="walk" if not trips else "walk+trips")
         params = replace(params, **dict(zip(space.names, map(float, res.best_theta),
                                             strict=True)))
@@ -505,13 +529,15 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                     "scr_phase": params.scr_phase,
                     "ta_bound": ta_bound,
                     "strategy_cost": strategy_cost,
+                    "crossing": crossing,
                     "command": _fit_command(wiring, with_trips, stages, scr_phase, seed,
-                                            ta_bound, strategy_cost)}})
+                                            ta_bound, strategy_cost, crossing)}})
     return res
 
 
 def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: int,
-                 ta_bound: str = "wide", strategy_cost: float = 0.0) -> str:
+                 ta_bound: str = "wide", strategy_cost: float = 0.0,
+                 crossing: bool = False) -> str:
     """The ``stumble reflex fit`` command of a GH2010 fit (``--params`` aside)."""
     opts = ["--trips"] if trips else []
     if ta_bound != "wide":
@@ -524,6 +550,8 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
             opts.append(f"--scr-phase {scr_phase}")
         if strategy_cost:
             opts.append(f"--strategy-cost {strategy_cost:g}")
+        if crossing:
+            opts.append("--crossing")
     default = (TRIP_STAGES if trips else GH2010_STAGES if wiring == "gh2010"
                else SEED003_STAGES)
     total = sum(g for g, _w, _t in stages)

@@ -81,6 +81,18 @@ WIRINGS = ("gh2010", "seed003")
 SCR_GAINS = ("g_scr_ham", "g_scr_ta", "g_scr_flex", "g_scr_sol", "g_scr_gas", "g_scr_glu",
              "g_scr_vas", "g_scr_ext_rf", "g_scr_ext_sol", "g_scr_ext_glu", "g_scr_ext_ham")
 SCR_PHASES = ("any", "foot")
+# The crossing step after a touch (our addition, a parameter set; zero, off, in the paper's
+# and the shipped gains). A person who has struck an obstacle knows it is there, and each
+# leg's next step crosses it with the exaggerated hip and knee flexion and dorsiflexion of
+# a deliberate step over an obstacle (Chou & Draganich 1997, J Biomech 30:331: the trailing
+# limb's knee flexes further; the gains are ours, fitted). Reflexes alone
+# step over nothing on purpose: after a lowering the other leg must cross the box, and
+# after either strategy the leg still behind it must. As a law: a sensed touch arms both
+# legs; when a foot lands on the floor (its delayed load rises past ``stance_load``), the
+# other leg, if armed, is disarmed and for ``cross_hold_s`` gains ``g_cross_*`` on its hip
+# flexor, HAMS (knee flexion), TA and GAS (push-off, knee flexion). Each leg crosses once
+# per touch; no strategy is chosen: whichever foot lands first launches the other's step.
+CROSS_GAINS = ("g_cross_flex", "g_cross_ham", "g_cross_ta", "g_cross_gas")
 # optimised parameters shipped in stumble/control/reflex/data/, per wiring
 SHIPPED = {"gh2010": "gh2010.json", "seed003": "gh2010_seed003.json"}
 # the walking fit the shipped GH2010 trip fit started from (``--params walk``)
@@ -143,6 +155,13 @@ class GH2010Params:
     # walker whose swing ankle passes the other late, as the TA-bounded fits', whose
     # tripped ankle is still 0.16-0.45 m behind the other's at 0.55-0.75 of swing)
     scr_ahead_m: float = 0.0
+    # the crossing step after a touch (``CROSS_GAINS``; zero in the paper and the
+    # shipped fits): the other leg's flexors when a foot lands after a sensed touch
+    g_cross_flex: float = 0.0
+    g_cross_ham: float = 0.0
+    g_cross_ta: float = 0.0
+    g_cross_gas: float = 0.0
+    cross_hold_s: float = 0.2  # s, how long a crossing drive lasts (our choice)
     delay_scale: float = 1.0  # every delay multiplied by this
     wiring: str = "gh2010"  # "gh2010" or "seed003" (see GH2010Controller)
 
@@ -154,7 +173,12 @@ class GH2010Params:
     @property
     def stumble_reflex(self) -> bool:
         """Whether any gain of the stumbling corrective reflex is on."""
-        return any(getattr(self, n) for n in SCR_GAINS)
+        return any(getattr(self, n) for n in SCR_GAINS + CROSS_GAINS)
+
+    @property
+    def crossing(self) -> bool:
+        """Whether any gain of the crossing step after a touch is on."""
+        return any(getattr(self, n) for n in CROSS_GAINS)
 
     def vector(self) -> np.ndarray:
         """The free gains as a vector, in ``free()`` order."""
@@ -410,6 +434,15 @@ class GH2010Controller:
         self._w_scr_vas = np.zeros((2, 2, nm))
         for leg in range(2):
             self._w_scr_vas[leg, leg, ix["VAS"]] = p.g_scr_vas
+        self._cross = self._scr and p.crossing
+        self._w_cross = np.zeros(nm)  # (muscle,) the crossing drive of either leg
+        for name, gain in ((self.flexor, p.g_cross_flex), ("HAMS", p.g_cross_ham),
+                           ("TA", p.g_cross_ta), ("GAS", p.g_cross_gas)):
+            self._w_cross[ix[name]] += gain
+        self._cross_hold = max(1, round(p.cross_hold_s * p.delay_scale / dt))
+        self._armed = np.zeros(2, bool)  # each leg's next step is to cross
+        self._cross_since = np.full(2, np.iinfo(np.int64).max // 2)  # ticks since its onset
+        self._was_on = np.ones(2, bool)  # each foot loaded at the last tick
         self._f_cols = [ix[k] for k in ("GAS", "VAS", "GLU", "HAMS")]
         self._l_cols = [ix["TA"], ix[self.flexor]]
         self._l_offs = np.array([p.l_off_ta, p.l_off_hfl])
@@ -554,7 +587,30 @@ class GH2010Controller:
             now_on = np.einsum("snt,stlm->nlm", gates, self._w_scr)
         else:
             now_on = np.einsum("nt,tlm->nlm", on, self._w_scr)
-        return now_on + np.einsum("nt,tlm->nlm", late, self._w_scr_vas)
+        out = now_on + np.einsum("nt,tlm->nlm", late, self._w_scr_vas)
+        if self._cross:
+            out += self._crossing(touched, x[:, self._iVestLoad] > self.p.stance_load)
+        return out
+
+    def _crossing(self, touched: np.ndarray, loaded: np.ndarray) -> np.ndarray:
+        """The crossing step after a touch (n, 2, nm): a sensed touch arms both legs; a
+        foot's landing launches the armed other leg's drive for ``cross_hold_s``."""
+        n = len(touched)
+        on = np.zeros((n, 2))
+        armed, since, was = self._armed, self._cross_since, self._was_on
+        for i in range(n):
+            if touched[i].any():
+                armed[:] = True
+            land = loaded[i] & ~was
+            was = loaded[i]
+            for leg in (0, 1):
+                if land[leg] and armed[1 - leg]:
+                    armed[1 - leg] = False
+                    since[1 - leg] = 0
+            on[i] = since < self._cross_hold
+            since += 1
+        self._was_on = was.copy()
+        return on[:, :, None] * self._w_cross
 
     def _vestibular(self, x: np.ndarray) -> np.ndarray:
         """The trunk-lean laws (n, 2, nm): stance hips k_p(θ − θ_ref) + k_d θ̇ rectified,
