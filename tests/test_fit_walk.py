@@ -120,6 +120,8 @@ def test_the_trip_stage_fits_the_stumbling_reflex_from_the_walking_fit(tmp_path)
     assert set(SCR_BOUNDS) <= set(res.space.names)
     fitted = load_params(tmp_path / "gh2010.json")
     assert fitted.scr_phase == "foot" and all(getattr(fitted, n) > 0.0 for n in SCR_GAINS)
+    # the best so far, written as the fit runs, is a whole parameter set: phase and all
+    assert load_params(tmp_path / "best.json") == fitted
     fit = json.loads((tmp_path / "gh2010.json").read_text())["fit"]
     assert "--scr-phase foot" in fit["command"] and fit["scr_phase"] == "foot"
     assert not set(CROSS_BOUNDS) & set(res.space.names)  # no crossing unless asked

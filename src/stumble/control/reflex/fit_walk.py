@@ -118,12 +118,14 @@ def cma_fit(evaluate: Callable[[np.ndarray], tuple[float, dict]], space: Space,
             sigma: float = 0.5, workers: int = 1, out: Path | None = None,
             progress: Callable[[dict], None] | None = None, initializer=None,
             initargs: tuple = (), target: float | None = None, first_generation: int = 0,
-            stage: str = "") -> FitResult:
+            stage: str = "", fixed: dict | None = None) -> FitResult:
     """Minimise ``evaluate(theta)`` (a picklable, top-level function returning (J, terms))
     over ``space`` with seeded CMA-ES, ``workers`` processes evaluating each generation.
     Stops after ``generations`` or once the best J is below ``target``. Generations are
     numbered from ``first_generation`` and the history is appended to ``out`` when it
-    does not start at 0 (a later stage of one fit)."""
+    does not start at 0 (a later stage of one fit). ``fixed``: the parameters outside the
+    space, written with the best candidate's to ``best.json`` so that it is a whole
+    parameter set (a GH2010 ``best.json`` loads with ``--params``)."""
     from cmaes import CMA
 
     from stumble.jsonio import dumps
@@ -156,7 +158,8 @@ def cma_fit(evaluate: Callable[[np.ndarray], tuple[float, dict]], space: Space,
                 if out is not None:
                     _write_json(out / "best.json", {
                         "generation": gen, "cost": costs[k], "terms": results[k][1],
-                        "params": dict(zip(space.names, map(float, thetas[k]), strict=True))})
+                        "params": {**(fixed or {}), **dict(zip(
+                            space.names, map(float, thetas[k]), strict=True))}})
             row = {"generation": gen, "stage": stage, "evaluations": best.evaluations,
                    "best": float(best.best_cost), "generation_best": float(costs[k]),
                    "generation_median": float(np.median(costs)), "sigma": float(opt._sigma),
@@ -501,7 +504,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                       initargs=("gh2010", walk_s, GH2010_SPEED_M_PER_S,
                                 fixed if with_trips else {"wiring": wiring}, trips,
                                 with_trips, strategy_cost, crossing),
-                      first_generation=total, stage="walk" if not trips else "walk+trips")
+                      first_generation=total, stage="walk" if not trips else "walk+trips",
+                      fixed=fixed)
         params = replace(params, **dict(zip(space.names, map(float, res.best_theta),
                                             strict=True)))
         total += gens
