@@ -255,20 +255,23 @@ def test_stumble_reflex_by_foot_phase_reverses_with_where_the_foot_was():
 
 
 def test_crossing_step_after_a_touch_launches_the_other_legs_step_when_a_foot_lands():
-    """The crossing step: nothing before a touch; a sensed touch arms both legs; when the
-    touched (left) foot lands, the right leg gets g_cross_* on HFL, HAMS, TA and GAS for
-    cross_hold_s; when the right lands after that, the left gets them; once each."""
+    """The crossing step: nothing before a touch; a sensed touch arms both legs and marks
+    the obstacle cross_ahead_m ahead of the touched ankle; when the touched (left) foot
+    lands short of the mark (a lowering), the right leg, behind it, gets g_cross_* on HFL,
+    HAMS, TA and GAS for cross_hold_s; when the right lands after that, the left, still
+    behind the mark, gets them; once each. A left foot landing beyond the mark (elevating)
+    launches the right's step, and the right's landing then launches nothing."""
     body, m, d = _obstacle_body()
     gains = dict(g_cross_flex=0.11, g_cross_ham=0.12, g_cross_ta=0.13, g_cross_gas=0.14,
-                 cross_hold_s=0.05)
+                 cross_hold_s=0.05, cross_ahead_m=0.25)
     c = GH2010Controller(GH2010Params(**gains))
     c.start(Context(m, d, body, Sensors(), 0.0))
     ix, nm = c.idx, c.nm
     F, L = np.full((2, nm), 0.2), np.full((2, nm), 0.8)
 
-    def row(load, touch=(0.0, 0.0)):
+    def row(load, touch=(0.0, 0.0), x_left=0.3):
         return np.concatenate([np.ravel(F), np.ravel(L), [0.3, 0.3], [0.0, 0.0], load,
-                               [0.0, 0.3], touch, [0.0, 0.1]])
+                               [0.0, x_left], touch, [0.0, 0.1]])
 
     def drive(rows):
         """The crossing part of each tick's excitations (ticks, 2, nm)."""
@@ -299,4 +302,13 @@ def test_crossing_step_after_a_touch_launches_the_other_legs_step_when_a_foot_la
     assert 250 <= land_r <= 250 + lag_load
     np.testing.assert_allclose(u[land_r:land_r + 50, 1], np.tile(expect, (50, 1)))
     assert on_l.sum() == 50  # once each per touch
+    # elevating: the left foot lands 0.4 m on, beyond the mark: the right crosses, and
+    # its landing launches nothing for the left
+    rows = ([row(left_off, (0.0, 1.0))] * 20 + [row(left_off)] * 100
+            + [row(both_on, x_left=0.7)] * 30 + [row([0.0, 0.9], x_left=0.7)] * 100
+            + [row(both_on, x_left=0.7)] * 100)
+    u = drive(rows)
+    on_r, on_l = u[:, 0].any(axis=1), u[:, 1].any(axis=1)
+    assert on_r.sum() == 50 and 120 <= int(np.argmax(on_r)) <= 120 + lag_load
+    assert not on_l.any()
     assert GH2010Params(**gains).crossing and not GH2010Params().crossing

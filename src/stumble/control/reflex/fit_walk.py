@@ -227,7 +227,7 @@ SCR_EXTENSION = ("g_scr_ext_rf", "g_scr_ext_sol", "g_scr_ext_glu", "g_scr_ext_ha
 # the crossing step after a touch (``gh2010.CROSS_GAINS``): fitted only with ``crossing``
 CROSS_BOUNDS = {"g_cross_flex": (0.0, 1.0), "g_cross_ham": (0.0, 1.0),
                 "g_cross_ta": (0.0, 1.0), "g_cross_gas": (0.0, 1.0),
-                "cross_hold_s": (0.05, 0.5)}
+                "cross_hold_s": (0.05, 0.5), "cross_ahead_m": (0.1, 0.5)}
 SCR_MIN_SCALE = 0.15
 
 

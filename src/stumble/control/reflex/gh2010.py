@@ -88,10 +88,15 @@ SCR_PHASES = ("any", "foot")
 # limb's knee flexes further; the gains are ours, fitted). Reflexes alone
 # step over nothing on purpose: after a lowering the other leg must cross the box, and
 # after either strategy the leg still behind it must. As a law: a sensed touch arms both
-# legs; when a foot lands on the floor (its delayed load rises past ``stance_load``), the
-# other leg, if armed, is disarmed and for ``cross_hold_s`` gains ``g_cross_*`` on its hip
-# flexor, HAMS (knee flexion), TA and GAS (push-off, knee flexion). Each leg crosses once
-# per touch; no strategy is chosen: whichever foot lands first launches the other's step.
+# legs and marks where the obstacle is (``cross_ahead_m`` ahead of the touched foot's
+# ankle at the touch's onset, sensed with the touch: the toe and the box are ahead of the
+# ankle); when a foot lands on the floor (its delayed load rises past
+# ``stance_load``), the other leg, if armed, is disarmed and, if its foot is still behind
+# the mark (it has the obstacle to cross), for ``cross_hold_s`` gains ``g_cross_*`` on
+# its hip flexor, HAMS (knee flexion), TA and GAS (push-off, knee flexion). After an
+# elevating step the tripped foot lands beyond the mark and the other leg crosses; after
+# a lowering both do, the other leg first. No strategy is chosen: whichever foot lands
+# first launches the other's step.
 CROSS_GAINS = ("g_cross_flex", "g_cross_ham", "g_cross_ta", "g_cross_gas")
 # optimised parameters shipped in stumble/control/reflex/data/, per wiring
 SHIPPED = {"gh2010": "gh2010.json", "seed003": "gh2010_seed003.json"}
@@ -162,6 +167,10 @@ class GH2010Params:
     g_cross_ta: float = 0.0
     g_cross_gas: float = 0.0
     cross_hold_s: float = 0.2  # s, how long a crossing drive lasts (our choice)
+    # the obstacle's far side, ahead of the touched foot's ankle at the touch (m; our
+    # choice: the toe 0.2 m ahead of the ankle, a 10 cm box; a foot landing beyond it
+    # has crossed)
+    cross_ahead_m: float = 0.3
     delay_scale: float = 1.0  # every delay multiplied by this
     wiring: str = "gh2010"  # "gh2010" or "seed003" (see GH2010Controller)
 
@@ -443,6 +452,8 @@ class GH2010Controller:
         self._armed = np.zeros(2, bool)  # each leg's next step is to cross
         self._cross_since = np.full(2, np.iinfo(np.int64).max // 2)  # ticks since its onset
         self._was_on = np.ones(2, bool)  # each foot loaded at the last tick
+        self._mark = -np.inf  # where the obstacle was touched (foot x, m)
+        self._touched_x = np.zeros(2, bool)  # each foot touched at the last tick
         self._f_cols = [ix[k] for k in ("GAS", "VAS", "GLU", "HAMS")]
         self._l_cols = [ix["TA"], ix[self.flexor]]
         self._l_offs = np.array([p.l_off_ta, p.l_off_hfl])
@@ -589,24 +600,33 @@ class GH2010Controller:
             now_on = np.einsum("nt,tlm->nlm", on, self._w_scr)
         out = now_on + np.einsum("nt,tlm->nlm", late, self._w_scr_vas)
         if self._cross:
-            out += self._crossing(touched, x[:, self._iVestLoad] > self.p.stance_load)
+            out += self._crossing(touched, x[:, self._iXTouch],
+                                  x[:, self._iVestLoad] > self.p.stance_load,
+                                  x[:, self._iVestX])
         return out
 
-    def _crossing(self, touched: np.ndarray, loaded: np.ndarray) -> np.ndarray:
-        """The crossing step after a touch (n, 2, nm): a sensed touch arms both legs; a
-        foot's landing launches the armed other leg's drive for ``cross_hold_s``."""
+    def _crossing(self, touched: np.ndarray, x_touch: np.ndarray, loaded: np.ndarray,
+                  x_foot: np.ndarray) -> np.ndarray:
+        """The crossing step after a touch (n, 2, nm): a sensed touch arms both legs and
+        marks the touched foot's x at its onset; a foot's landing launches the armed other
+        leg's drive for ``cross_hold_s`` if that leg's foot is behind the mark."""
         n = len(touched)
         on = np.zeros((n, 2))
         armed, since, was = self._armed, self._cross_since, self._was_on
         for i in range(n):
             if touched[i].any():
+                onset = touched[i] & ~self._touched_x
+                if onset.any():
+                    self._mark = float(x_touch[i][onset].max()) + self.p.cross_ahead_m
                 armed[:] = True
+            self._touched_x = touched[i]
             land = loaded[i] & ~was
             was = loaded[i]
             for leg in (0, 1):
                 if land[leg] and armed[1 - leg]:
                     armed[1 - leg] = False
-                    since[1 - leg] = 0
+                    if x_foot[i, 1 - leg] < self._mark:
+                        since[1 - leg] = 0
             on[i] = since < self._cross_hold
             since += 1
         self._was_on = was.copy()
