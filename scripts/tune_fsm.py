@@ -7,7 +7,7 @@ motion capture, within ranges grounded in the literature (the defaults' comments
 the number recovered (tie-break: the time survived). Seeded and deterministic.
 
 Run:  python scripts/tune_fsm.py [--candidates N] [--workers N] [--seed S]
-      [--grid small|full|lowering] [--only all|lowering] [--around JSON]
+      [--grid small|full|lowering|full+bodies] [--only all|lowering] [--around JSON]
       [--method random|cma] [--generations G] [--popsize P] [--out FILE]
       [--strength anderson2007|fixed]
 ``--method cma``: CMA-ES (the ``cmaes`` package, seeded) over the targets scaled to
@@ -39,6 +39,12 @@ FULL_GRID = [(f, v, mech) for mech in ("force", "obstacle")
 # the lowering half of the issue's grid (auto chooses lowering above 0.5 of swing)
 LOWERING_GRID = [(f, v, mech) for mech in ("force", "obstacle") for f in (0.55, 0.65, 0.75)
                  for v in (1.0, 1.2, 1.4)]
+# the issue's six bodies (height m, mass kg, sex) at 1.2 m/s, swing 0.05-0.75, both
+# mechanisms (README "Any body"); --grid full+bodies adds them to the full grid
+BODIES = ((1.50, 45.0, "female"), (1.65, 60.0, "female"), (1.70, 85.0, "female"),
+          (1.70, 80.0, "male"), (1.90, 90.0, "male"), (1.95, 110.0, "male"))
+BODY_GRID = [(f, 1.2, mech, *body) for body in BODIES for mech in ("force", "obstacle")
+             for f in (0.05, 0.15, 0.25, 0.35, 0.45, 0.55, 0.65, 0.75)]
 
 
 ATTITUDE_DAMPING = "joint"  # --attitude-damping (FSMParams.attitude_damping)
@@ -63,9 +69,11 @@ def evaluate(x: dict) -> tuple[int, float]:
     from stumble.trip import Scenario
 
     rec, survived = 0, 0.0
-    for f, v, mech in GRID:
+    for f, v, mech, *body in GRID:
         walk_on = ({} if WALK_ON_S is None else
                    {"recovery": "walk_on", "duration_after_trip_s": WALK_ON_S})
+        if body:  # (height m, mass kg, sex): a grid point of another body
+            walk_on.update(height_m=body[0], mass_kg=body[1], sex=body[2])
         s = simulate_trip(Scenario(swing_fraction=f, speed_m_per_s=v, mechanism=mech,
                                    strength_model=STRENGTH, **walk_on),
                           params=params_from(x)).summary
@@ -79,7 +87,9 @@ def main() -> None:
     ap.add_argument("--candidates", type=int, default=48)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--grid", choices=("small", "full", "lowering"), default="small")
+    ap.add_argument("--grid", choices=("small", "full", "lowering", "full+bodies"),
+                    default="small", help="full+bodies: the full grid and the six bodies' "
+                    "96 trips at 1.2 m/s")
     ap.add_argument("--only", choices=("all", "lowering"), default="all",
                     help="search only the lowering strategy's targets (others stay default)")
     ap.add_argument("--around", metavar="JSON",
@@ -104,7 +114,8 @@ def main() -> None:
                     help="search the servo gains too (GAINS) as well as the targets")
     args = ap.parse_args()
     global GRID, STRENGTH, WALK_ON_S, ATTITUDE_DAMPING
-    GRID = {"small": GRID, "full": FULL_GRID, "lowering": LOWERING_GRID}[args.grid]
+    GRID = {"small": GRID, "full": FULL_GRID, "lowering": LOWERING_GRID,
+            "full+bodies": FULL_GRID + BODY_GRID}[args.grid]
     ATTITUDE_DAMPING = args.attitude_damping
     STRENGTH, WALK_ON_S = args.strength, args.walk_on
     space = {k: v for k, v in SPACE.items() if args.only == "all" or k in LOWERING}
