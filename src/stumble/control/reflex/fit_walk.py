@@ -257,9 +257,9 @@ def gh2010_space(start=None, stumble_reflex: bool = False,
         raise ValueError(f"ta_bound must be one of {sorted(TA_BOUNDS)}, got {ta_bound!r}")
     ta = {n: (a * getattr(paper, n), b * getattr(paper, n)) if n in TA_BOUND_GAINS else (a, b)
           for n, (a, b) in TA_BOUNDS[ta_bound].items()}
+    bounds = {**GH2010_BOUNDS, **SCR_BOUNDS, **CROSS_BOUNDS, **ta}
     lo, hi = [], []
     for n in names:
-        bounds = {**GH2010_BOUNDS, **SCR_BOUNDS, **CROSS_BOUNDS, **ta}
         a, b = bounds.get(n, (GAIN_RANGE[0] * getattr(paper, n),
                               GAIN_RANGE[1] * getattr(paper, n)))
         lo.append(a)

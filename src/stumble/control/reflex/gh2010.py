@@ -181,7 +181,8 @@ class GH2010Params:
 
     @property
     def stumble_reflex(self) -> bool:
-        """Whether any gain of the stumbling corrective reflex is on."""
+        """Whether any gain of the stumbling corrective reflex, or of the crossing step
+        that follows a touch, is on (either needs the touch sensed)."""
         return any(getattr(self, n) for n in SCR_GAINS + CROSS_GAINS)
 
     @property
@@ -453,7 +454,6 @@ class GH2010Controller:
         self._cross_since = np.full(2, np.iinfo(np.int64).max // 2)  # ticks since its onset
         self._was_on = np.ones(2, bool)  # each foot loaded at the last tick
         self._mark = -np.inf  # where the obstacle was touched (foot x, m)
-        self._touched_x = np.zeros(2, bool)  # each foot touched at the last tick
         self._f_cols = [ix[k] for k in ("GAS", "VAS", "GLU", "HAMS")]
         self._l_cols = [ix["TA"], ix[self.flexor]]
         self._l_offs = np.array([p.l_off_ta, p.l_off_hfl])
@@ -585,28 +585,29 @@ class GH2010Controller:
         on = (since < self._scr_hold).astype(float)  # (n, 2)
         late = ((since >= self._scr_vas_after)
                 & (since < self._scr_vas_after + self._scr_hold)).astype(float)
+        starts = touched & ~np.vstack([self._touched[None], touched[:-1]])  # onsets
+        self._touched = touched[-1].copy()
         if self._scr_by_foot:  # where each foot was at its touch's onset, held
-            before = np.vstack([self._touched[None], touched[:-1]])
-            onset = np.where(touched & ~before, k, -1)
+            onset = np.where(starts, k, -1)
             first = np.maximum.accumulate(onset, axis=0)
             fx = x[:, self._iXTouch]
             now = fx - fx[:, ::-1] > self.p.scr_ahead_m  # (n, 2): ahead of the other
             ahead = np.where(first >= 0, np.take_along_axis(now, np.maximum(first, 0), axis=0),
                              self._ahead)
-            self._touched, self._ahead = touched[-1].copy(), ahead[-1].copy()
+            self._ahead = ahead[-1].copy()
             gates = np.stack([on * ~ahead, on * ahead, on])  # (set, n, touched)
             now_on = np.einsum("snt,stlm->nlm", gates, self._w_scr)
         else:
             now_on = np.einsum("nt,tlm->nlm", on, self._w_scr)
         out = now_on + np.einsum("nt,tlm->nlm", late, self._w_scr_vas)
         if self._cross:
-            out += self._crossing(touched, x[:, self._iXTouch],
+            out += self._crossing(touched, starts, x[:, self._iXTouch],
                                   x[:, self._iVestLoad] > self.p.stance_load,
                                   x[:, self._iVestX])
         return out
 
-    def _crossing(self, touched: np.ndarray, x_touch: np.ndarray, loaded: np.ndarray,
-                  x_foot: np.ndarray) -> np.ndarray:
+    def _crossing(self, touched: np.ndarray, starts: np.ndarray, x_touch: np.ndarray,
+                  loaded: np.ndarray, x_foot: np.ndarray) -> np.ndarray:
         """The crossing step after a touch (n, 2, nm): a sensed touch arms both legs and
         marks the touched foot's x at its onset; a foot's landing launches the armed other
         leg's drive for ``cross_hold_s`` if that leg's foot is behind the mark."""
@@ -614,12 +615,10 @@ class GH2010Controller:
         on = np.zeros((n, 2))
         armed, since, was = self._armed, self._cross_since, self._was_on
         for i in range(n):
+            if starts[i].any():
+                self._mark = float(x_touch[i][starts[i]].max()) + self.p.cross_ahead_m
             if touched[i].any():
-                onset = touched[i] & ~self._touched_x
-                if onset.any():
-                    self._mark = float(x_touch[i][onset].max()) + self.p.cross_ahead_m
                 armed[:] = True
-            self._touched_x = touched[i]
             land = loaded[i] & ~was
             was = loaded[i]
             for leg in (0, 1):
