@@ -549,7 +549,8 @@ def cmd_trip(args) -> int:
     outcome = ("diverged" if s["diverged"] else "recovered" if s["recovered"]
                else "fell" if s["fell"] else "did not recover within the time")
     strategy = s["strategy"] or "no"
-    print(f"{strategy} strategy ({s['variant']}): {outcome}; simulated "
+    variant = f" ({s['variant']})" if s["variant"] else ""  # none if no recovery step
+    print(f"{strategy} strategy{variant}: {outcome}; simulated "
           f"{s['sim_time_s']:.2f} s in {s['wall_time_s']:.2f} s; wrote {', '.join(written)} "
           f"to {out}")
     return 0
