@@ -312,3 +312,7 @@ def test_crossing_step_after_a_touch_launches_the_other_legs_step_when_a_foot_la
     assert on_r.sum() == 50 and 120 <= int(np.argmax(on_r)) <= 120 + lag_load
     assert not on_l.any()
     assert GH2010Params(**gains).crossing and not GH2010Params().crossing
+    from stumble.errors import InputError
+
+    with pytest.raises(InputError, match="cross_hold_s is a time and must be >= 0"):
+        GH2010Params.from_json({"cross_hold_s": -0.1})

@@ -219,6 +219,8 @@ class GH2010Params:
                 continue
             if not isinstance(v, int | float) or isinstance(v, bool) or not np.isfinite(v):
                 raise InputError(f"GH2010 parameter {k} must be a finite number, got {v!r}")
+            if k.endswith("_s") and v < 0:  # latencies, holds, onsets (s)
+                raise InputError(f"GH2010 parameter {k} is a time and must be >= 0, got {v!r}")
             vals[k] = float(v)
         return cls(**vals)
 
