@@ -42,6 +42,47 @@ def test_each_joint_beyond_eight_degrees_costs_and_bands_are_free_inside():
     assert slow["speed"] == pytest.approx(((1.0 - 0.8) / 0.1) ** 2)
 
 
+def test_the_foot_term_counts_only_when_asked_and_like_a_joint():
+    plain, t_plain = walk_cost({**_summary(), "foot_angle_rmse_deg": 22.0}, effort=0.0)
+    cost, terms = walk_cost({**_summary(), "foot_angle_rmse_deg": 22.0}, effort=0.0,
+                            foot_angle=True)
+    assert "foot" not in t_plain
+    assert terms["foot"] == pytest.approx(22.0 / 10.0 + (22.0 - 8.0) / 2.0)
+    assert cost - plain == pytest.approx(terms["foot"])
+    _, none = walk_cost({**_summary(), "foot_angle_rmse_deg": None}, effort=0.0,
+                        foot_angle=True)
+    assert none["foot"] == 10.0  # no stride: as bad as a 10-degree-hinge miss
+    from stumble.control.reflex.fit_walk import _fit_command
+
+    walk = ((110, 15.0, ()),)
+    assert "--foot-angle" not in _fit_command("gh2010", False, walk, None, 1)
+    assert "--foot-angle" in _fit_command("gh2010", False, walk, None, 1, foot_angle=True)
+
+
+def test_foot_angle_is_the_feet_pitch_in_the_world_and_tracked_on_the_walk():
+    import mujoco
+
+    from stumble.analysis import foot_angles
+    from stumble.body.build import build
+    from stumble.pipeline import simulate_walk
+
+    body = build(planar=True, actuation="muscles")
+    m = body.model
+    d = mujoco.MjData(m)
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        d.qpos[:] = 0.0
+        d.qpos[2:] = rng.uniform(-0.4, 0.4, m.nq - 2)
+        mujoco.mj_kinematics(m, d)
+        got = foot_angles(d.qpos.copy(), m)
+        for side in ("r", "l"):
+            R = d.xmat[m.body(f"foot_{side}").id].reshape(3, 3)
+            assert got[f"foot_angle_{side}"] == pytest.approx(np.arctan2(R[2, 0], R[0, 0]))
+    r = simulate_walk("gh2010", 3.0, 1.2)
+    assert set(r.reference) >= {"foot_angle_r", "foot_angle_l"}
+    assert 2.0 < r.summary["foot_angle_rmse_deg"] < 40.0
+
+
 def test_contact_events_need_a_lasting_touch_after_a_flight():
     t = np.arange(0.0, 2.0, 0.005)
     on = np.ones((len(t), 2), bool)

@@ -240,6 +240,17 @@ def rmse_deg(sim: dict[str, np.ndarray], sim_t: np.ndarray, ref: dict[str, np.nd
 
 WALK_JOINTS = ("hip_flexion", "knee_angle", "ankle_angle")
 CYCLE_POINTS = 101  # a stride resampled to 0, 1, … 100 % (from heel strike)
+# the planar foot's angle in the sagittal plane (rad, toe up +, 0 standing): the sum of
+# the chain's pitch angles from the pelvis down (every planar hinge turns about one axis)
+FOOT_CHAIN = ("pelvis_tilt", "hip_flexion", "knee_angle", "ankle_angle")
+
+
+def foot_angles(qpos: np.ndarray, model: mujoco.MjModel) -> dict[str, np.ndarray]:
+    """``foot_angle_<side>`` of the planar model per row of ``qpos`` (rad, toe up +):
+    what an obstacle meets first, toe or heel, depends on it."""
+    adr = model.jnt_qposadr
+    return {f"foot_angle_{s}": sum(qpos[..., adr[model.joint(
+        j if j == "pelvis_tilt" else f"{j}_{s}").id]] for j in FOOT_CHAIN) for s in SIDES}
 
 
 @dataclass
@@ -341,7 +352,9 @@ def walk_metrics(rec: Recording, model: mujoco.MjModel, reference: dict[str, np.
                  duration_s: float) -> dict:
     """The figures of a walk: time walked, fall, strides, speed, stance fraction and the
     joint-angle RMSE (deg) of every complete right stride against ``reference`` (the
-    recorded stride, 101 points per ``<joint>_<side>``, rad), averaged over strides."""
+    recorded stride, 101 points per ``<joint>_<side>``, rad), averaged over strides;
+    where ``reference`` has ``foot_angle_<side>`` (``foot_angles``), the foot's angle
+    RMSE (deg) too, averaged over both feet."""
     t = rec.time_s
     ev = contact_events(t, rec.foot_on_floor)
     hs = ev["r"]["heel_strike_s"]
@@ -369,6 +382,11 @@ def walk_metrics(rec: Recording, model: mujoco.MjModel, reference: dict[str, np.
             rmse[name] = float(np.degrees(np.sqrt((err ** 2).mean(axis=1))).mean())
     per_joint = {j: float(np.mean([rmse[f"{j}_{s}"] for s in SIDES])) for j in WALK_JOINTS
                  } if rmse else {}
+    foot = None
+    if strides and "foot_angle_r" in reference:
+        fc = stride_curves(t, foot_angles(rec.qpos, model), hs)
+        foot = float(np.mean([np.degrees(np.sqrt(((rows - reference[n][None]) ** 2).mean(
+            axis=1))).mean() for n, rows in fc.items()]))
     walked = float(t[-1]) if len(t) else 0.0
     return {
         "walked_s": round(walked, 4),
@@ -381,6 +399,7 @@ def walk_metrics(rec: Recording, model: mujoco.MjModel, reference: dict[str, np.
         "stance_fraction": None if not stance else round(float(np.mean(stance)), 4),
         "rmse_deg": {k: round(v, 3) for k, v in per_joint.items()},
         "rmse_deg_by_side": {k: round(v, 3) for k, v in rmse.items()},
+        "foot_angle_rmse_deg": None if foot is None else round(foot, 3),
         "events": ev,
     }
 

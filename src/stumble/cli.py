@@ -258,6 +258,11 @@ def _parser() -> argparse.ArgumentParser:
                    help="gh2010 --trips: fit the crossing step after a touch too (each "
                    "leg's next step after the foot's obstacle touch, launched when the "
                    "other foot lands, with extra hip flexor, HAMS, TA and GAS drive)")
+    f.add_argument("--foot-angle", action="store_true",
+                   help="gh2010: the objective also tracks each foot's angle to the floor "
+                   "against the recorded stride's (as a joint: RMSE/10 deg + its excess "
+                   "over 8 deg/2 deg), so that the swing foot is as flat as the recorded "
+                   "one when an obstacle meets it")
     f.add_argument("--ta-bound", choices=("wide", "paper"), default="wide",
                    help="gh2010: bounds of the TA length reflex (l_off_ta, g_ta): wide (the "
                    "default, as shipped: 0.3-1.5 l_opt, 0.2-5x the paper's gain) or paper "
@@ -648,7 +653,7 @@ def cmd_reflex_fit_gh2010(args) -> int:
                      wiring=args.wiring, trips=args.trips, start=start,
                      start_fit=start_fit, scr_phase=args.scr_phase,
                      ta_bound=args.ta_bound, strategy_cost=strategy_cost,
-                     crossing=args.crossing)
+                     crossing=args.crossing, foot_angle=args.foot_angle)
     bar.done()
     written, walk = write_gh2010_fit(out, res)
     s = walk.summary
@@ -665,9 +670,11 @@ def cmd_reflex(args) -> int:
     if args.controller == "gh2010":
         return cmd_reflex_fit_gh2010(args)
     if (args.trips or args.params is not None or args.trip_set or args.scr_phase
-            or args.ta_bound != "wide" or args.strategy_cost is not None or args.crossing):
+            or args.ta_bound != "wide" or args.strategy_cost is not None or args.crossing
+            or args.foot_angle):
         raise InputError("--trips, --params, --trip-set, --scr-phase, --strategy-cost, "
-                         "--crossing and --ta-bound are for --controller gh2010")
+                         "--crossing, --foot-angle and --ta-bound are for --controller "
+                         "gh2010")
     from stumble.control.reflex.identify import ITERATIONS, REFINE_ITERATIONS, fit
     from stumble.outputs import prepare_dir, write_fit
 

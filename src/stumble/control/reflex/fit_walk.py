@@ -12,15 +12,23 @@ at right heel strike (``stumble.pipeline.simulate_walk``):
       + W_EFFORT · mean activation²                             effort (F_max-weighted)
       + W_SPEED · (distance of the speed from 1.0–1.3 m/s / 0.1 m/s)²
       + W_STANCE · (distance of the stance fraction from 0.57–0.68 / 0.05)²
+     [+ W_FOOT · (RMSE of the feet's angle to the floor / 10°
+                  + max(0, that RMSE − 8°) / 2°)]                  with ``foot_angle``
 
 so that a walker first learns not to fall (nor to stand still: the first term counts
 the way covered at 1 m/s at least), then to walk like the recording (every joint
 within 8°, the hinge terms), with the least effort, at a human speed and stance
 fraction (bands inside the README's walking criteria, 0.9–1.4 m/s and 0.55–0.70, so
-that a fitted walker meets them with a margin). The strategy is CMA-ES (Hansen 2016;
-the ``cmaes`` package), seeded, so a fit is reproduced exactly from its seed;
-candidates of one generation are evaluated in parallel worker processes and told back
-in order, so the worker count does not change the result. Each generation's figures
+that a fitted walker meets them with a margin). The foot term (``foot_angle``, off in
+the shipped fits' objective) tracks each foot's angle in the sagittal plane
+(``analysis.foot_angles``) against the recorded stride's: joint angles within 8° can
+hold the swing foot 15–30° toe up where the recorded foot is about flat (at 0.6–0.75 of
+swing, from 14° toe down to 6° toe up), so that an obstacle ahead of the toe meets the
+heel, and the foot comes to rest on the box's edge instead of being lowered behind it
+(README). The strategy is CMA-ES (Hansen 2016; the ``cmaes`` package), seeded, so a
+fit is reproduced exactly from its seed; candidates of one generation are evaluated in
+parallel worker processes and told back in order, so the worker count does not change
+the result. Each generation's figures
 are appended to ``history.jsonl`` and the best candidate so far to ``best.json`` as
 the fit runs.
 """
@@ -42,6 +50,7 @@ W_TRACK = 1.0
 W_EFFORT = 1.0
 W_SPEED = 1.0
 W_STANCE = 1.0
+W_FOOT = 1.0  # the foot-angle term, with ``foot_angle`` (our choice: a joint's weight)
 SPEED_BAND = (1.0, 1.3)  # m/s
 STANCE_BAND = (0.57, 0.68)
 TRACK_HINGE_DEG = 8.0
@@ -51,9 +60,10 @@ def _outside(v: float, band: tuple[float, float]) -> float:
     return max(band[0] - v, 0.0, v - band[1])
 
 
-def walk_cost(summary: dict, effort: float) -> tuple[float, dict]:
+def walk_cost(summary: dict, effort: float, foot_angle: bool = False) -> tuple[float, dict]:
     """The objective J of a walk's summary (``walk_metrics``) and its mean
-    F_max-weighted squared activation; returns J and its terms."""
+    F_max-weighted squared activation; returns J and its terms; ``foot_angle``: with
+    the foot-angle term (``W_FOOT``; the summary's ``foot_angle_rmse_deg``)."""
     T = summary["duration_s"]
     walked = min(summary["walked_s"] / T,
                  max(summary.get("distance_m", T * SPEED_BAND[0]), 0.0) / (SPEED_BAND[0] * T))
@@ -66,6 +76,10 @@ def walk_cost(summary: dict, effort: float) -> tuple[float, dict]:
     terms = {"fall": W_FALL * (1.0 - walked), "track": W_TRACK * track,
              "effort": W_EFFORT * effort, "speed": W_SPEED * speed ** 2,
              "stance": W_STANCE * stance ** 2}
+    if foot_angle:
+        f = summary.get("foot_angle_rmse_deg")
+        terms["foot"] = W_FOOT * (10.0 if f is None else
+                                  f / 10.0 + max(f - TRACK_HINGE_DEG, 0.0) / 2.0)
     if summary.get("diverged"):
         terms["fall"] = W_FALL
     return float(sum(terms.values())), terms
@@ -272,15 +286,18 @@ _EVAL: dict = {}
 
 def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dict,
                    trips: tuple = (), stumble_reflex: bool = False,
-                   strategy_cost: float = 0.0, crossing: bool = False) -> None:
+                   strategy_cost: float = 0.0, crossing: bool = False,
+                   foot_angle: bool = False) -> None:
     """Worker set-up: what ``evaluate_walk`` simulates: a walk, and the obstacle trips
     ``trips`` ((swing fraction, speed) pairs) the walker must walk on from; GH2010
     candidates in ``gh2010_space(stumble_reflex=...)``; ``strategy_cost``: what a trip in
     a human window taken otherwise than humans take it costs (``trip_terms``);
-    ``crossing``: with the crossing step's gains."""
+    ``crossing``: with the crossing step's gains; ``foot_angle``: the objective's foot
+    term (``walk_cost``)."""
     _EVAL.update(kind=kind, duration_s=duration_s, speed=speed_m_per_s, base=base,
                  trips=tuple(trips), stumble_reflex=stumble_reflex,
-                 strategy_cost=float(strategy_cost), crossing=crossing)
+                 strategy_cost=float(strategy_cost), crossing=crossing,
+                 foot_angle=foot_angle)
 
 
 def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
@@ -304,7 +321,7 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
         r = simulate_walk("network", _EVAL["duration_s"], _EVAL["speed"], network=net)
     else:
         raise ValueError(kind)
-    cost, terms = walk_cost(r.summary, effort_of(r))
+    cost, terms = walk_cost(r.summary, effort_of(r), _EVAL.get("foot_angle", False))
     terms["walked_s"] = r.summary["walked_s"]
     terms["speed_m_per_s"] = r.summary["speed_m_per_s"]
     trips = _EVAL.get("trips") or ()
@@ -437,7 +454,7 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                wiring: str = "gh2010", trips: bool = False, start=None,
                start_fit: dict | None = None, scr_phase: str | None = None,
                ta_bound: str = "wide", strategy_cost: float = 0.0,
-               crossing: bool = False) -> FitResult:
+               crossing: bool = False, foot_angle: bool = False) -> FitResult:
     """Optimise the GH2010 gains in closed loop: per stage (generations, walk s, obstacle
     trips), CMA-ES on ``walk_cost`` plus, for each trip, ``W_TRIP`` times the part of the
     3 s after it not walked on. ``wiring`` ``gh2010`` starts from the paper's values
@@ -455,9 +472,9 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     window (``HUMAN_WINDOWS``) costs more when its strategy, read from the motion, is not
     the human one (``trip_terms``; 0, the default, leaves the objective as it was);
     ``crossing`` (trip stages): the crossing step after a touch (``CROSS_BOUNDS``) joins
-    the fit, its gains restarting at ``SCR_START`` where ``start`` has them at zero.
-    Writes ``gh2010.json`` to ``out`` (the best parameters and the fit's figures)
-    when given."""
+    the fit, its gains restarting at ``SCR_START`` where ``start`` has them at zero;
+    ``foot_angle``: the objective's foot term (``walk_cost``) in every stage. Writes
+    ``gh2010.json`` to ``out`` (the best parameters and the fit's figures) when given."""
     if strategy_cost < 0 or not math.isfinite(strategy_cost):
         raise ValueError(f"strategy_cost must be a finite number >= 0, got {strategy_cost}")
     if strategy_cost and not trips:
@@ -503,7 +520,7 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                       initializer=init_walk_eval,
                       initargs=("gh2010", walk_s, GH2010_SPEED_M_PER_S,
                                 fixed if with_trips else {"wiring": wiring}, trips,
-                                with_trips, strategy_cost, crossing),
+                                with_trips, strategy_cost, crossing, foot_angle),
                       first_generation=total, stage="walk" if not trips else "walk+trips",
                       fixed=fixed)
         params = replace(params, **dict(zip(space.names, map(float, res.best_theta),
@@ -534,18 +551,22 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                     "ta_bound": ta_bound,
                     "strategy_cost": strategy_cost,
                     "crossing": crossing,
+                    "foot_angle": foot_angle,
                     "command": _fit_command(wiring, with_trips, stages, scr_phase, seed,
-                                            ta_bound, strategy_cost, crossing)}})
+                                            ta_bound, strategy_cost, crossing,
+                                            foot_angle)}})
     return res
 
 
 def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: int,
                  ta_bound: str = "wide", strategy_cost: float = 0.0,
-                 crossing: bool = False) -> str:
+                 crossing: bool = False, foot_angle: bool = False) -> str:
     """The ``stumble reflex fit`` command of a GH2010 fit (``--params`` aside)."""
     opts = ["--trips"] if trips else []
     if ta_bound != "wide":
         opts.append(f"--ta-bound {ta_bound}")
+    if foot_angle:
+        opts.append("--foot-angle")
     if trips:
         named = [k for k, v in TRIP_SETS.items() if all(t == v for _g, _w, t in stages)]
         if named and named[0] != "four":
