@@ -244,6 +244,8 @@ class ReflexController:
         self.mv = mv
         self._in_at: dict[int, np.ndarray] = {}  # ``_gather_idx``'s, per ring slot
         self._mn_at: dict[int, np.ndarray] = {}
+        self._slots_at: dict[tuple[int, int], np.ndarray] = {}  # ``_slots``'
+        self._bal_at: dict[tuple[int, int], np.ndarray] = {}  # balance buffer rows
         self.k = 0  # ticks sensed so far
         self.h_done = 0  # interneuron ticks evaluated so far
         self.gto = GTOFilter(1.0 / t.rate_hz, 2 * nm)
@@ -263,8 +265,15 @@ class ReflexController:
         """Store rates (n, 2, n_signals) of ticks first, first+1, …"""
         n = len(rates)
         z = ((rates - self.net.mean) * self.inv_std).reshape(n, -1)
-        slots = (first + np.arange(n)) % self.n_buf
-        self.sig_buf.reshape(self.n_buf, -1)[slots] = z
+        self.sig_buf.reshape(self.n_buf, -1)[self._slots(first, n)] = z
+
+    def _slots(self, first: int, n: int) -> np.ndarray:
+        """Ring slots of ticks first … first+n−1 (kept per first slot and n)."""
+        key = (first % self.n_buf, n)
+        slots = self._slots_at.get(key)
+        if slots is None:
+            slots = self._slots_at[key] = (first + np.arange(n)) % self.n_buf
+        return slots
 
     def _gather_idx(self, cache: dict, lag: np.ndarray, row: int, off: np.ndarray,
                     first: int, n: int) -> np.ndarray:
@@ -284,14 +293,14 @@ class ReflexController:
         """Evaluate interneurons of ticks h_done … upto−1 (their inputs are sensed)."""
         if upto <= self.h_done:
             return
-        ticks = np.arange(self.h_done, upto)
+        n = upto - self.h_done
         idx = self._gather_idx(self._in_at, self.in_lag, self.sig_row, self.in_off,
-                               self.h_done, len(ticks))
+                               self.h_done, n)
         x = self.sig_buf.take(idx)  # (n, 2, n_inputs): the delayed standardised inputs
         if self.trace is not None:
             self.trace["inputs"].append(x)
         h = np.tanh(x @ self.w + self.b)  # (n, 2, S·H)
-        self.hid_buf.reshape(self.n_buf, -1)[ticks % self.n_buf] = h.reshape(len(ticks), -1)
+        self.hid_buf.reshape(self.n_buf, -1)[self._slots(self.h_done, n)] = h.reshape(n, -1)
         self.h_done = upto
 
     def _motor(self, first: int, n: int) -> np.ndarray:
@@ -334,12 +343,22 @@ class ReflexController:
         self._interneurons(k + self.a_min)
         self.exc_block = self._motor(k, nb)
         if self.balance is not None:
-            sensed = self.bal_buf[(k - self.balance.lag + self._nb_ticks) % len(self.bal_buf)]
+            sensed = self.bal_buf[self._bal_rows(k - self.balance.lag, nb)]
             if self.trace is not None:
                 self.trace["balance"].append((k, self.balance.drive(sensed)))
             self.exc_block[:, :, self.balance.cols] += self.balance.drive_cols(sensed)
         self.ctrl_block = np.minimum(np.maximum(self.exc_block.reshape(nb, -1), 0.01), 1.0)
         self.block_start = k
+
+    def _bal_rows(self, first: int, n: int) -> np.ndarray:
+        """Rows of the balance's ring buffer of ticks first … first+n−1 (kept per first
+        row and n)."""
+        size = len(self.bal_buf)
+        key = (first % size, n)
+        rows = self._bal_at.get(key)
+        if rows is None:
+            rows = self._bal_at[key] = (first + self._nb_ticks[:n]) % size
+        return rows
 
     # ---- Controller protocol ---------------------------------------------------------
     def start(self, ctx: Context) -> None:
@@ -390,8 +409,7 @@ class ReflexController:
         if self.contact:
             self.loads[:n] = -g[:, self._n_mus3:]
         if self.balance is not None:
-            idx = (k0 + self._nb_ticks[:n]) % len(self.bal_buf)
-            self.bal_buf[idx] = self.balance.sense(ticks, self.lay)
+            self.bal_buf[self._bal_rows(k0, n)] = self.balance.sense(ticks, self.lay)
         self.k = k0 + n
 
     def state(self) -> str:

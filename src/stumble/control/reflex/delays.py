@@ -30,6 +30,10 @@ class DelayTaps:
         self.size = int(self.lags.max()) + self.block + 1
         self.buf = np.zeros((self.size, channels))
         self.k = 0
+        # per (ring slot, ticks): the rows ``push`` writes, the flat indices ``read``
+        # gathers (the same few recur; pure index arithmetic, the values are unchanged)
+        self._push_at: dict[tuple[int, int], np.ndarray] = {}
+        self._read_at: dict[tuple[int, int], np.ndarray] = {}
 
     def fill(self, values: np.ndarray) -> None:
         """A constant history: every past tick sensed ``values``."""
@@ -38,15 +42,23 @@ class DelayTaps:
     def push(self, rows: np.ndarray) -> None:
         """Store the channels (n, channels) of the next n ticks."""
         n = len(rows)
-        self.buf[(self.k + np.arange(n)) % self.size] = rows
+        key = (self.k % self.size, n)
+        slots = self._push_at.get(key)
+        if slots is None:
+            slots = self._push_at[key] = (self.k + np.arange(n)) % self.size
+        self.buf[slots] = rows
         self.k += n
 
     def read(self, n: int) -> np.ndarray:
         """(n, taps): each tap's channel at its lag before each of the next n ticks."""
         if n > self.block:
             raise ValueError(f"{n} ticks ahead is more than the shortest lag ({self.block})")
-        ticks = self.k + np.arange(n)[:, None] - self.lags[None, :]
-        return self.buf[ticks % self.size, self.cols]
+        key = (self.k % self.size, n)
+        idx = self._read_at.get(key)
+        if idx is None:
+            ticks = self.k + np.arange(n)[:, None] - self.lags[None, :]
+            idx = self._read_at[key] = (ticks % self.size) * self.buf.shape[1] + self.cols
+        return self.buf.take(idx)
 
 
 class DelayLine(DelayTaps):

@@ -330,6 +330,9 @@ class GH2010Controller:
         self.weight_n = float(m.body_mass.sum()) * 9.81
         self.act_ids = np.array([m.actuator(g.name).id for g in geos])
         self.act_adr = m.actuator_actadr[self.act_ids]
+        lo = int(self.act_ids[0])  # contiguous actuators (as built): written through a slice
+        self._act_cols = (slice(lo, lo + self.act_ids.size) if np.array_equal(
+            self.act_ids, np.arange(lo, lo + self.act_ids.size)) else self.act_ids)
         self._channel_map()
         self._build_taps(m.opt.timestep)
         self._w_stance, self._w_swing = self._law_matrices()
@@ -401,25 +404,35 @@ class GH2010Controller:
             tap(("x_touch", leg), c_x + leg, ticks(p.scr_latency_s))
         tap("lean", c_lean, vest)
         tap("lean_v", c_lean_v, vest)
-        self.at = at
-        self.delay = DelayTaps(c_lean + 1, taps)
-        # gathers for the block's features
-        g = lambda keys: np.array([at[k] for k in keys])  # noqa: E731
-        self._iF = g([("F", leg, j) for leg in range(2) for j in range(nm)])
-        self._iL = g([("L", leg, j) for leg in range(2) for j in range(nm)])
-        self._iGate = g([("gate", leg, j) for leg in range(2) for j in range(nm)])
-        self._iSolTa = g([("F_sol_ta", leg) for leg in range(2)])
-        self._iHamFlex = (g([("L_ham_flex", leg) for leg in range(2)])
-                          if ham_flex is not None else None)
-        self._iKnee = g([("knee", leg) for leg in range(2)])
-        self._iKneeV = g([("knee_v", leg) for leg in range(2)])
-        self._iVestLoad = g([("vest_load", leg) for leg in range(2)])
-        self._iVestX = g([("vest_x", leg) for leg in range(2)])
-        self._iDs = ((g([("ds_load", leg) for leg in range(2)]),
-                      g([("ds_x", leg) for leg in range(2)])) if ds is not None else None)
+        # the taps in the order the laws read them, each group contiguous, so that a
+        # block's reads are slices of one gather (``_excitations``; a tap read by two
+        # groups, as seed003's flexor stretch, is read twice); the others after them
+        flex = ix[self.flexor]
+        pair = lambda name: [(name, leg) for leg in range(2)]  # noqa: E731
+        groups = {
+            "phi": [k for leg in range(2) for k in (
+                *[("F", leg, ix[mus]) for mus in ("SOL", "GAS", "VAS", "GLU", "HAMS")],
+                ("L", leg, ix["TA"]), ("L", leg, flex),
+                ("L_ham_flex", leg) if ham_flex is not None else ("L", leg, flex),
+                ("knee", leg), ("F_sol_ta", leg))],
+            "gate": [("gate", leg, j) for leg in range(2) for j in range(nm)],
+            "knee_v": pair("knee_v"),
+            "ds_load": pair("ds_load") if ds is not None else [],
+            "ds_x": pair("ds_x") if ds is not None else [],
+            "vest_load": pair("vest_load"), "vest_x": pair("vest_x"),
+            "touch": pair("touch"), "x_touch": pair("x_touch"), "lean": ["lean", "lean_v"]}
+        order, self._sl = [], {}
+        for name, keys in groups.items():
+            self._sl[name] = slice(len(order), len(order) + len(keys))
+            order += [at[k] for k in keys]
+        order += [i for i in range(len(taps)) if i not in set(order)]
+        first: dict[int, int] = {}
+        for new, old in enumerate(order):
+            first.setdefault(old, new)
+        self.at = at = {k: first[i] for k, i in at.items()}
+        self.delay = DelayTaps(c_lean + 1, [taps[i] for i in order])
+        self._has_ds = ds is not None
         self._iLean, self._iLeanV = at["lean"], at["lean_v"]
-        self._iTouch = g([("touch", leg) for leg in range(2)])
-        self._iXTouch = g([("x_touch", leg) for leg in range(2)])
         self._touched = np.zeros(2, bool)  # each foot touched at the last tick
         self._ahead = np.zeros(2, bool)  # it was ahead of the other at its last onset
         # (a model without an obstacle is never touched: nothing to add)
@@ -459,11 +472,8 @@ class GH2010Controller:
         self._f_cols = [ix[k] for k in ("GAS", "VAS", "GLU", "HAMS")]
         self._l_cols = [ix["TA"], ix[self.flexor]]
         self._l_offs = np.array([p.l_off_ta, p.l_off_hfl])
-        self._ext = np.zeros(nm)
-        self._ext[[ix["GLU"], ix["HAMS"]]] = 1.0
-        self._flex = np.zeros(nm)
-        self._flex[ix[self.flexor]] = 1.0
-        self._ds = self._flex - self._ext * (np.arange(nm) == ix["GLU"])
+        # the trunk-lean laws reach the hip extensors (GLU, HAMS) and the flexor only
+        self._i_glu, self._i_hams, self._i_flex = ix["GLU"], ix["HAMS"], ix[self.flexor]
 
     def _channel_map(self) -> None:
         """One gather and one affine map from a sensor row to the channels: F (F_max),
@@ -485,7 +495,9 @@ class GH2010Controller:
 
     def _channels(self, rows: np.ndarray) -> np.ndarray:
         """(n, channels) sensed signals from sensor rows (n, nsensordata)."""
-        v = rows[:, self._gather] * self._scale + self._offset
+        v = rows[:, self._gather]
+        v *= self._scale
+        v += self._offset
         v[:, -2] = np.arctan2(v[:, -2], v[:, -1])  # forward lean
         return v[:, :-1]
 
@@ -534,50 +546,53 @@ class GH2010Controller:
 
     def _feature_map(self) -> None:
         """The gather, sign, offset and floor that turn the taps into the features."""
-        p, ix, at = self.p, self.idx, self.at
-        cols = []
-        for leg in range(2):
-            ham = (at[("L_ham_flex", leg)] if ("L_ham_flex", leg) in at
-                   else at[("L", leg, ix[self.flexor])])  # (a zero weight then)
-            cols.append([at[("F", leg, ix[m])] for m in ("SOL", "GAS", "VAS", "GLU", "HAMS")]
-                        + [at[("L", leg, ix["TA"])], at[("L", leg, ix[self.flexor])], ham,
-                           at[("knee", leg)], at[("F_sol_ta", leg)]])
-        self._phi_idx = np.array(cols)  # (2, 10)
+        p = self.p
+        # the features' taps are the layout's first 20 (``_build_taps``: per leg, F of
+        # SOL, GAS, VAS, GLU, HAMS, L of TA, the flexor, HAMS onto the flexor (seed003:
+        # the flexor's, a zero weight), the knee, SOL's F onto TA)
         self._phi_sign = np.array([1.0] * 8 + [-1.0, 1.0])
         self._phi_off = np.array([0.0] * 5 + [p.l_off_ta, p.l_off_hfl, p.l_off_ham,
                                               -p.phi_off, 0.0])
         self._phi_low = np.array([-np.inf] * 5 + [0.0] * 4 + [-np.inf])
         self._w_st, self._b_st = self._w_stance[:-1], self._w_stance[-1]
         self._w_sw, self._b_sw = self._w_swing[:-1], self._w_swing[-1]
-        if self._iDs is None:  # no double-support feature in the reflex part
+        if not self._has_ds:  # no double-support feature in the reflex part
             self._w_st, self._w_sw = self._w_st[:-1], self._w_sw[:-1]
+        self._n_feat = len(self._w_st)
+        self._all_gated = bool(self.gated.all())
 
     def _excitations(self, x: np.ndarray) -> np.ndarray:
         """Excitations (n, 2·nm) of both legs from the block's taps (n, taps)."""
-        p, n, nm = self.p, len(x), self.nm
-        v = np.maximum(x[:, self._phi_idx] * self._phi_sign - self._phi_off, self._phi_low)
-        v[..., 8] *= x[:, self._iKneeV] < 0.0  # the knee stop acts while it extends
-        if self._iDs is not None:
-            load, fx = x[:, self._iDs[0]], x[:, self._iDs[1]]
+        p, n, nm, sl = self.p, len(x), self.nm, self._sl
+        t = x[:, sl["phi"]].reshape(n, 2, 10) * self._phi_sign
+        t -= self._phi_off
+        v = np.empty((n, 2, self._n_feat))
+        np.maximum(t, self._phi_low, out=v[..., :10])
+        v[..., 8] *= x[:, sl["knee_v"]] < 0.0  # the knee stop acts while it extends
+        if self._has_ds:
+            load, fx = x[:, sl["ds_load"]], x[:, sl["ds_x"]]
             on = load > p.stance_load
-            ds = load[:, ::-1] * (on & on[:, ::-1] & (fx < fx[:, ::-1]))
-            v = np.concatenate([v, ds[:, :, None]], axis=2)
-        stance = (x[:, self._iGate].reshape(n, 2, nm) > p.stance_load) | self._ungated
+            np.multiply(load[:, ::-1], on & on[:, ::-1] & (fx < fx[:, ::-1]), out=v[..., 10])
+        stance = x[:, sl["gate"]].reshape(n, 2, nm) > p.stance_load
+        if not self._all_gated:
+            stance |= self._ungated
         u = np.where(stance, v @ self._w_st + self._b_st, v @ self._w_sw + self._b_sw)
-        u = u.reshape(n, 2 * nm)
         if self.lean_free is not None:  # the laws without the trunk-lean terms (labels)
-            self.lean_free = np.clip(u, PRE_ACTIVATION, 1.0)
-        u += self._vestibular(x).reshape(n, 2 * nm)
+            self.lean_free = np.clip(u.reshape(n, 2 * nm), PRE_ACTIVATION, 1.0)
+        self._add_vestibular(x, u)
+        u = u.reshape(n, 2 * nm)
         if self._scr:
             u += self._stumble(x).reshape(n, 2 * nm)
-        return np.clip(u, PRE_ACTIVATION, 1.0, out=u)
+        np.maximum(u, PRE_ACTIVATION, out=u)  # np.clip's bounds, without its wrapper
+        return np.minimum(u, 1.0, out=u)
 
     def _stumble(self, x: np.ndarray) -> np.ndarray:
         """The stumbling corrective reflex (n, 2, nm): for ``scr_hold_s`` after each
         sensed touch of a foot (``SCR_GAINS``), the knee extensor from
         ``scr_vas_after_s`` after it for as long; the tripped leg's flexion or extension
         set by where its foot was (``scr_phase`` foot) or both (any)."""
-        touched = x[:, self._iTouch] > 0.0  # (n, 2)
+        sl = self._sl
+        touched = x[:, sl["touch"]] > 0.0  # (n, 2)
         n = len(x)
         k = np.arange(n)[:, None]
         last = np.where(touched, k, -1)
@@ -592,7 +607,7 @@ class GH2010Controller:
         if self._scr_by_foot:  # where each foot was at its touch's onset, held
             onset = np.where(starts, k, -1)
             first = np.maximum.accumulate(onset, axis=0)
-            fx = x[:, self._iXTouch]
+            fx = x[:, sl["x_touch"]]
             now = fx - fx[:, ::-1] > self.p.scr_ahead_m  # (n, 2): ahead of the other
             ahead = np.where(first >= 0, np.take_along_axis(now, np.maximum(first, 0), axis=0),
                              self._ahead)
@@ -603,9 +618,9 @@ class GH2010Controller:
             now_on = np.einsum("nt,tlm->nlm", on, self._w_scr)
         out = now_on + np.einsum("nt,tlm->nlm", late, self._w_scr_vas)
         if self._cross:
-            out += self._crossing(touched, starts, x[:, self._iXTouch],
-                                  x[:, self._iVestLoad] > self.p.stance_load,
-                                  x[:, self._iVestX])
+            out += self._crossing(touched, starts, x[:, sl["x_touch"]],
+                                  x[:, sl["vest_load"]] > self.p.stance_load,
+                                  x[:, sl["vest_x"]])
         return out
 
     def _crossing(self, touched: np.ndarray, starts: np.ndarray, x_touch: np.ndarray,
@@ -633,32 +648,37 @@ class GH2010Controller:
         self._was_on = was.copy()
         return on[:, :, None] * self._w_cross
 
-    def _vestibular(self, x: np.ndarray) -> np.ndarray:
-        """The trunk-lean laws (n, 2, nm): stance hips k_p(θ − θ_ref) + k_d θ̇ rectified,
-        in proportion to each leg's share of the load; the swing flexor k_lean(θ − θ_ref)
-        on a leg below the stance load (``controller.TrunkBalance``, rectified)."""
+    def _add_vestibular(self, x: np.ndarray, u: np.ndarray) -> None:
+        """Add the trunk-lean laws to ``u`` (n, 2, nm): stance hips k_p(θ − θ_ref) + k_d θ̇
+        rectified (extensors [g]+, the flexor [−g]+), in proportion to each leg's share of
+        the load; the swing flexor k_lean(θ − θ_ref) on a leg below the stance load
+        (``controller.TrunkBalance``, rectified). Only these three muscles get a term."""
         p = self.p
         lean = x[:, self._iLean] - p.lean_ref
-        g = (p.kp_trunk * lean + p.kd_trunk * x[:, self._iLeanV])[:, None, None]
-        load = x[:, self._iVestLoad]
+        g = p.kp_trunk * lean + p.kd_trunk * x[:, self._iLeanV]
+        load = x[:, self._sl["vest_load"]]
         total = load.sum(axis=1, keepdims=True)
         share = np.where(total > 0.0, load / np.where(total > 0.0, total, 1.0), 0.5)
-        out = (np.maximum(g, 0.0) * self._ext + np.maximum(-g, 0.0) * self._flex)
-        out = out * share[:, :, None]
-        swing = (load < p.stance_load)[:, :, None]
-        out = out + swing * (p.k_lean * lean)[:, None, None] * self._flex
+        ext = np.maximum(g, 0.0)[:, None] * share  # (n, 2)
+        swing = load < p.stance_load
+        flex = np.maximum(-g, 0.0)[:, None] * share + swing * (p.k_lean * lean)[:, None]
+        glu = ext
         if self.wiring == "seed003":  # double support through the addition's senses
-            on, x = ~swing[:, :, 0], x[:, self._iVestX]
-            rear = on & on[:, ::-1] & (x < x[:, ::-1])
-            out = out + (p.k_bw * load[:, ::-1] * rear)[:, :, None] * self._ds
-        return out
+            on, xf = ~swing, x[:, self._sl["vest_x"]]
+            rear = on & on[:, ::-1] & (xf < xf[:, ::-1])
+            bw = p.k_bw * load[:, ::-1] * rear
+            glu = ext + bw * -1.0
+            flex = flex + bw
+        u[:, :, self._i_glu] += glu
+        u[:, :, self._i_hams] += ext
+        u[:, :, self._i_flex] += flex
 
     # ---- Controller protocol -----------------------------------------------------------
     def update(self, ctx: Context) -> np.ndarray:
         """The next block's excitations, from what its shortest path has sensed."""
         u = self._excitations(self.delay.read(self.period_steps))
         self.plan[:] = ctx.data.ctrl
-        self.plan[:, self.act_ids] = u
+        self.plan[:, self._act_cols] = u
         return self.plan
 
     def observe(self, rows: np.ndarray) -> None:
