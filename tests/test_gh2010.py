@@ -191,6 +191,30 @@ def test_stumble_reflex_excites_the_tripped_legs_flexors_and_the_support_legs_pu
     np.testing.assert_allclose(_laws(paper, *args, touch=(0.0, 1.0)), _laws(paper, *args))
 
 
+def test_load_from_any_counts_a_foot_at_rest_on_the_obstacle_as_loaded():
+    """``load_from`` any: the obstacle's vertical force on a foot joins the floor's in
+    that leg's load (body weights), so that a foot on the box is in stance; ``floor``
+    (the default, the shipped fits') reads the floor alone; a bad value is refused."""
+    from stumble.body.sensors import layout
+    from stumble.errors import InputError
+
+    body, m, d = _obstacle_body()
+    lay = layout(m, [])
+    loads = {}
+    for src in ("floor", "any"):
+        c = GH2010Controller(GH2010Params(load_from=src))
+        c.start(Context(m, d, body, Sensors(), 0.0))
+        row = np.zeros((1, m.nsensordata))
+        row[0, lay.foot_force[0, 2]] = -0.3 * c.weight_n  # right foot: 0.3 on the floor
+        row[0, lay.obstacle_force[1, 2]] = -0.7 * c.weight_n  # left foot: 0.7 on the box
+        ch = c._channels(row)[0]
+        loads[src] = ch[c._c_load:c._c_load + 2]
+    np.testing.assert_allclose(loads["floor"], [0.3, 0.0], atol=1e-12)
+    np.testing.assert_allclose(loads["any"], [0.3, 0.7], atol=1e-12)
+    with pytest.raises(InputError, match="load_from 'box' is not one of floor, any"):
+        GH2010Params.from_json({"load_from": "box"})
+
+
 def test_stumble_reflex_by_foot_phase_reverses_with_where_the_foot_was():
     """``scr_phase`` foot: a touch with the tripped foot behind the other gives the
     flexion set (HAMS, TA, HFL); ahead of it, the extension set (RF, SOL: Eng et al.

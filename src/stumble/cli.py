@@ -258,6 +258,11 @@ def _parser() -> argparse.ArgumentParser:
                    help="gh2010 --trips: fit the crossing step after a touch too (each "
                    "leg's next step after the foot's obstacle touch, launched when the "
                    "other foot lands, with extra hip flexor, HAMS, TA and GAS drive)")
+    f.add_argument("--load-from", choices=("floor", "any"), default=None,
+                   help="gh2010 --trips: a leg's load, which switches it to stance: the "
+                   "floor's force on its foot (floor, the shipped fits') or the floor's "
+                   "and the obstacle's (any: a foot at rest on the box carries the body); "
+                   "default: the starting fit's")
     f.add_argument("--foot-angle", action="store_true",
                    help="gh2010: the objective also tracks each foot's angle to the floor "
                    "against the recorded stride's (as a joint: RMSE/10 deg + its excess "
@@ -611,7 +616,8 @@ def cmd_reflex_fit_gh2010(args) -> int:
     for flag, given in (("--params", args.params), ("--trip-set", args.trip_set),
                         ("--scr-phase", args.scr_phase),
                         ("--strategy-cost", args.strategy_cost),
-                        ("--crossing", args.crossing or None)):
+                        ("--crossing", args.crossing or None),
+                        ("--load-from", args.load_from)):
         if given is not None and not args.trips:
             raise InputError(f"{flag} is for --trips (the trip stage)")
     start = start_fit = None
@@ -653,7 +659,8 @@ def cmd_reflex_fit_gh2010(args) -> int:
                      wiring=args.wiring, trips=args.trips, start=start,
                      start_fit=start_fit, scr_phase=args.scr_phase,
                      ta_bound=args.ta_bound, strategy_cost=strategy_cost,
-                     crossing=args.crossing, foot_angle=args.foot_angle)
+                     crossing=args.crossing, foot_angle=args.foot_angle,
+                     load_from=args.load_from)
     bar.done()
     written, walk = write_gh2010_fit(out, res)
     s = walk.summary
@@ -671,10 +678,10 @@ def cmd_reflex(args) -> int:
         return cmd_reflex_fit_gh2010(args)
     if (args.trips or args.params is not None or args.trip_set or args.scr_phase
             or args.ta_bound != "wide" or args.strategy_cost is not None or args.crossing
-            or args.foot_angle):
+            or args.foot_angle or args.load_from is not None):
         raise InputError("--trips, --params, --trip-set, --scr-phase, --strategy-cost, "
-                         "--crossing, --foot-angle and --ta-bound are for --controller "
-                         "gh2010")
+                         "--crossing, --load-from, --foot-angle and --ta-bound are for "
+                         "--controller gh2010")
     from stumble.control.reflex.identify import ITERATIONS, REFINE_ITERATIONS, fit
     from stumble.outputs import prepare_dir, write_fit
 

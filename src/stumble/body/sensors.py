@@ -6,7 +6,8 @@ is a sensor, so no Python runs per step:
 
 - per foot: the net ground force on the foot and toes (contact sensor, ``netforce``
   reduction, world frame) and its point of application (the centre of pressure); the
-  number of foot-obstacle contacts; the foot body's position; four sole corners (heel
+  number of foot-obstacle contacts and the obstacle's net force on the foot; the foot
+  body's position; four sole corners (heel
   and toe tip, both edges: the sole's bounding box);
 - the number of floor contacts of any other segment (all floor contacts minus the
   feet's: a fall);
@@ -42,6 +43,7 @@ class SensorLayout:
     foot_cop: np.ndarray  # (2, 3) its point of application, m
     floor_found: int  # number of floor contacts of any geom
     obstacle_found: np.ndarray | None  # (2,) foot-obstacle contacts (None: no obstacle)
+    obstacle_force: np.ndarray | None  # (2, 3) net obstacle force on each foot, world, N
     com: np.ndarray  # (3,)
     com_vel: np.ndarray  # (3,)
     pelvis: np.ndarray  # (3,)
@@ -96,8 +98,8 @@ def add_sensors(spec: mujoco.MjSpec, foot_points: dict[str, list[str]],
     contact("floor_all", "found", 0, first=(Ob.mjOBJ_GEOM, "floor"))
     if obstacle:
         for side in SIDES:
-            contact(f"obstacle_{side}", "found", 0, first=(Ob.mjOBJ_XBODY, f"foot_{side}"),
-                    second=(Ob.mjOBJ_GEOM, "obstacle"))
+            contact(f"obstacle_{side}", "found force", 3,  # 3: netforce reduction
+                    first=(Ob.mjOBJ_XBODY, f"foot_{side}"), second=(Ob.mjOBJ_GEOM, "obstacle"))
     add("com", S.mjSENS_SUBTREECOM, Ob.mjOBJ_BODY, "pelvis")
     add("com_vel", S.mjSENS_SUBTREELINVEL, Ob.mjOBJ_BODY, "pelvis")
     add("pelvis", S.mjSENS_FRAMEPOS, Ob.mjOBJ_XBODY, "pelvis")
@@ -135,6 +137,8 @@ def layout(model: mujoco.MjModel, muscles: list[str]) -> SensorLayout:
         foot_cop=np.array([f[4:7] for f in floor]),
         floor_found=int(at("floor_all")[0]),
         obstacle_found=(np.array([at(f"obstacle_{s}")[0] for s in SIDES])
+                        if has_obstacle else None),
+        obstacle_force=(np.array([at(f"obstacle_{s}")[1:4] for s in SIDES])
                         if has_obstacle else None),
         com=at("com"), com_vel=at("com_vel"), pelvis=at("pelvis"), torso_z=at("torso_z"),
         torso_angvel=at("torso_angvel"),

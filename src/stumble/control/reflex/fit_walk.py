@@ -454,7 +454,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                wiring: str = "gh2010", trips: bool = False, start=None,
                start_fit: dict | None = None, scr_phase: str | None = None,
                ta_bound: str = "wide", strategy_cost: float = 0.0,
-               crossing: bool = False, foot_angle: bool = False) -> FitResult:
+               crossing: bool = False, foot_angle: bool = False,
+               load_from: str | None = None) -> FitResult:
     """Optimise the GH2010 gains in closed loop: per stage (generations, walk s, obstacle
     trips), CMA-ES on ``walk_cost`` plus, for each trip, ``W_TRIP`` times the part of the
     3 s after it not walked on. ``wiring`` ``gh2010`` starts from the paper's values
@@ -473,7 +474,9 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     the human one (``trip_terms``; 0, the default, leaves the objective as it was);
     ``crossing`` (trip stages): the crossing step after a touch (``CROSS_BOUNDS``) joins
     the fit, its gains restarting at ``SCR_START`` where ``start`` has them at zero;
-    ``foot_angle``: the objective's foot term (``walk_cost``) in every stage. Writes
+    ``foot_angle``: the objective's foot term (``walk_cost``) in every stage;
+    ``load_from`` (trip stages): what a leg's load is (``GH2010Params.load_from``;
+    default ``start``'s). Writes
     ``gh2010.json`` to ``out`` (the best parameters and the fit's figures) when given."""
     if strategy_cost < 0 or not math.isfinite(strategy_cost):
         raise ValueError(f"strategy_cost must be a finite number >= 0, got {strategy_cost}")
@@ -481,6 +484,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
         raise ValueError("strategy_cost is for the trip stage (trips=True)")
     if crossing and not trips:
         raise ValueError("crossing is for the trip stage (trips=True)")
+    if load_from is not None and not trips:
+        raise ValueError("load_from is for the trip stage (trips=True)")
     from dataclasses import replace
 
     from stumble.control.reflex.gh2010 import (
@@ -494,6 +499,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
         params = start or shipped_params("gh2010", walking_only=True)
         if scr_phase is not None:
             params = replace(params, scr_phase=scr_phase)
+        if load_from is not None:
+            params = replace(params, load_from=load_from)
         params = replace(params, **{n: getattr(params, n) or SCR_START for n in SCR_GAINS
                                     if params.scr_phase == "foot" or n not in SCR_EXTENSION})
         if crossing:
@@ -552,15 +559,17 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                     "strategy_cost": strategy_cost,
                     "crossing": crossing,
                     "foot_angle": foot_angle,
+                    "load_from": params.load_from,
                     "command": _fit_command(wiring, with_trips, stages, scr_phase, seed,
                                             ta_bound, strategy_cost, crossing,
-                                            foot_angle)}})
+                                            foot_angle, load_from)}})
     return res
 
 
 def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: int,
                  ta_bound: str = "wide", strategy_cost: float = 0.0,
-                 crossing: bool = False, foot_angle: bool = False) -> str:
+                 crossing: bool = False, foot_angle: bool = False,
+                 load_from: str | None = None) -> str:
     """The ``stumble reflex fit`` command of a GH2010 fit (``--params`` aside)."""
     opts = ["--trips"] if trips else []
     if ta_bound != "wide":
@@ -577,6 +586,8 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
             opts.append(f"--strategy-cost {strategy_cost:g}")
         if crossing:
             opts.append("--crossing")
+        if load_from is not None:
+            opts.append(f"--load-from {load_from}")
     default = (TRIP_STAGES if trips else GH2010_STAGES if wiring == "gh2010"
                else SEED003_STAGES)
     total = sum(g for g, _w, _t in stages)

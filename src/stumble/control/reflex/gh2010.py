@@ -98,6 +98,14 @@ SCR_PHASES = ("any", "foot")
 # a lowering both do, the other leg first. No strategy is chosen: whichever foot lands
 # first launches the other's step.
 CROSS_GAINS = ("g_cross_flex", "g_cross_ham", "g_cross_ta", "g_cross_gas")
+# What a leg's load is (``load_from``; our choice, a parameter): ``floor``, the floor's
+# force on the foot alone (the paper's ground contact, and every shipped fit's), or
+# ``any``, the floor's and the obstacle's: a person feels weight on the sole whatever it
+# stands on (plantar mechanoreceptors, the extensors' tendon organs), and a foot that
+# comes to rest on the box after a trip carries the body (up to 1.4 body weights, 0.65
+# of swing at 1.2 m/s) while a floor-only load leaves that leg in swing, its stance
+# reflexes off, so that the leg folds under the body.
+LOAD_SOURCES = ("floor", "any")
 # optimised parameters shipped in stumble/control/reflex/data/, per wiring
 SHIPPED = {"gh2010": "gh2010.json", "seed003": "gh2010_seed003.json"}
 # the walking fit the shipped GH2010 trip fit started from (``--params walk``)
@@ -173,11 +181,13 @@ class GH2010Params:
     cross_ahead_m: float = 0.3
     delay_scale: float = 1.0  # every delay multiplied by this
     wiring: str = "gh2010"  # "gh2010" or "seed003" (see GH2010Controller)
+    load_from: str = "floor"  # "floor" or "any" (``LOAD_SOURCES``)
 
     def free(self) -> list[str]:
         """Names of the gains a closed-loop fit may change (not the delays, the wiring)."""
         return [f.name for f in fields(self)
-                if f.name not in ("delay_scale", "wiring", "scr_latency_s", "scr_phase")]
+                if f.name not in ("delay_scale", "wiring", "scr_latency_s", "scr_phase",
+                                  "load_from")]
 
     @property
     def stumble_reflex(self) -> bool:
@@ -211,8 +221,9 @@ class GH2010Params:
             raise InputError(f"unknown GH2010 parameter(s): {', '.join(bad)}")
         vals = {}
         for k, v in obj.items():
-            if k in ("wiring", "scr_phase"):
-                allowed = WIRINGS if k == "wiring" else SCR_PHASES
+            if k in ("wiring", "scr_phase", "load_from"):
+                allowed = {"wiring": WIRINGS, "scr_phase": SCR_PHASES,
+                           "load_from": LOAD_SOURCES}[k]
                 if v not in allowed:
                     raise InputError(f"GH2010 {k} {v!r} is not one of {', '.join(allowed)}")
                 vals[k] = v
@@ -306,6 +317,9 @@ class GH2010Controller:
         if self.p.scr_phase not in SCR_PHASES:
             raise InputError(f"GH2010 scr_phase {self.p.scr_phase!r} is not one of "
                              f"{', '.join(SCR_PHASES)}")
+        if self.p.load_from not in LOAD_SOURCES:
+            raise InputError(f"GH2010 load_from {self.p.load_from!r} is not one of "
+                             f"{', '.join(LOAD_SOURCES)}")
         self.lean_free: np.ndarray | None = None  # set to anything to also get the laws'
         # output without their trunk-lean terms after each update
         self.log: list[tuple[str, float]] = []
@@ -492,12 +506,18 @@ class GH2010Controller:
                                       [0.0 if touch is None else 1.0] * 2, [1.0] * 3])
         self._offset = np.concatenate([np.zeros(nm2), 1.0 - self.l_ref / self.l0,
                                        np.zeros(13)])
+        # ``load_from`` any: the obstacle's vertical force joins the floor's in the load
+        self._ob_load = (lay.obstacle_force[:, 2].astype(int) if self.p.load_from == "any"
+                         and lay.obstacle_force is not None else None)
+        self._c_load = 2 * nm2 + 4
 
     def _channels(self, rows: np.ndarray) -> np.ndarray:
         """(n, channels) sensed signals from sensor rows (n, nsensordata)."""
         v = rows[:, self._gather]
         v *= self._scale
         v += self._offset
+        if self._ob_load is not None:
+            v[:, self._c_load:self._c_load + 2] -= rows[:, self._ob_load] / self.weight_n
         v[:, -2] = np.arctan2(v[:, -2], v[:, -1])  # forward lean
         return v[:, :-1]
 
