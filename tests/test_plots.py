@@ -43,6 +43,16 @@ def test_full_plot_is_a_png_of_expected_size(tmp_path):
     assert img[..., :3].std() > 0.01  # something was drawn
 
 
+def test_foot_angles_add_a_fourth_panel(tmp_path):
+    pct, angles = _curves()
+    feet = {**angles, "foot_angle_r": 20 * np.sin(np.linspace(0, 6.3, 101))}
+    img = _read_png(plot_joint_angles(tmp_path / "feet.png", pct, feet,
+                                      reference_deg={"foot_angle_l": feet["foot_angle_r"]}))
+    assert img.shape[:2] == (1600, 900)  # 10 in x 6 in: four panels of the same height
+    # the fourth panel (below the first 1200 rows' worth of three) has curves drawn
+    assert img[1250:1500, 100:850, :3].std() > 0.05
+
+
 def test_missing_keys_are_skipped(tmp_path):
     pct, angles = _curves(51)
     only = {"hip_flexion_r": angles["hip_flexion_r"], "knee_angle_l": angles["knee_angle_l"]}

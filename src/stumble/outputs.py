@@ -316,7 +316,7 @@ def write_reflex_walk(out: Path, result, video: bool, progress: bool) -> list[st
     """The files of ``stumble reflex walk``: motion.csv and events.json (as ``stumble
     walk`` writes them), summary.json, joint_angles.png (the simulated strides, mean ±
     SD, over the recorded stride) and walk.mp4."""
-    from stumble.analysis import CYCLE_POINTS, SIDES, WALK_JOINTS, stride_curves
+    from stumble.analysis import CYCLE_POINTS, SIDES, WALK_JOINTS, foot_angles, stride_curves
     from stumble.cli import write_motion_csv
     from stumble.viz.plots import plot_joint_angles
 
@@ -332,6 +332,8 @@ def write_reflex_walk(out: Path, result, video: bool, progress: bool) -> list[st
     rec, m = result.recording, result.body.model
     names = [f"{j}_{side}" for j in WALK_JOINTS for side in SIDES]
     angles = {n: rec.qpos[:, m.jnt_qposadr[m.joint(n).id]] for n in names}
+    if result.body.planar:
+        angles.update(foot_angles(rec.qpos, m))
     curves = stride_curves(rec.time_s, angles, pb.events.heel_strike_s["r"])
     pct = np.linspace(0.0, 100.0, CYCLE_POINTS)
     have = s["strides"] > 0
@@ -341,7 +343,9 @@ def write_reflex_walk(out: Path, result, video: bool, progress: bool) -> list[st
     rm = s["rmse_deg"]
     title = (f"{s['controller']}: {s['strides']} strides, {s['speed_m_per_s']:.2f} m/s, "
              f"stance {s['stance_fraction'] or 0:.2f}\nRMSE hip {rm.get('hip_flexion', 0):.1f}°"
-             f" knee {rm.get('knee_angle', 0):.1f}° ankle {rm.get('ankle_angle', 0):.1f}°")
+             f" knee {rm.get('knee_angle', 0):.1f}° ankle {rm.get('ankle_angle', 0):.1f}°"
+             + (f" foot {s['foot_angle_rmse_deg']:.1f}°"
+                if s.get("foot_angle_rmse_deg") is not None else ""))
     plot_joint_angles(out / "joint_angles.png", pct, mean, title=title, spread_deg=sd,
                       reference_deg=ref)
     written = ["motion.csv", "events.json", "summary.json", "joint_angles.png",

@@ -26,6 +26,8 @@ _PANELS: tuple[tuple[str, str], ...] = (
     ("knee_angle", "knee angle (flexion −) [deg]"),
     ("ankle_angle", "ankle dorsiflexion (+) [deg]"),
 )
+# a fourth panel when the curves include it (the planar walks: ``analysis.foot_angles``)
+_FOOT_PANEL = ("foot_angle", "foot to floor, toe up (+) [deg]")
 _SIDES: tuple[tuple[str, str, str, str], ...] = (
     # suffix, legend name, colour, line style
     ("r", "right", "tab:blue", "-"),
@@ -76,7 +78,9 @@ def plot_joint_angles(
     hold ``{"toe_off_percent": {"r": 62.0, "l": 12.0}}`` for vertical toe-off lines.
     ``reference_deg`` (same keys) draws a reference stride (e.g. the recorded one) under
     the curves in grey, labelled ``reference_label``.
-    The image is about 6×8 in at 150 dpi (900×1200 pixels).
+    Keys ``foot_angle_<side>`` (the planar walks' foot angle to the floor) add a fourth
+    panel. The image is about 6×8 in at 150 dpi (900×1200 pixels), 6×10 in with the
+    fourth panel.
     """
     path = Path(path)
     x = np.asarray(cycle_percent, dtype=float).reshape(-1)
@@ -86,12 +90,15 @@ def plot_joint_angles(
     spread_deg = spread_deg or {}
     toe_off = _toe_off(events)
 
-    fig = Figure(figsize=FIGSIZE_IN, dpi=DPI, layout="constrained")
+    foot = any(k.startswith(_FOOT_PANEL[0]) for k in (*angles_deg, *(reference_deg or {})))
+    panels = (*_PANELS, _FOOT_PANEL) if foot else _PANELS
+    size = (FIGSIZE_IN[0], FIGSIZE_IN[1] * len(panels) / len(_PANELS))
+    fig = Figure(figsize=size, dpi=DPI, layout="constrained")
     FigureCanvasAgg(fig)
     try:
-        axes = fig.subplots(len(_PANELS), 1, sharex=True)
+        axes = fig.subplots(len(panels), 1, sharex=True)
         legend: dict[str, object] = {}  # one figure legend, first handle per label
-        for ax, (stem, ylabel) in zip(axes, _PANELS, strict=True):
+        for ax, (stem, ylabel) in zip(axes, panels, strict=True):
             drawn = False
             for side, side_name, _colour, style in _SIDES:
                 ref = (reference_deg or {}).get(f"{stem}_{side}")
