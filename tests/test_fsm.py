@@ -236,3 +236,42 @@ def test_pelvis_attitude_damped_by_its_own_rate_keeps_the_trunk_up():
     assert joint["trunk_tilt_at_recovery_contact_deg"] > 21.0
     with pytest.raises(InputError, match="attitude damping"):
         simulate_trip(sc, params=replace(FSMParams(), attitude_damping="torso"))
+
+
+def test_trunk_attitude_keeps_the_trunk_within_peoples_tilt_at_recovery_contact():
+    """``trunk_attitude`` 0.3 (issue 11): the window's lowering trip at 0.55 of swing,
+    1.1 m/s, recovers as it does without it, its trunk at recovery-foot contact 25-26°
+    from vertical instead of 32° (people: below about 23-26°, van den Bogert et al. 2002)
+    because the lumbar extends before the landing; the support limb's push-off moments
+    are those of the default's."""
+    from dataclasses import replace
+
+    sc = Scenario(swing_fraction=0.55, speed_m_per_s=1.1, mechanism="obstacle")
+    base = simulate_trip(sc)
+    trunk = simulate_trip(sc, params=replace(FSMParams(), trunk_attitude=0.3))
+    b, t = base.summary, trunk.summary
+    assert b["recovered"] and t["recovered"]
+    assert b["trunk_tilt_at_recovery_contact_deg"] > 30.0
+    assert t["trunk_tilt_at_recovery_contact_deg"] < min(
+        26.5, b["trunk_tilt_at_recovery_contact_deg"] - 5.0)
+    m = trunk.body.model
+    j = m.jnt_qposadr[m.joint("lumbar_extension").id]
+    k = np.searchsorted(trunk.recording.time_s, t["recovery_contact_s"])
+    kb = np.searchsorted(base.recording.time_s, b["recovery_contact_s"])
+    assert trunk.recording.qpos[k, j] > base.recording.qpos[kb, j] + np.radians(5.0)
+    assert t["support_peak_moments_nm"]["ankle_plantarflexion"] == pytest.approx(
+        b["support_peak_moments_nm"]["ankle_plantarflexion"], rel=0.1)
+
+
+def test_push_off_hip_limit_caps_the_support_hip_in_the_first_300_ms():
+    """``push_off_hip_limit_nm`` (issue 11 experiment): an early-swing elevating trip's
+    support hip extends with at most the cap until the recovery step, against ~290 N·m
+    by default (people: ~52 N·m, Pijnappels et al. 2005)."""
+    from dataclasses import replace
+
+    sc = Scenario(swing_fraction=0.15, speed_m_per_s=1.1, mechanism="obstacle")
+    base = simulate_trip(sc).summary
+    capped = simulate_trip(sc, params=replace(FSMParams(), push_off_hip_limit_nm=150.0)).summary
+    assert base["support_peak_moments_nm"]["hip_extension"] > 250.0
+    assert capped["support_peak_moments_nm"]["hip_extension"] <= 150.5
+    assert capped["recovered"]

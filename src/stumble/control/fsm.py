@@ -30,6 +30,12 @@ from stumble.sim import CONTROL_HZ, Context
 
 FIXED, HOLD, ATT_PITCH, ATT_ROLL = 0, 1, 2, 3
 OTHER = {"r": "l", "l": "r"}
+# the support leg's push-off, from the trip until the recovery foot lands or both feet
+# are off (FSMParams.push_off_hip_limit_nm), and the states before the recovery foot
+# lands (FSMParams.trunk_attitude)
+PUSH_OFF_STATES = ("passive_reaction", "clearance", "leg_swap")
+PRE_LANDING_STATES = (*PUSH_OFF_STATES, "flight", "fall")
+TRUNK_RELEASE_S = 0.3  # trunk_attitude: the lumbar's return to its held angle (ours)
 
 
 @dataclass(order=True)
@@ -81,6 +87,8 @@ class TripFSM:
         self.target = self.bank.angles(ctx.data).copy()
         self.kp = self.bank.kp.copy()
         self.att_ref = (pelvis_attitude(ctx.data)[0], 0.0)  # keep the tilt, level the list
+        self.torso_ref = attitude_of(self._torso_xmat)[0]  # trunk_attitude's reference
+        self._trunk_last: tuple[float, float] | None = None  # its last (t, lumbar target)
         self.pending: list[_Pending] = []
         self._seq = 0
         if self.strategy == "elevating":
@@ -124,6 +132,7 @@ class TripFSM:
         self._att_prev = (-1.0, 0.0, 0.0)  # (t, tilt, list) at the last update
         self._xpos, self._site_xpos = d.xpos, d.site_xpos
         self._pelvis_xmat = d.xmat[m.body("pelvis").id]
+        self._torso_xmat = d.xmat[m.body("torso").id]
         self._foot_id = {s: m.body(f"foot_{s}").id for s in OTHER}
         self._toe_sites = {s: np.array([m.site(n).id for n in ctx.body.foot_points[s][-6:]])
                            for s in OTHER}
@@ -361,6 +370,11 @@ class TripFSM:
         if st in ("clearance", "single_support_after_trip", "step_swing",
                   "step_reach", "fall", "flight"):
             self._place_foot_laterally(ctx, target, lst)
+        if self.p.trunk_attitude:
+            self._hold_trunk(ctx, target, st)
+        cap = self.p.push_off_hip_limit_nm
+        if cap is not None and st in PUSH_OFF_STATES:
+            self._cap_support_hip(target, cap)
         if st == "clearance":
             i = self.bank.index[f"ankle_angle_{self.roles['sup']}"]
             tau_c = self.kc * (self.p.vz_target_m_per_s - ctx.sensors.com_vel[2])  # eq. 4
@@ -369,6 +383,41 @@ class TripFSM:
         if self._gains_dirty:
             self.bank.set_gains(self.kp)
             self._gains_dirty = False
+
+    def _hold_trunk(self, ctx: Context, target: np.ndarray, st: str) -> None:
+        """``trunk_attitude``: until the recovery foot lands the lumbar extends against
+        that fraction of the torso's forward pitch in the world since the trip (a spring
+        of k·k_p on the torso's world pitch, as SIMBICON's torso control, Yin et al. 2007,
+        here at the lumbar); afterwards its target returns to the held angle with time
+        constant ``TRUNK_RELEASE_S``."""
+        i = self.bank.index["lumbar_extension"]
+        t = ctx.sensors.t
+        if st in PRE_LANDING_STATES:
+            err = attitude_of(self._torso_xmat)[0] - self.torso_ref  # + posterior
+            target[i] = self._qpos[self.bank.qadr[i]] - self.p.trunk_attitude * err
+            self._trunk_last = (t, float(target[i]))
+        elif self._trunk_last is not None:
+            t0, q0 = self._trunk_last
+            w = math.exp(-(t - t0) / TRUNK_RELEASE_S)
+            target[i] = self.target[i] + w * (q0 - self.target[i])
+
+    def _cap_support_hip(self, target: np.ndarray, cap_nm: float) -> None:
+        """Limit the support hip's servo moment |k_p(θ_d − θ) − k_d θ̇| to ``cap_nm``
+        (reference body; scaled as the gains) by moving its target (the servo runs at
+        every physics step, the target is rewritten at every control update)."""
+        i = self.bank.index[f"hip_flexion_{self.roles['sup']}"]
+        if self.mode[i] != ATT_PITCH:
+            return
+        b = self.bank
+        kp = b.gain_scale * self.kp[i]
+        if kp <= 0.0:
+            return
+        kd = b.kd_over_kp * kp
+        q, qd = float(self._qpos[b.qadr[i]]), float(self._qvel[b.vadr[i]])
+        tau = kp * (target[i] - q) - kd * qd
+        c = cap_nm * b.gain_scale
+        if abs(tau) > c:
+            target[i] = q + (math.copysign(c, tau) + kd * qd) / kp
 
     def _place_foot(self, ctx: Context, target: np.ndarray, tilt: float) -> None:
         """SIMBICON balance feedback (Yin et al. 2007) on the reaching leg's hip: the swing

@@ -317,6 +317,24 @@ class FSMParams:
     # rates in the world, as SIMBICON's torso PD (Yin et al. 2007), through the servo's
     # target (an experiment: not tuned, README "Trips")
     attitude_damping: str = "joint"  # ATTITUDE_DAMPING
+    # Issue 11, people's support hip pushes off with a peak extension moment of ~52 N·m
+    # in the first 300 ms (Pijnappels et al. 2005), ours ~280 N·m: in Clearance the
+    # stance hip's attitude servo arrests the pelvis, which the trip pitches forward
+    # (7-10° by 0.12 s: its target error gives ~200 N·m, the joint damping the rest).
+    # push_off_hip_limit_nm caps that hip's servo moment (N·m, reference body, scaled as
+    # the gains) while it holds the attitude in the push-off (fsm.PUSH_OFF_STATES), to
+    # let the trunk rotate as people do; None: the servo's own limit. An experiment:
+    # measured, it loses recoveries and tilts the trunk further (README "Trips").
+    push_off_hip_limit_nm: float | None = None
+    # trunk_attitude k: until the recovery foot lands (fsm.PRE_LANDING_STATES) the lumbar
+    # extends against k times the torso's forward pitch in the world since the trip
+    # (0: off, SCA 2009 §4.6's chest held at its trip-instant angle to the pelvis).
+    # Reason: the trunk's tilt at recovery-foot contact separates recoveries from falls
+    # and people's recoveries keep it within about 23-26° (van den Bogert et al. 2002),
+    # while the torso ours pitches with the pelvis; SIMBICON (Yin et al. 2007) controls
+    # the torso in the world frame. Ours, not tuned: 0.3 keeps the 48-trip grid's
+    # recoveries and brings the largest tilt from 32.4° to 25.8° (README "Trips").
+    trunk_attitude: float = 0.0
     # SCA 2009 §5 uses 50 and 300 for slow and fast walking; on our body 300 lifts the
     # support foot off and stalls the recovery; tuned (TUNED_WITH above; 39.5 and 66.7
     # before the tuning for walking on)
