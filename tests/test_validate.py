@@ -50,11 +50,16 @@ def fake(monkeypatch):
 
 def test_the_fixed_study():
     cases = validate.validation_scenarios()
-    assert len(cases) == 44 and len({c for c, _ in cases}) == 44
-    older = [sc for c, sc in cases if "/older/" in c]
+    assert len(cases) == 140 and len({c for c, _ in cases}) == 140
+    grid = [sc for c, sc in cases if "/grid/" in c]
+    assert len(grid) == 96 and {sc.population for sc in grid} == {"young", "older"}
+    assert {sc.recovery for sc in grid} == {"walk_on"}
+    assert {sc.speed_m_per_s for sc in grid} == {1.0, 1.2, 1.4}
+    older = [sc for c, sc in cases if "/older/" in c and "/grid/" not in c]
     assert [sc.swing_fraction for sc in older] == list(validate.WINDOW_SWINGS)
     assert {(sc.controller, sc.population) for sc in older} == {("fsm", "older")}
-    fsm = [sc for c, sc in cases if sc.controller == "fsm" and sc.population == "young"]
+    fsm = [sc for c, sc in cases if sc.controller == "fsm" and sc.population == "young"
+           and "/grid/" not in c]
     windows = [sc for sc in fsm if sc.mechanism == "obstacle"]
     assert [sc.swing_fraction for sc in windows] == list(validate.WINDOW_SWINGS)
     assert {sc.speed_m_per_s for sc in windows} == {1.1}
@@ -130,8 +135,11 @@ def test_validate_prints_the_table_and_writes_json(tmp_path, fake, capsys, monke
     assert tilt["stumble"] == pytest.approx(27.5) and tilt["agreement"] == "no"
     low = by[("older adults: strategy, trip at 55-75 % of swing", "fsm")]
     assert low["stumble"] == 3 and low["agreement"] == "yes"
-    falls = by[("older adults fall more often than young (window trips)", "fsm")]
-    assert falls["stumble"] == {"young": 0, "older": 3} and falls["agreement"] == "yes"
+    falls = by[("older adults fall more often than young (48-trip grid, walking on 6 s)",
+                "fsm")]
+    # the fake: every 1.4 m/s trip falls (16 of 48); the older also every late one below it
+    assert falls["stumble"] == {"young": 16, "older": 28} and falls["agreement"] == "yes"
+    assert "not recovered: young 16/48 (fell 16), older 28/48" in falls["stumble_text"]
     # the runs are a study: there, with their rows
     assert (out / "results.parquet").exists()
 
