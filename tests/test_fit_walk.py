@@ -45,18 +45,22 @@ def test_each_joint_beyond_eight_degrees_costs_and_bands_are_free_inside():
 def test_the_foot_term_counts_only_when_asked_and_like_a_joint():
     plain, t_plain = walk_cost({**_summary(), "foot_angle_rmse_deg": 22.0}, effort=0.0)
     cost, terms = walk_cost({**_summary(), "foot_angle_rmse_deg": 22.0}, effort=0.0,
-                            foot_angle=True)
+                            foot_angle=1.0)
     assert "foot" not in t_plain
     assert terms["foot"] == pytest.approx(22.0 / 10.0 + (22.0 - 8.0) / 2.0)
     assert cost - plain == pytest.approx(terms["foot"])
     _, none = walk_cost({**_summary(), "foot_angle_rmse_deg": None}, effort=0.0,
-                        foot_angle=True)
+                        foot_angle=1.0)
     assert none["foot"] == 10.0  # no stride: as bad as a 10-degree-hinge miss
     from stumble.control.reflex.fit_walk import _fit_command
 
     walk = ((110, 15.0, ()),)
     assert "--foot-angle" not in _fit_command("gh2010", False, walk, None, 1)
-    assert "--foot-angle" in _fit_command("gh2010", False, walk, None, 1, foot_angle=True)
+    assert "--foot-angle --seed" in _fit_command("gh2010", False, walk, None, 1, foot_angle=1.0)
+    _, five = walk_cost({**_summary(), "foot_angle_rmse_deg": 22.0}, effort=0.0,
+                        foot_angle=5.0)
+    assert five["foot"] == pytest.approx(5.0 * terms["foot"])
+    assert "--foot-angle 5 " in _fit_command("gh2010", False, walk, None, 1, foot_angle=5.0)
 
 
 def test_foot_angle_is_the_feet_pitch_in_the_world_and_tracked_on_the_walk():

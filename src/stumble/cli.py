@@ -263,11 +263,12 @@ def _parser() -> argparse.ArgumentParser:
                    "floor's force on its foot (floor, the shipped fits') or the floor's "
                    "and the obstacle's (any: a foot at rest on the box carries the body); "
                    "default: the starting fit's")
-    f.add_argument("--foot-angle", action="store_true",
+    f.add_argument("--foot-angle", type=float, nargs="?", const=1.0, default=0.0,
+                   metavar="W",
                    help="gh2010: the objective also tracks each foot's angle to the floor "
                    "against the recorded stride's (as a joint: RMSE/10 deg + its excess "
-                   "over 8 deg/2 deg), so that the swing foot is as flat as the recorded "
-                   "one when an obstacle meets it")
+                   "over 8 deg/2 deg, times W, default 1), so that the swing foot is as "
+                   "flat as the recorded one when an obstacle meets it")
     f.add_argument("--ta-bound", choices=("wide", "paper"), default="wide",
                    help="gh2010: bounds of the TA length reflex (l_off_ta, g_ta): wide (the "
                    "default, as shipped: 0.3-1.5 l_opt, 0.2-5x the paper's gain) or paper "
@@ -646,6 +647,8 @@ def cmd_reflex_fit_gh2010(args) -> int:
         stages = tuple((max(1, round(args.generations * g / sum(x[0] for x in stages))), w, t)
                        for g, w, t in stages)
     strategy_cost = args.strategy_cost or 0.0
+    if not (math.isfinite(args.foot_angle) and args.foot_angle >= 0):
+        raise InputError(f"--foot-angle must be a number >= 0, got {args.foot_angle}")
     if not (math.isfinite(strategy_cost) and strategy_cost >= 0):
         raise InputError(f"--strategy-cost must be a number >= 0, got {args.strategy_cost}")
     gens = sum(g for g, _w, _t in stages)

@@ -12,8 +12,8 @@ at right heel strike (``stumble.pipeline.simulate_walk``):
       + W_EFFORT · mean activation²                             effort (F_max-weighted)
       + W_SPEED · (distance of the speed from 1.0–1.3 m/s / 0.1 m/s)²
       + W_STANCE · (distance of the stance fraction from 0.57–0.68 / 0.05)²
-     [+ W_FOOT · (RMSE of the feet's angle to the floor / 10°
-                  + max(0, that RMSE − 8°) / 2°)]                  with ``foot_angle``
+     [+ w_foot · (RMSE of the feet's angle to the floor / 10°
+                  + max(0, that RMSE − 8°) / 2°)]       with ``foot_angle`` w_foot > 0
 
 so that a walker first learns not to fall (nor to stand still: the first term counts
 the way covered at 1 m/s at least), then to walk like the recording (every joint
@@ -50,7 +50,7 @@ W_TRACK = 1.0
 W_EFFORT = 1.0
 W_SPEED = 1.0
 W_STANCE = 1.0
-W_FOOT = 1.0  # the foot-angle term, with ``foot_angle`` (our choice: a joint's weight)
+W_FOOT = 1.0  # the foot-angle term's weight by default (``--foot-angle``; a joint's)
 SPEED_BAND = (1.0, 1.3)  # m/s
 STANCE_BAND = (0.57, 0.68)
 TRACK_HINGE_DEG = 8.0
@@ -60,10 +60,11 @@ def _outside(v: float, band: tuple[float, float]) -> float:
     return max(band[0] - v, 0.0, v - band[1])
 
 
-def walk_cost(summary: dict, effort: float, foot_angle: bool = False) -> tuple[float, dict]:
+def walk_cost(summary: dict, effort: float, foot_angle: float = 0.0) -> tuple[float, dict]:
     """The objective J of a walk's summary (``walk_metrics``) and its mean
-    F_max-weighted squared activation; returns J and its terms; ``foot_angle``: with
-    the foot-angle term (``W_FOOT``; the summary's ``foot_angle_rmse_deg``)."""
+    F_max-weighted squared activation; returns J and its terms; ``foot_angle``: the
+    foot-angle term's weight (0: none; ``W_FOOT``, 1, a joint's; on the summary's
+    ``foot_angle_rmse_deg``)."""
     T = summary["duration_s"]
     walked = min(summary["walked_s"] / T,
                  max(summary.get("distance_m", T * SPEED_BAND[0]), 0.0) / (SPEED_BAND[0] * T))
@@ -78,7 +79,7 @@ def walk_cost(summary: dict, effort: float, foot_angle: bool = False) -> tuple[f
              "stance": W_STANCE * stance ** 2}
     if foot_angle:
         f = summary.get("foot_angle_rmse_deg")
-        terms["foot"] = W_FOOT * (10.0 if f is None else
+        terms["foot"] = float(foot_angle) * (10.0 if f is None else
                                   f / 10.0 + max(f - TRACK_HINGE_DEG, 0.0) / 2.0)
     if summary.get("diverged"):
         terms["fall"] = W_FALL
@@ -287,7 +288,7 @@ _EVAL: dict = {}
 def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dict,
                    trips: tuple = (), stumble_reflex: bool = False,
                    strategy_cost: float = 0.0, crossing: bool = False,
-                   foot_angle: bool = False) -> None:
+                   foot_angle: float = 0.0) -> None:
     """Worker set-up: what ``evaluate_walk`` simulates: a walk, and the obstacle trips
     ``trips`` ((swing fraction, speed) pairs) the walker must walk on from; GH2010
     candidates in ``gh2010_space(stumble_reflex=...)``; ``strategy_cost``: what a trip in
@@ -321,7 +322,7 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
         r = simulate_walk("network", _EVAL["duration_s"], _EVAL["speed"], network=net)
     else:
         raise ValueError(kind)
-    cost, terms = walk_cost(r.summary, effort_of(r), _EVAL.get("foot_angle", False))
+    cost, terms = walk_cost(r.summary, effort_of(r), _EVAL.get("foot_angle", 0.0))
     terms["walked_s"] = r.summary["walked_s"]
     terms["speed_m_per_s"] = r.summary["speed_m_per_s"]
     trips = _EVAL.get("trips") or ()
@@ -454,7 +455,7 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                wiring: str = "gh2010", trips: bool = False, start=None,
                start_fit: dict | None = None, scr_phase: str | None = None,
                ta_bound: str = "wide", strategy_cost: float = 0.0,
-               crossing: bool = False, foot_angle: bool = False,
+               crossing: bool = False, foot_angle: float = 0.0,
                load_from: str | None = None) -> FitResult:
     """Optimise the GH2010 gains in closed loop: per stage (generations, walk s, obstacle
     trips), CMA-ES on ``walk_cost`` plus, for each trip, ``W_TRIP`` times the part of the
@@ -474,7 +475,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     the human one (``trip_terms``; 0, the default, leaves the objective as it was);
     ``crossing`` (trip stages): the crossing step after a touch (``CROSS_BOUNDS``) joins
     the fit, its gains restarting at ``SCR_START`` where ``start`` has them at zero;
-    ``foot_angle``: the objective's foot term (``walk_cost``) in every stage;
+    ``foot_angle``: the objective's foot term's weight (``walk_cost``; 0, none) in
+    every stage;
     ``load_from`` (trip stages): what a leg's load is (``GH2010Params.load_from``;
     default ``start``'s). Writes
     ``gh2010.json`` to ``out`` (the best parameters and the fit's figures) when given."""
@@ -568,14 +570,14 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
 
 def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: int,
                  ta_bound: str = "wide", strategy_cost: float = 0.0,
-                 crossing: bool = False, foot_angle: bool = False,
+                 crossing: bool = False, foot_angle: float = 0.0,
                  load_from: str | None = None) -> str:
     """The ``stumble reflex fit`` command of a GH2010 fit (``--params`` aside)."""
     opts = ["--trips"] if trips else []
     if ta_bound != "wide":
         opts.append(f"--ta-bound {ta_bound}")
     if foot_angle:
-        opts.append("--foot-angle")
+        opts.append("--foot-angle" if foot_angle == W_FOOT else f"--foot-angle {foot_angle:g}")
     if trips:
         named = [k for k, v in TRIP_SETS.items() if all(t == v for _g, _w, t in stages)]
         if named and named[0] != "four":
