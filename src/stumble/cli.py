@@ -263,6 +263,9 @@ def _parser() -> argparse.ArgumentParser:
                    "floor's force on its foot (floor, the shipped fits') or the floor's "
                    "and the obstacle's (any: a foot at rest on the box carries the body); "
                    "default: the starting fit's")
+    f.add_argument("--stride-time", action="store_true",
+                   help="gh2010: the objective also keeps the mean stride within 1.0-1.3 s "
+                   "(the played-back walk's at 1.0-1.3 m/s; ((distance)/0.05 s)^2)")
     f.add_argument("--foot-angle", type=float, nargs="?", const=1.0, default=0.0,
                    metavar="W",
                    help="gh2010: the objective also tracks each foot's angle to the floor "
@@ -663,7 +666,7 @@ def cmd_reflex_fit_gh2010(args) -> int:
                      start_fit=start_fit, scr_phase=args.scr_phase,
                      ta_bound=args.ta_bound, strategy_cost=strategy_cost,
                      crossing=args.crossing, foot_angle=args.foot_angle,
-                     load_from=args.load_from)
+                     load_from=args.load_from, stride_time=args.stride_time)
     bar.done()
     written, walk = write_gh2010_fit(out, res)
     s = walk.summary
@@ -681,9 +684,10 @@ def cmd_reflex(args) -> int:
         return cmd_reflex_fit_gh2010(args)
     if (args.trips or args.params is not None or args.trip_set or args.scr_phase
             or args.ta_bound != "wide" or args.strategy_cost is not None or args.crossing
-            or args.foot_angle or args.load_from is not None):
+            or args.foot_angle or args.load_from is not None or args.stride_time):
         raise InputError("--trips, --params, --trip-set, --scr-phase, --strategy-cost, "
-                         "--crossing, --load-from, --foot-angle and --ta-bound are for "
+                         "--crossing, --load-from, --foot-angle, --stride-time and "
+                         "--ta-bound are for "
                          "--controller gh2010")
     from stumble.control.reflex.identify import ITERATIONS, REFINE_ITERATIONS, fit
     from stumble.outputs import prepare_dir, write_fit

@@ -14,6 +14,8 @@ at right heel strike (``stumble.pipeline.simulate_walk``):
       + W_STANCE · (distance of the stance fraction from 0.57–0.68 / 0.05)²
      [+ w_foot · (RMSE of the feet's angle to the floor / 10°
                   + max(0, that RMSE − 8°) / 2°)]       with ``foot_angle`` w_foot > 0
+     [+ W_STRIDE · (distance of the mean stride time from 1.0–1.3 s / 0.05 s)²]
+                                                                  with ``stride_time``
 
 so that a walker first learns not to fall (nor to stand still: the first term counts
 the way covered at 1 m/s at least), then to walk like the recording (every joint
@@ -51,6 +53,11 @@ W_EFFORT = 1.0
 W_SPEED = 1.0
 W_STANCE = 1.0
 W_FOOT = 1.0  # the foot-angle term's weight by default (``--foot-angle``; a joint's)
+# the stride-time term (``stride_time``, ``--stride-time``; off in the shipped fits): the
+# played-back walk's strides at 1.0-1.3 m/s last 1.30-1.07 s (subject01, scaled with
+# speed); trip stages without it grew the strides to 1.5-1.6 s (README)
+W_STRIDE = 1.0
+STRIDE_BAND = (1.0, 1.3)  # s
 SPEED_BAND = (1.0, 1.3)  # m/s
 STANCE_BAND = (0.57, 0.68)
 TRACK_HINGE_DEG = 8.0
@@ -60,11 +67,13 @@ def _outside(v: float, band: tuple[float, float]) -> float:
     return max(band[0] - v, 0.0, v - band[1])
 
 
-def walk_cost(summary: dict, effort: float, foot_angle: float = 0.0) -> tuple[float, dict]:
+def walk_cost(summary: dict, effort: float, foot_angle: float = 0.0,
+              stride_time: bool = False) -> tuple[float, dict]:
     """The objective J of a walk's summary (``walk_metrics``) and its mean
     F_max-weighted squared activation; returns J and its terms; ``foot_angle``: the
     foot-angle term's weight (0: none; ``W_FOOT``, 1, a joint's; on the summary's
-    ``foot_angle_rmse_deg``)."""
+    ``foot_angle_rmse_deg``); ``stride_time``: with the stride-time term (``W_STRIDE``,
+    ``STRIDE_BAND``; the mean of the summary's right heel-strike intervals)."""
     T = summary["duration_s"]
     walked = min(summary["walked_s"] / T,
                  max(summary.get("distance_m", T * SPEED_BAND[0]), 0.0) / (SPEED_BAND[0] * T))
@@ -81,6 +90,11 @@ def walk_cost(summary: dict, effort: float, foot_angle: float = 0.0) -> tuple[fl
         f = summary.get("foot_angle_rmse_deg")
         terms["foot"] = float(foot_angle) * (10.0 if f is None else
                                   f / 10.0 + max(f - TRACK_HINGE_DEG, 0.0) / 2.0)
+    if stride_time:
+        hs = ((summary.get("events") or {}).get("r") or {}).get("heel_strike_s") or []
+        st = float(np.mean(np.diff(hs))) if len(hs) >= 2 else None
+        terms["stride"] = W_STRIDE * (4.0 if st is None else
+                                      (_outside(st, STRIDE_BAND) / 0.05) ** 2)
     if summary.get("diverged"):
         terms["fall"] = W_FALL
     return float(sum(terms.values())), terms
@@ -288,7 +302,7 @@ _EVAL: dict = {}
 def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dict,
                    trips: tuple = (), stumble_reflex: bool = False,
                    strategy_cost: float = 0.0, crossing: bool = False,
-                   foot_angle: float = 0.0) -> None:
+                   foot_angle: float = 0.0, stride_time: bool = False) -> None:
     """Worker set-up: what ``evaluate_walk`` simulates: a walk, and the obstacle trips
     ``trips`` ((swing fraction, speed) pairs) the walker must walk on from; GH2010
     candidates in ``gh2010_space(stumble_reflex=...)``; ``strategy_cost``: what a trip in
@@ -298,7 +312,7 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
     _EVAL.update(kind=kind, duration_s=duration_s, speed=speed_m_per_s, base=base,
                  trips=tuple(trips), stumble_reflex=stumble_reflex,
                  strategy_cost=float(strategy_cost), crossing=crossing,
-                 foot_angle=foot_angle)
+                 foot_angle=foot_angle, stride_time=stride_time)
 
 
 def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
@@ -322,7 +336,8 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
         r = simulate_walk("network", _EVAL["duration_s"], _EVAL["speed"], network=net)
     else:
         raise ValueError(kind)
-    cost, terms = walk_cost(r.summary, effort_of(r), _EVAL.get("foot_angle", 0.0))
+    cost, terms = walk_cost(r.summary, effort_of(r), _EVAL.get("foot_angle", 0.0),
+                            _EVAL.get("stride_time", False))
     terms["walked_s"] = r.summary["walked_s"]
     terms["speed_m_per_s"] = r.summary["speed_m_per_s"]
     trips = _EVAL.get("trips") or ()
@@ -456,7 +471,7 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                start_fit: dict | None = None, scr_phase: str | None = None,
                ta_bound: str = "wide", strategy_cost: float = 0.0,
                crossing: bool = False, foot_angle: float = 0.0,
-               load_from: str | None = None) -> FitResult:
+               load_from: str | None = None, stride_time: bool = False) -> FitResult:
     """Optimise the GH2010 gains in closed loop: per stage (generations, walk s, obstacle
     trips), CMA-ES on ``walk_cost`` plus, for each trip, ``W_TRIP`` times the part of the
     3 s after it not walked on. ``wiring`` ``gh2010`` starts from the paper's values
@@ -478,7 +493,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     ``foot_angle``: the objective's foot term's weight (``walk_cost``; 0, none) in
     every stage;
     ``load_from`` (trip stages): what a leg's load is (``GH2010Params.load_from``;
-    default ``start``'s). Writes
+    default ``start``'s); ``stride_time``: the objective's stride-time term in every
+    stage. Writes
     ``gh2010.json`` to ``out`` (the best parameters and the fit's figures) when given."""
     if strategy_cost < 0 or not math.isfinite(strategy_cost):
         raise ValueError(f"strategy_cost must be a finite number >= 0, got {strategy_cost}")
@@ -529,7 +545,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                       initializer=init_walk_eval,
                       initargs=("gh2010", walk_s, GH2010_SPEED_M_PER_S,
                                 fixed if with_trips else {"wiring": wiring}, trips,
-                                with_trips, strategy_cost, crossing, foot_angle),
+                                with_trips, strategy_cost, crossing, foot_angle,
+                                stride_time),
                       first_generation=total, stage="walk" if not trips else "walk+trips",
                       fixed=fixed)
         params = replace(params, **dict(zip(space.names, map(float, res.best_theta),
@@ -562,20 +579,23 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                     "crossing": crossing,
                     "foot_angle": foot_angle,
                     "load_from": params.load_from,
+                    "stride_time": stride_time,
                     "command": _fit_command(wiring, with_trips, stages, scr_phase, seed,
                                             ta_bound, strategy_cost, crossing,
-                                            foot_angle, load_from)}})
+                                            foot_angle, load_from, stride_time)}})
     return res
 
 
 def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: int,
                  ta_bound: str = "wide", strategy_cost: float = 0.0,
                  crossing: bool = False, foot_angle: float = 0.0,
-                 load_from: str | None = None) -> str:
+                 load_from: str | None = None, stride_time: bool = False) -> str:
     """The ``stumble reflex fit`` command of a GH2010 fit (``--params`` aside)."""
     opts = ["--trips"] if trips else []
     if ta_bound != "wide":
         opts.append(f"--ta-bound {ta_bound}")
+    if stride_time:
+        opts.append("--stride-time")
     if foot_angle:
         opts.append("--foot-angle" if foot_angle == W_FOOT else f"--foot-angle {foot_angle:g}")
     if trips:
