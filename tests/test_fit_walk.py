@@ -67,14 +67,14 @@ def test_the_stride_time_term_charges_strides_outside_the_band():
     from stumble.control.reflex.fit_walk import _fit_command
 
     def with_strides(period):
-        return {**_summary(), "events": {"r": {"heel_strike_s": [0.0, period, 2 * period]}}}
+        return {**_summary(), "stride_s": period}
 
     _, inside = walk_cost(with_strides(1.2), effort=0.0, stride_time=True)
     _, long = walk_cost(with_strides(1.56), effort=0.0, stride_time=True)
     _, plain = walk_cost(with_strides(1.56), effort=0.0)
     assert inside["stride"] == 0.0 and "stride" not in plain
     assert long["stride"] == pytest.approx(((1.56 - 1.3) / 0.05) ** 2)
-    _, none = walk_cost(_summary(), effort=0.0, stride_time=True)
+    _, none = walk_cost({**_summary(), "stride_s": None}, effort=0.0, stride_time=True)
     assert none["stride"] == 4.0  # no stride: as a stride 0.1 s outside the band
     walk = ((110, 15.0, ()),)
     assert "--stride-time" in _fit_command("gh2010", False, walk, None, 1, stride_time=True)
@@ -102,6 +102,7 @@ def test_foot_angle_is_the_feet_pitch_in_the_world_and_tracked_on_the_walk():
     r = simulate_walk("gh2010", 3.0, 1.2)
     assert set(r.reference) >= {"foot_angle_r", "foot_angle_l"}
     assert 2.0 < r.summary["foot_angle_rmse_deg"] < 40.0
+    assert 0.9 < r.summary["stride_s"] < 1.6  # the mean right stride
 
 
 def test_contact_events_need_a_lasting_touch_after_a_flight():

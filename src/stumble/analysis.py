@@ -354,7 +354,7 @@ def walk_metrics(rec: Recording, model: mujoco.MjModel, reference: dict[str, np.
     joint-angle RMSE (deg) of every complete right stride against ``reference`` (the
     recorded stride, 101 points per ``<joint>_<side>``, rad), averaged over strides;
     where ``reference`` has ``foot_angle_<side>`` (``foot_angles``), the foot's angle
-    RMSE (deg) too, averaged over both feet."""
+    RMSE (deg) too, averaged over both feet; ``stride_s``, the mean right stride (s)."""
     t = rec.time_s
     ev = contact_events(t, rec.foot_on_floor)
     hs = ev["r"]["heel_strike_s"]
@@ -374,6 +374,8 @@ def walk_metrics(rec: Recording, model: mujoco.MjModel, reference: dict[str, np.
                 stance.append(float(rec.foot_on_floor[sel, k].mean()))
     angles = {f"{j}_{s}": rec.qpos[:, model.jnt_qposadr[model.joint(f"{j}_{s}").id]]
               for j in WALK_JOINTS for s in SIDES}
+    if "foot_angle_r" in reference:
+        angles.update(foot_angles(rec.qpos, model))
     curves = stride_curves(t, angles, hs)
     rmse = {}
     if strides:
@@ -382,11 +384,8 @@ def walk_metrics(rec: Recording, model: mujoco.MjModel, reference: dict[str, np.
             rmse[name] = float(np.degrees(np.sqrt((err ** 2).mean(axis=1))).mean())
     per_joint = {j: float(np.mean([rmse[f"{j}_{s}"] for s in SIDES])) for j in WALK_JOINTS
                  } if rmse else {}
-    foot = None
-    if strides and "foot_angle_r" in reference:
-        fc = stride_curves(t, foot_angles(rec.qpos, model), hs)
-        foot = float(np.mean([np.degrees(np.sqrt(((rows - reference[n][None]) ** 2).mean(
-            axis=1))).mean() for n, rows in fc.items()]))
+    feet = [rmse.pop(f"foot_angle_{s}") for s in SIDES if f"foot_angle_{s}" in rmse]
+    foot = float(np.mean(feet)) if feet else None
     walked = float(t[-1]) if len(t) else 0.0
     return {
         "walked_s": round(walked, 4),
@@ -395,6 +394,7 @@ def walk_metrics(rec: Recording, model: mujoco.MjModel, reference: dict[str, np.
         "diverged": rec.diverged,
         "duration_s": duration_s,
         "strides": strides,
+        "stride_s": round(float(np.mean(np.diff(hs))), 4) if strides else None,
         "speed_m_per_s": round(float(speed), 4),
         "stance_fraction": None if not stance else round(float(np.mean(stance)), 4),
         "rmse_deg": {k: round(v, 3) for k, v in per_joint.items()},

@@ -320,7 +320,7 @@ class FSMParams:
     # Issue 11, people's support hip pushes off with a peak extension moment of ~52 N·m
     # in the first 300 ms (Pijnappels et al. 2005), ours ~280 N·m: in Clearance the
     # stance hip's attitude servo arrests the pelvis, which the trip pitches forward
-    # (7-10° by 0.12 s: its target error gives ~200 N·m, the joint damping the rest).
+    # (5-7° by 0.12 s: its target error gives ~200 N·m, the joint damping the rest).
     # push_off_hip_limit_nm caps that hip's servo moment (N·m, reference body, scaled as
     # the gains) while it holds the attitude in the push-off (fsm.PUSH_OFF_STATES), to
     # let the trunk rotate as people do; None: the servo's own limit. An experiment:

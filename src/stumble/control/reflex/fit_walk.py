@@ -30,9 +30,8 @@ heel, and the foot comes to rest on the box's edge instead of being lowered behi
 (README). The strategy is CMA-ES (Hansen 2016; the ``cmaes`` package), seeded, so a
 fit is reproduced exactly from its seed; candidates of one generation are evaluated in
 parallel worker processes and told back in order, so the worker count does not change
-the result. Each generation's figures
-are appended to ``history.jsonl`` and the best candidate so far to ``best.json`` as
-the fit runs.
+the result. Each generation's figures are appended to ``history.jsonl`` and the best
+candidate so far to ``best.json`` as the fit runs.
 """
 
 from __future__ import annotations
@@ -73,7 +72,7 @@ def walk_cost(summary: dict, effort: float, foot_angle: float = 0.0,
     F_max-weighted squared activation; returns J and its terms; ``foot_angle``: the
     foot-angle term's weight (0: none; ``W_FOOT``, 1, a joint's; on the summary's
     ``foot_angle_rmse_deg``); ``stride_time``: with the stride-time term (``W_STRIDE``,
-    ``STRIDE_BAND``; the mean of the summary's right heel-strike intervals)."""
+    ``STRIDE_BAND``; the summary's ``stride_s``)."""
     T = summary["duration_s"]
     walked = min(summary["walked_s"] / T,
                  max(summary.get("distance_m", T * SPEED_BAND[0]), 0.0) / (SPEED_BAND[0] * T))
@@ -91,8 +90,7 @@ def walk_cost(summary: dict, effort: float, foot_angle: float = 0.0,
         terms["foot"] = float(foot_angle) * (10.0 if f is None else
                                   f / 10.0 + max(f - TRACK_HINGE_DEG, 0.0) / 2.0)
     if stride_time:
-        hs = ((summary.get("events") or {}).get("r") or {}).get("heel_strike_s") or []
-        st = float(np.mean(np.diff(hs))) if len(hs) >= 2 else None
+        st = summary.get("stride_s")
         terms["stride"] = W_STRIDE * (4.0 if st is None else
                                       (_outside(st, STRIDE_BAND) / 0.05) ** 2)
     if summary.get("diverged"):
@@ -307,8 +305,8 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
     ``trips`` ((swing fraction, speed) pairs) the walker must walk on from; GH2010
     candidates in ``gh2010_space(stumble_reflex=...)``; ``strategy_cost``: what a trip in
     a human window taken otherwise than humans take it costs (``trip_terms``);
-    ``crossing``: with the crossing step's gains; ``foot_angle``: the objective's foot
-    term (``walk_cost``)."""
+    ``crossing``: with the crossing step's gains; ``foot_angle``, ``stride_time``: the
+    objective's foot term's weight and its stride-time term (``walk_cost``)."""
     _EVAL.update(kind=kind, duration_s=duration_s, speed=speed_m_per_s, base=base,
                  trips=tuple(trips), stumble_reflex=stumble_reflex,
                  strategy_cost=float(strategy_cost), crossing=crossing,
@@ -490,11 +488,9 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     the human one (``trip_terms``; 0, the default, leaves the objective as it was);
     ``crossing`` (trip stages): the crossing step after a touch (``CROSS_BOUNDS``) joins
     the fit, its gains restarting at ``SCR_START`` where ``start`` has them at zero;
-    ``foot_angle``: the objective's foot term's weight (``walk_cost``; 0, none) in
-    every stage;
-    ``load_from`` (trip stages): what a leg's load is (``GH2010Params.load_from``;
-    default ``start``'s); ``stride_time``: the objective's stride-time term in every
-    stage. Writes
+    ``foot_angle``, ``stride_time``: the objective's foot term's weight (0, none) and
+    its stride-time term (``walk_cost``), in every stage; ``load_from`` (trip stages):
+    what a leg's load is (``GH2010Params.load_from``; default ``start``'s). Writes
     ``gh2010.json`` to ``out`` (the best parameters and the fit's figures) when given."""
     if strategy_cost < 0 or not math.isfinite(strategy_cost):
         raise ValueError(f"strategy_cost must be a finite number >= 0, got {strategy_cost}")
