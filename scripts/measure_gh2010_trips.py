@@ -3,12 +3,13 @@
 The grid of ``stumble study --controller gh2010 --mechanism obstacle --swing
 0.05:0.75:15 --speed 1.0,1.2,1.4`` (10 cm box, the walker's own gait, 3 s after the
 trip), run by ``simulate_trip`` in this one process, for a ``gh2010.json`` (or ``walk``,
-or nothing: the shipped trip fit). Prints the strategy map (E elevating, L lowering,
-- neither, x not set; * recovered), the recoveries of 45, the human strategy in the 30
-window trips (elevating at 0.05-0.25, lowering at 0.55-0.75) and the lowering-window
-recoveries; ``--out FILE`` writes each trip's figures as JSON.
+or nothing: the shipped trip fit); ``--start playback`` trips the recording instead.
+Prints the strategy map (E elevating, L lowering, - neither, x not set; * recovered),
+the recoveries of 45, the human strategy in the 30 window trips (elevating at
+0.05-0.25, lowering at 0.55-0.75) and the lowering-window recoveries; ``--out FILE``
+writes each trip's figures as JSON.
 
-Run:  python scripts/measure_gh2010_trips.py [PARAMS] [--out FILE]
+Run:  python scripts/measure_gh2010_trips.py [PARAMS] [--start own|playback] [--out FILE]
 """
 
 from __future__ import annotations
@@ -33,6 +34,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("params", nargs="?", default=None)
     ap.add_argument("--out", default=None)
+    ap.add_argument("--start", choices=("own", "playback"), default="own",
+                    help="the walk tripped: the walker's own (default) or the recording's")
     args = ap.parse_args()
     p = shipped_params("gh2010") if args.params is None else load_params(args.params)
     t0 = time.perf_counter()
@@ -40,7 +43,7 @@ def main() -> None:
     for v in SPEEDS:
         for s in SWINGS:
             sc = Scenario(controller="gh2010", mechanism="obstacle", swing_fraction=s,
-                          speed_m_per_s=v)
+                          speed_m_per_s=v, start=args.start)
             try:
                 summ = simulate_trip(sc, gh2010=p).summary
                 row = {"swing": s, "speed": v, "set": True,

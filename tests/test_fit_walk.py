@@ -305,11 +305,13 @@ def test_shipped_gh2010_fits_score_today_what_they_scored_in_their_fit(name):
     p, fit = GH2010Params.from_json(d["params"]), d["fit"]
     trips = tuple((t["swing_fraction"], t["speed_m_per_s"])
                   for t in fit["stages"][-1]["trips"])
-    crossing = fit.get("crossing", False)  # (a fit with the crossing step, the foot term)
+    crossing = fit.get("crossing", False)  # (a fit with the crossing step, the foot and
+    # stride-time terms records them; earlier fits had none)
     space = gh2010_space(p, stumble_reflex=bool(trips), crossing=crossing)
     fixed = {n: v for n, v in p.to_json().items() if n not in space.names}
     init_walk_eval("gh2010", fit["stages"][-1]["walk_s"], fit["start_speed_m_per_s"],
                    fixed if trips else {"wiring": p.wiring}, trips, bool(trips),
-                   fit.get("strategy_cost", 0.0), crossing, float(fit.get("foot_angle", 0)))
+                   fit.get("strategy_cost", 0.0), crossing, float(fit.get("foot_angle", 0)),
+                   bool(fit.get("stride_time", False)))
     cost, _terms = evaluate_walk(np.array([getattr(p, n) for n in space.names]))
     assert cost == pytest.approx(fit["cost"], rel=1e-6)

@@ -273,8 +273,10 @@ class TripTimer:
     """Stops a walk at the instant to trip it in its own gait: ``swing_fraction`` of the
     ``side`` leg's first swing that starts after ``after_s``, that swing's duration taken
     as the mean of the leg's last two (its toe-off to its heel strike, by floor load); or
-    at a fall (``fall_height_m``, as ``WalkStop``). Swings shorter than
-    ``MIN_AIRBORNE_S`` are scuffs and not counted."""
+    at a fall (``fall_height_m``, as ``WalkStop``). As ``contact_events`` reads them, a
+    landing is a touch lasting ``TOUCHDOWN_SAMPLES`` samples (a shorter one is a brush
+    of the swinging foot, and the swing goes on), dated from its first sample; swings
+    shorter than ``MIN_AIRBORNE_S`` are scuffs and not counted."""
 
     side: str
     swing_fraction: float
@@ -284,21 +286,32 @@ class TripTimer:
     swings_s: list = field(default_factory=list)
     toe_off_s: float | None = None  # the present swing's toe-off
     trip_swing_s: float | None = None  # the swing duration the trip instant used
-    _on: bool | None = None
+    _landed: bool | None = None  # the foot in stance (a lasting touch since its toe-off)
+    _down: int = 0  # samples the foot has been on the floor without a break
+    _down_since: float = 0.0
 
     def __call__(self, s: Sensors) -> str:
         if s.segment_on_floor or s.pelvis_height < self.fall_height_m:
             self.fell_s = s.t
             return "fell"
         on = s.foot_on_floor[self.side]
-        if self._on is not None and on != self._on:
-            if not on:
-                self.toe_off_s = s.t
-            elif self.toe_off_s is not None:
-                if s.t - self.toe_off_s >= MIN_AIRBORNE_S:
-                    self.swings_s.append(s.t - self.toe_off_s)
+        if self._landed is None:  # the first sample: a foot on the floor is in stance
+            self._landed = on
+        if on:
+            if self._down == 0:
+                self._down_since = s.t
+            self._down += 1
+            if self._down >= TOUCHDOWN_SAMPLES and not self._landed:
+                self._landed = True
+                if (self.toe_off_s is not None
+                        and self._down_since - self.toe_off_s >= MIN_AIRBORNE_S):
+                    self.swings_s.append(self._down_since - self.toe_off_s)
                 self.toe_off_s = None
-        self._on = on
+        else:
+            if self._landed:
+                self.toe_off_s = s.t
+                self._landed = False
+            self._down = 0
         if (not on and self.toe_off_s is not None and self.toe_off_s >= self.after_s
                 and self.swings_s):
             swing = float(np.mean(self.swings_s[-2:]))

@@ -1,0 +1,55 @@
+"""The outcome readers of ``stumble.analysis`` on synthetic sensor streams."""
+
+from types import SimpleNamespace
+
+import pytest
+
+from stumble.analysis import TripTimer
+
+DT = 0.005  # the recording's sample (s)
+
+
+def _feed(timer: TripTimer, left_on, t0: float = 0.0):
+    """Run the timer over a left foot's floor contact (one bool per 5 ms sample); the
+    time (s) of the sample it trips at, or None."""
+    for i, on in enumerate(left_on):
+        s = SimpleNamespace(t=t0 + i * DT, segment_on_floor=False, pelvis_height=0.9,
+                            foot_on_floor={"l": bool(on), "r": True})
+        if timer(s) == "trip":
+            return s.t
+    return None
+
+
+def _strides(n: int, stance: int = 120, swing: int = 120, brush_at: int | None = None,
+             brush: int = 2) -> list[bool]:
+    """n strides of stance then swing (samples), the swing brushing the floor for
+    ``brush`` samples ``brush_at`` samples after toe-off."""
+    out = []
+    for _ in range(n):
+        sw = [False] * swing
+        if brush_at is not None:
+            sw[brush_at:brush_at + brush] = [True] * brush
+        out += [True] * stance + sw
+    return out
+
+
+@pytest.mark.parametrize("brush_at", [None, 54])
+def test_a_brush_of_the_swinging_foot_is_not_a_landing(brush_at):
+    """Swings of 0.6 s (120 samples), with or without a 10 ms brush of the floor 0.27 s
+    after toe-off (as a walker whose foot scuffs mid-swing): the swing is measured
+    toe-off to lasting touch, 0.6 s, and the trip falls at 0.75 of it, 0.45 s after the
+    toe-off; read brush to brush, swings of 0.27 and 0.32 s would trip it at 0.22 s."""
+    timer = TripTimer("l", 0.75, after_s=2.0, fall_height_m=0.5)
+    t = _feed(timer, _strides(4, brush_at=brush_at))
+    assert timer.swings_s[-2:] == pytest.approx([0.6, 0.6])
+    assert timer.trip_swing_s == pytest.approx(0.6)
+    assert t - timer.toe_off_s == pytest.approx(0.45)
+    assert timer.toe_off_s == pytest.approx(2 * 1.2 + 0.6)  # the first after 2 s
+
+
+def test_a_touch_lasting_three_samples_is_a_landing():
+    """Three samples (15 ms, ``TOUCHDOWN_SAMPLES``) on the floor end the swing, dated
+    from the first: 0.27 s swings of a foot that lands there and lifts again."""
+    timer = TripTimer("l", 0.5, after_s=100.0, fall_height_m=0.5)
+    assert _feed(timer, _strides(3, brush_at=54, brush=3)) is None
+    assert timer.swings_s[0] == pytest.approx(0.27)
