@@ -9,10 +9,14 @@ the number recovered (tie-break: the time survived). Seeded and deterministic.
 Run:  python scripts/tune_fsm.py [--candidates N] [--workers N] [--seed S]
       [--grid small|full|lowering|full+bodies] [--only all|lowering] [--around JSON]
       [--method random|cma] [--generations G] [--popsize P] [--out FILE]
-      [--strength anderson2007|fixed]
+      [--strength anderson2007|fixed] [--trunk-attitude K] [--max-tilt DEG]
+      [--grid-floor N]
 ``--method cma``: CMA-ES (the ``cmaes`` package, seeded) over the targets scaled to
 their ranges, from the defaults, maximising recoveries + the fraction of the grid's
 time survived; every generation's best is written to ``--out`` as it goes.
+``--max-tilt DEG``: a recovery counts only with the trunk within DEG of vertical at
+recovery-foot contact; ``--grid-floor N``: the objective loses 2 per trip of the first
+48 (the full grid; with ``full+bodies`` the bodies follow) recovered below N.
 Prints the best parameter set as JSON, to be carried into fsm_params.py by hand.
 """
 
@@ -48,6 +52,7 @@ BODY_GRID = [(f, 1.2, mech, *body) for body in BODIES for mech in ("force", "obs
 
 
 ATTITUDE_DAMPING = "joint"  # --attitude-damping (FSMParams.attitude_damping)
+TRUNK_ATTITUDE = 0.0  # --trunk-attitude (FSMParams.trunk_attitude)
 
 
 def params_from(x: dict):
@@ -56,20 +61,32 @@ def params_from(x: dict):
 
     from stumble.control.fsm_params import FSMParams
 
-    return replace(FSMParams(), attitude_damping=ATTITUDE_DAMPING).with_values(x)
+    return replace(FSMParams(), attitude_damping=ATTITUDE_DAMPING,
+                   trunk_attitude=TRUNK_ATTITUDE).with_values(x)
 
 
 STRENGTH = "fixed"  # the servos' torque limits (Scenario.strength_model, --strength)
 WALK_ON_S = None  # --walk-on S: recovered = still walking S s after the trip
+MAX_TILT = None  # --max-tilt DEG: a recovery counts only with the trunk within DEG
+GRID_FLOOR = None  # --grid-floor N: penalise grid recoveries (the first 48) below N
+FLOOR_N, FLOOR_PENALTY = len(FULL_GRID), 2.0
 
 
-def evaluate(x: dict) -> tuple[int, float]:
-    """(recoveries, total time survived) over the grid."""
+def counts(s: dict) -> bool:
+    """Whether a trip's summary counts as recovered (and within ``MAX_TILT``)."""
+    if not s["recovered"]:
+        return False
+    tilt = s.get("trunk_tilt_at_recovery_contact_deg")
+    return MAX_TILT is None or (tilt is not None and tilt <= MAX_TILT)
+
+
+def evaluate(x: dict) -> tuple[int, float, int]:
+    """(recoveries, total time survived, recoveries among the first 48) over the grid."""
     from stumble.pipeline import simulate_trip
     from stumble.trip import Scenario
 
-    rec, survived = 0, 0.0
-    for f, v, mech, *body in GRID:
+    rec, survived, rec_grid = 0, 0.0, 0
+    for i, (f, v, mech, *body) in enumerate(GRID):
         walk_on = ({} if WALK_ON_S is None else
                    {"recovery": "walk_on", "duration_after_trip_s": WALK_ON_S})
         if body:  # (height m, mass kg, sex): a grid point of another body
@@ -77,9 +94,19 @@ def evaluate(x: dict) -> tuple[int, float]:
         s = simulate_trip(Scenario(swing_fraction=f, speed_m_per_s=v, mechanism=mech,
                                    strength_model=STRENGTH, **walk_on),
                           params=params_from(x)).summary
-        rec += int(s["recovered"])
+        ok = counts(s)
+        rec += int(ok)
+        rec_grid += int(ok and i < FLOOR_N)
         survived += s["sim_time_s"] if not s["fell"] else (s["fall_time_s"] or 0.0)
-    return rec, survived
+    return rec, survived, rec_grid
+
+
+def penalised(score: tuple) -> tuple[float, float]:
+    """(recoveries less the grid floor's penalty, time survived): compared as a tuple,
+    and without ``--grid-floor`` the plain (recoveries, time survived)."""
+    rec, survived, rec_grid = score
+    short = 0 if GRID_FLOOR is None else max(0, GRID_FLOOR - rec_grid)
+    return rec - FLOOR_PENALTY * short, survived
 
 
 def main() -> None:
@@ -112,11 +139,20 @@ def main() -> None:
                     help="FSMParams.attitude_damping of every candidate (default joint)")
     ap.add_argument("--gains", action="store_true",
                     help="search the servo gains too (GAINS) as well as the targets")
+    ap.add_argument("--trunk-attitude", type=float, default=0.0, metavar="K",
+                    help="FSMParams.trunk_attitude of every candidate (default 0: off)")
+    ap.add_argument("--max-tilt", type=float, default=None, metavar="DEG",
+                    help="a recovery counts only if the trunk is within DEG of vertical at "
+                    "recovery-foot contact (people: 23-26, van den Bogert et al. 2002)")
+    ap.add_argument("--grid-floor", type=int, default=None, metavar="N",
+                    help="penalise the objective by 2 per trip of the first 48 (the full "
+                    "grid, before full+bodies' bodies) recovered below N")
     args = ap.parse_args()
-    global GRID, STRENGTH, WALK_ON_S, ATTITUDE_DAMPING
+    global GRID, STRENGTH, WALK_ON_S, ATTITUDE_DAMPING, TRUNK_ATTITUDE, MAX_TILT, GRID_FLOOR
     GRID = {"small": GRID, "full": FULL_GRID, "lowering": LOWERING_GRID,
             "full+bodies": FULL_GRID + BODY_GRID}[args.grid]
     ATTITUDE_DAMPING = args.attitude_damping
+    TRUNK_ATTITUDE, MAX_TILT, GRID_FLOOR = args.trunk_attitude, args.max_tilt, args.grid_floor
     STRENGTH, WALK_ON_S = args.strength, args.walk_on
     space = {k: v for k, v in SPACE.items() if args.only == "all" or k in LOWERING}
     if args.gains:
@@ -148,20 +184,23 @@ def main() -> None:
     scores = ex.map(evaluate, cands) if ex else map(evaluate, cands)
     try:
         for i, (x, score) in enumerate(zip(cands, scores, strict=True)):
-            if best is None or score > best[1]:
+            if best is None or penalised(score) > penalised(best[1]):
                 best = (x, score)
             print(f"{i:3d} recovered {score[0]:2d}/{len(GRID)} survived {score[1]:6.2f} s "
-                  f"best {best[1][0]} ({time.time() - t0:.0f} s)", flush=True)
+                  f"grid {score[2]} best {best[1][0]} ({time.time() - t0:.0f} s)", flush=True)
     finally:
         if ex:
             ex.shutdown()
-    print(json.dumps({"recovered": best[1][0], "of": len(GRID), "params": best[0]}, indent=1))
+    print(json.dumps({"recovered": best[1][0], "of": len(GRID), "grid_recovered": best[1][2],
+                      "params": best[0]}, indent=1))
 
 
 def _worker_init(strength: str, grid: list, walk_on_s: float | None,
-                 attitude_damping: str = "joint") -> None:
-    global STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING
+                 attitude_damping: str = "joint", trunk_attitude: float = 0.0,
+                 max_tilt: float | None = None) -> None:
+    global STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING, TRUNK_ATTITUDE, MAX_TILT
     STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING = strength, grid, walk_on_s, attitude_damping
+    TRUNK_ATTITUDE, MAX_TILT = trunk_attitude, max_tilt
 
 
 def _cma(args, base: dict, space: dict) -> None:
@@ -179,27 +218,32 @@ def _cma(args, base: dict, space: dict) -> None:
         return {**base, **{k: float(v) for k, v in zip(names, lo + u * (hi - lo), strict=True)}}
 
     ex = ProcessPoolExecutor(args.workers, initializer=_worker_init,
-                             initargs=(STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING)
+                             initargs=(STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING,
+                                       TRUNK_ATTITUDE, MAX_TILT)
                              ) if args.workers > 1 else None
     t0, best = time.time(), None
     span = (WALK_ON_S or 3.0) * len(GRID)  # the grid's time budget
     try:
         first = evaluate(base) if ex is None else ex.submit(evaluate, base).result()
         best = (base, first)
-        print(f"start recovered {first[0]}/{len(GRID)} survived {first[1]:.1f} s", flush=True)
+        print(f"start recovered {first[0]}/{len(GRID)} survived {first[1]:.1f} s "
+              f"grid {first[2]}", flush=True)
         for g in range(args.generations):
             us = [opt.ask() for _ in range(opt.population_size)]
             xs = [point(u) for u in us]
             scores = list(ex.map(evaluate, xs) if ex else map(evaluate, xs))
-            opt.tell([(u, -(r + sv / span)) for u, (r, sv) in zip(us, scores, strict=True)])
+            pens = [penalised(sc) for sc in scores]
+            opt.tell([(u, -(r + sv / span)) for u, (r, sv) in zip(us, pens, strict=True)])
             for x, sc in zip(xs, scores, strict=True):
-                if sc > best[1]:
+                if penalised(sc) > penalised(best[1]):
                     best = (x, sc)
-            print(f"gen {g:2d} best of gen {max(scores)[0]}/{len(GRID)} overall "
-                  f"{best[1][0]} ({time.time() - t0:.0f} s)", flush=True)
+            top = scores[pens.index(max(pens))]
+            print(f"gen {g:2d} best of gen {top[0]}/{len(GRID)} (grid {top[2]}) overall "
+                  f"{best[1][0]} (grid {best[1][2]}) ({time.time() - t0:.0f} s)", flush=True)
             if args.out:
                 with open(args.out, "w") as fh:
                     json.dump({"recovered": best[1][0], "of": len(GRID),
+                               "grid_recovered": best[1][2],
                                "survived_s": round(best[1][1], 3), "generation": g,
                                "command": " ".join(["python scripts/tune_fsm.py",
                                                     *__import__("sys").argv[1:]]),
@@ -207,7 +251,8 @@ def _cma(args, base: dict, space: dict) -> None:
     finally:
         if ex:
             ex.shutdown()
-    print(json.dumps({"recovered": best[1][0], "of": len(GRID), "params": best[0]}, indent=1))
+    print(json.dumps({"recovered": best[1][0], "of": len(GRID), "grid_recovered": best[1][2],
+                      "params": best[0]}, indent=1))
 
 
 if __name__ == "__main__":
