@@ -148,6 +148,16 @@ def main() -> None:
                     help="penalise the objective by 2 per trip of the first 48 (the full "
                     "grid, before full+bodies' bodies) recovered below N")
     args = ap.parse_args()
+    if not (np.isfinite(args.trunk_attitude) and args.trunk_attitude >= 0):
+        ap.error(f"--trunk-attitude must be a number >= 0, got {args.trunk_attitude}")
+    if args.max_tilt is not None and not (np.isfinite(args.max_tilt) and args.max_tilt > 0):
+        ap.error(f"--max-tilt must be a number of degrees > 0, got {args.max_tilt}")
+    if args.grid_floor is not None:
+        if args.grid not in ("full", "full+bodies"):
+            ap.error("--grid-floor counts the full grid's 48 trips: give --grid full or "
+                     "full+bodies")
+        if not 0 <= args.grid_floor <= FLOOR_N:
+            ap.error(f"--grid-floor must be 0-{FLOOR_N}, got {args.grid_floor}")
     global GRID, STRENGTH, WALK_ON_S, ATTITUDE_DAMPING, TRUNK_ATTITUDE, MAX_TILT, GRID_FLOOR
     GRID = {"small": GRID, "full": FULL_GRID, "lowering": LOWERING_GRID,
             "full+bodies": FULL_GRID + BODY_GRID}[args.grid]
