@@ -177,6 +177,11 @@ def _one_line_error(r: subprocess.CompletedProcess, *words: str) -> None:
      ["--scr-phase is for --trips"]),
     (["reflex", "fit", "--scr-phase", "foot", "--out", "OUT"], ["--controller gh2010"]),
     (["reflex", "fit", "--ta-bound", "paper", "--out", "OUT"], ["--controller gh2010"]),
+    (["reflex", "fit", "--stance-weight", "20", "--out", "OUT"], ["--controller gh2010"]),
+    (["reflex", "fit", "--controller", "gh2010", "--stance-weight", "-2", "--out", "OUT"],
+     ["--stance-weight", "-2"]),
+    (["reflex", "fit", "--controller", "gh2010", "--stance-weight", "nan", "--out", "OUT"],
+     ["--stance-weight", "nan"]),
 ])
 def test_bad_input_is_one_line_and_non_zero(tmp_path, args, words):
     args = [str(tmp_path / "o") if a == "OUT" else a for a in args]

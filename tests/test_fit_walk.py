@@ -63,6 +63,25 @@ def test_the_foot_term_counts_only_when_asked_and_like_a_joint():
     assert "--foot-angle 5 " in _fit_command("gh2010", False, walk, None, 1, foot_angle=5.0)
 
 
+def test_the_stance_weight_scales_the_stance_term_and_is_recorded_in_the_command():
+    from stumble.control.reflex.fit_walk import _fit_command, fit_gh2010
+
+    short = {**_summary(), "stance_fraction": 0.51}
+    _, one = walk_cost(short, effort=0.0)
+    _, twenty = walk_cost(short, effort=0.0, stance_weight=20.0)
+    assert one["stance"] == pytest.approx(((0.57 - 0.51) / 0.05) ** 2)  # 1.44
+    assert twenty["stance"] == pytest.approx(20.0 * one["stance"])
+    _, inside = walk_cost({**_summary(), "stance_fraction": 0.6}, effort=0.0,
+                          stance_weight=20.0)
+    assert inside["stance"] == 0.0
+    walk = ((110, 15.0, ()),)
+    assert "--stance-weight" not in _fit_command("gh2010", False, walk, None, 1)
+    assert "--stance-weight 20 " in _fit_command("gh2010", False, walk, None, 1,
+                                                  stance_weight=20.0)
+    with pytest.raises(ValueError, match="stance_weight"):
+        fit_gh2010(stance_weight=-1.0)
+
+
 def test_the_stride_time_term_charges_strides_outside_the_band():
     from stumble.control.reflex.fit_walk import _fit_command
 
@@ -312,6 +331,7 @@ def test_shipped_gh2010_fits_score_today_what_they_scored_in_their_fit(name):
     init_walk_eval("gh2010", fit["stages"][-1]["walk_s"], fit["start_speed_m_per_s"],
                    fixed if trips else {"wiring": p.wiring}, trips, bool(trips),
                    fit.get("strategy_cost", 0.0), crossing, float(fit.get("foot_angle", 0)),
-                   bool(fit.get("stride_time", False)))
+                   bool(fit.get("stride_time", False)),
+                   float(fit.get("stance_weight", 1.0)))
     cost, _terms = evaluate_walk(np.array([getattr(p, n) for n in space.names]))
     assert cost == pytest.approx(fit["cost"], rel=1e-6)

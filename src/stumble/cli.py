@@ -266,6 +266,10 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument("--stride-time", action="store_true",
                    help="gh2010: the objective also keeps the mean stride within 1.0-1.3 s "
                    "(the played-back walk's at 1.0-1.3 m/s; ((distance)/0.05 s)^2)")
+    f.add_argument("--stance-weight", type=float, default=None, metavar="W",
+                   help="gh2010: the weight of the objective's stance-fraction term "
+                   "(((distance from 0.57-0.68)/0.05)^2; default 1, the shipped fits'; "
+                   "20 makes 0.06 outside the band cost as much as 1.4 lost trips)")
     f.add_argument("--foot-angle", type=float, nargs="?", const=1.0, default=0.0,
                    metavar="W",
                    help="gh2010: the objective also tracks each foot's angle to the floor "
@@ -611,6 +615,7 @@ def cmd_reflex_fit_gh2010(args) -> int:
         SEED003_STAGES,
         TRIP_SETS,
         TRIP_STAGES,
+        W_STANCE,
         fit_gh2010,
     )
     from stumble.outputs import prepare_dir, write_gh2010_fit
@@ -652,6 +657,9 @@ def cmd_reflex_fit_gh2010(args) -> int:
     strategy_cost = args.strategy_cost or 0.0
     if not (math.isfinite(args.foot_angle) and args.foot_angle >= 0):
         raise InputError(f"--foot-angle must be a number >= 0, got {args.foot_angle}")
+    stance_weight = W_STANCE if args.stance_weight is None else args.stance_weight
+    if not (math.isfinite(stance_weight) and stance_weight >= 0):
+        raise InputError(f"--stance-weight must be a number >= 0, got {args.stance_weight}")
     if not (math.isfinite(strategy_cost) and strategy_cost >= 0):
         raise InputError(f"--strategy-cost must be a number >= 0, got {args.strategy_cost}")
     gens = sum(g for g, _w, _t in stages)
@@ -666,7 +674,8 @@ def cmd_reflex_fit_gh2010(args) -> int:
                      start_fit=start_fit, scr_phase=args.scr_phase,
                      ta_bound=args.ta_bound, strategy_cost=strategy_cost,
                      crossing=args.crossing, foot_angle=args.foot_angle,
-                     load_from=args.load_from, stride_time=args.stride_time)
+                     load_from=args.load_from, stride_time=args.stride_time,
+                     stance_weight=stance_weight)
     bar.done()
     written, walk = write_gh2010_fit(out, res)
     s = walk.summary
@@ -684,10 +693,11 @@ def cmd_reflex(args) -> int:
         return cmd_reflex_fit_gh2010(args)
     if (args.trips or args.params is not None or args.trip_set or args.scr_phase
             or args.ta_bound != "wide" or args.strategy_cost is not None or args.crossing
-            or args.foot_angle or args.load_from is not None or args.stride_time):
+            or args.foot_angle or args.load_from is not None or args.stride_time
+            or args.stance_weight is not None):
         raise InputError("--trips, --params, --trip-set, --scr-phase, --strategy-cost, "
-                         "--crossing, --load-from, --foot-angle, --stride-time and "
-                         "--ta-bound are for "
+                         "--crossing, --load-from, --foot-angle, --stride-time, "
+                         "--stance-weight and --ta-bound are for "
                          "--controller gh2010")
     from stumble.control.reflex.identify import ITERATIONS, REFINE_ITERATIONS, fit
     from stumble.outputs import prepare_dir, write_fit

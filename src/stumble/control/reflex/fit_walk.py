@@ -11,7 +11,8 @@ at right heel strike (``stumble.pipeline.simulate_walk``):
                                                                   recorded stride
       + W_EFFORT · mean activation²                             effort (F_max-weighted)
       + W_SPEED · (distance of the speed from 1.0–1.3 m/s / 0.1 m/s)²
-      + W_STANCE · (distance of the stance fraction from 0.57–0.68 / 0.05)²
+      + w_stance · (distance of the stance fraction from 0.57–0.68 / 0.05)²
+                                                  (w_stance ``W_STANCE``, 1, unless asked)
      [+ w_foot · (RMSE of the feet's angle to the floor / 10°
                   + max(0, that RMSE − 8°) / 2°)]       with ``foot_angle`` w_foot > 0
      [+ W_STRIDE · (distance of the mean stride time from 1.0–1.3 s / 0.05 s)²]
@@ -67,12 +68,14 @@ def _outside(v: float, band: tuple[float, float]) -> float:
 
 
 def walk_cost(summary: dict, effort: float, foot_angle: float = 0.0,
-              stride_time: bool = False) -> tuple[float, dict]:
+              stride_time: bool = False,
+              stance_weight: float = W_STANCE) -> tuple[float, dict]:
     """The objective J of a walk's summary (``walk_metrics``) and its mean
     F_max-weighted squared activation; returns J and its terms; ``foot_angle``: the
     foot-angle term's weight (0: none; ``W_FOOT``, 1, a joint's; on the summary's
     ``foot_angle_rmse_deg``); ``stride_time``: with the stride-time term (``W_STRIDE``,
-    ``STRIDE_BAND``; the summary's ``stride_s``)."""
+    ``STRIDE_BAND``; the summary's ``stride_s``); ``stance_weight``: the stance term's
+    weight (``W_STANCE``, 1, in every shipped fit)."""
     T = summary["duration_s"]
     walked = min(summary["walked_s"] / T,
                  max(summary.get("distance_m", T * SPEED_BAND[0]), 0.0) / (SPEED_BAND[0] * T))
@@ -84,7 +87,7 @@ def walk_cost(summary: dict, effort: float, foot_angle: float = 0.0,
     stance = 2.0 if sf is None else _outside(sf, STANCE_BAND) / 0.05
     terms = {"fall": W_FALL * (1.0 - walked), "track": W_TRACK * track,
              "effort": W_EFFORT * effort, "speed": W_SPEED * speed ** 2,
-             "stance": W_STANCE * stance ** 2}
+             "stance": float(stance_weight) * stance ** 2}
     if foot_angle:
         f = summary.get("foot_angle_rmse_deg")
         terms["foot"] = float(foot_angle) * (10.0 if f is None else
@@ -300,17 +303,20 @@ _EVAL: dict = {}
 def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dict,
                    trips: tuple = (), stumble_reflex: bool = False,
                    strategy_cost: float = 0.0, crossing: bool = False,
-                   foot_angle: float = 0.0, stride_time: bool = False) -> None:
+                   foot_angle: float = 0.0, stride_time: bool = False,
+                   stance_weight: float = W_STANCE) -> None:
     """Worker set-up: what ``evaluate_walk`` simulates: a walk, and the obstacle trips
     ``trips`` ((swing fraction, speed) pairs) the walker must walk on from; GH2010
     candidates in ``gh2010_space(stumble_reflex=...)``; ``strategy_cost``: what a trip in
     a human window taken otherwise than humans take it costs (``trip_terms``);
-    ``crossing``: with the crossing step's gains; ``foot_angle``, ``stride_time``: the
-    objective's foot term's weight and its stride-time term (``walk_cost``)."""
+    ``crossing``: with the crossing step's gains; ``foot_angle``, ``stride_time``,
+    ``stance_weight``: the objective's foot term's weight, its stride-time term and its
+    stance term's weight (``walk_cost``)."""
     _EVAL.update(kind=kind, duration_s=duration_s, speed=speed_m_per_s, base=base,
                  trips=tuple(trips), stumble_reflex=stumble_reflex,
                  strategy_cost=float(strategy_cost), crossing=crossing,
-                 foot_angle=foot_angle, stride_time=stride_time)
+                 foot_angle=foot_angle, stride_time=stride_time,
+                 stance_weight=float(stance_weight))
 
 
 def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
@@ -335,7 +341,8 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
     else:
         raise ValueError(kind)
     cost, terms = walk_cost(r.summary, effort_of(r), _EVAL.get("foot_angle", 0.0),
-                            _EVAL.get("stride_time", False))
+                            _EVAL.get("stride_time", False),
+                            _EVAL.get("stance_weight", W_STANCE))
     terms["walked_s"] = r.summary["walked_s"]
     terms["speed_m_per_s"] = r.summary["speed_m_per_s"]
     trips = _EVAL.get("trips") or ()
@@ -469,7 +476,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                start_fit: dict | None = None, scr_phase: str | None = None,
                ta_bound: str = "wide", strategy_cost: float = 0.0,
                crossing: bool = False, foot_angle: float = 0.0,
-               load_from: str | None = None, stride_time: bool = False) -> FitResult:
+               load_from: str | None = None, stride_time: bool = False,
+               stance_weight: float = W_STANCE) -> FitResult:
     """Optimise the GH2010 gains in closed loop: per stage (generations, walk s, obstacle
     trips), CMA-ES on ``walk_cost`` plus, for each trip, ``W_TRIP`` times the part of the
     3 s after it not walked on. ``wiring`` ``gh2010`` starts from the paper's values
@@ -489,7 +497,9 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     ``crossing`` (trip stages): the crossing step after a touch (``CROSS_BOUNDS``) joins
     the fit, its gains restarting at ``SCR_START`` where ``start`` has them at zero;
     ``foot_angle``, ``stride_time``: the objective's foot term's weight (0, none) and
-    its stride-time term (``walk_cost``), in every stage; ``load_from`` (trip stages):
+    its stride-time term (``walk_cost``), in every stage; ``stance_weight``: the stance
+    term's weight (``W_STANCE``; a trip stage that lengthened the stance phase below the
+    band paid 1.4 for it at weight 1, a fourteenth of a lost trip); ``load_from`` (trip stages):
     what a leg's load is (``GH2010Params.load_from``; default ``start``'s). Writes
     ``gh2010.json`` to ``out`` (the best parameters and the fit's figures) when given."""
     if strategy_cost < 0 or not math.isfinite(strategy_cost):
@@ -498,6 +508,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
         raise ValueError("strategy_cost is for the trip stage (trips=True)")
     if crossing and not trips:
         raise ValueError("crossing is for the trip stage (trips=True)")
+    if not (math.isfinite(stance_weight) and stance_weight >= 0):
+        raise ValueError(f"stance_weight must be a finite number >= 0, got {stance_weight}")
     if load_from is not None and not trips:
         raise ValueError("load_from is for the trip stage (trips=True)")
     from dataclasses import replace
@@ -542,7 +554,7 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                       initargs=("gh2010", walk_s, GH2010_SPEED_M_PER_S,
                                 fixed if with_trips else {"wiring": wiring}, trips,
                                 with_trips, strategy_cost, crossing, foot_angle,
-                                stride_time),
+                                stride_time, stance_weight),
                       first_generation=total, stage="walk" if not trips else "walk+trips",
                       fixed=fixed)
         params = replace(params, **dict(zip(space.names, map(float, res.best_theta),
@@ -576,22 +588,27 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                     "foot_angle": foot_angle,
                     "load_from": params.load_from,
                     "stride_time": stride_time,
+                    "stance_weight": stance_weight,
                     "command": _fit_command(wiring, with_trips, stages, scr_phase, seed,
                                             ta_bound, strategy_cost, crossing,
-                                            foot_angle, load_from, stride_time)}})
+                                            foot_angle, load_from, stride_time,
+                                            stance_weight)}})
     return res
 
 
 def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: int,
                  ta_bound: str = "wide", strategy_cost: float = 0.0,
                  crossing: bool = False, foot_angle: float = 0.0,
-                 load_from: str | None = None, stride_time: bool = False) -> str:
+                 load_from: str | None = None, stride_time: bool = False,
+                 stance_weight: float = W_STANCE) -> str:
     """The ``stumble reflex fit`` command of a GH2010 fit (``--params`` aside)."""
     opts = ["--trips"] if trips else []
     if ta_bound != "wide":
         opts.append(f"--ta-bound {ta_bound}")
     if stride_time:
         opts.append("--stride-time")
+    if stance_weight != W_STANCE:
+        opts.append(f"--stance-weight {stance_weight:g}")
     if foot_angle:
         opts.append("--foot-angle" if foot_angle == W_FOOT else f"--foot-angle {foot_angle:g}")
     if trips:
