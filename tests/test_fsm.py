@@ -256,6 +256,7 @@ def _tune_fsm():
 
 def test_tune_fsm_out_carries_trunk_attitude_to_around_and_load_params(tmp_path, monkeypatch):
     import json
+    import re
 
     from stumble.control.fsm_params import load_params
     from stumble.errors import InputError
@@ -276,8 +277,9 @@ def test_tune_fsm_out_carries_trunk_attitude_to_around_and_load_params(tmp_path,
         assert values == best[0] and trunk == 0.4
         assert tune.trunk_attitude_of(None, trunk) == 0.4
         assert tune.trunk_attitude_of(0.4, trunk) == 0.4
-        with pytest.raises(InputError, match="--trunk-attitude 0.3 conflicts with the "
-                           "--around file's settings.trunk_attitude 0.4"):
+        with pytest.raises(InputError, match=re.escape(
+                "--trunk-attitude 0.3 conflicts with the --around file's "
+                "settings.trunk_attitude 0.4")):
             tune.trunk_attitude_of(0.3, trunk)
     # a bare object of names (scripts/fsm_start_*.json) has no settings: the option's or 0
     bare = tmp_path / "start.json"
