@@ -390,6 +390,27 @@ def test_dask_cluster_gives_the_same_rows_as_local_processes(tmp_path, fake):
     assert strip(res.rows) == strip(local.rows) and len(res.rows) == 8
 
 
+def test_dask_cluster_runs_with_the_params(tmp_path, monkeypatch):
+    """--params reach the Dask workers (threads here, so the fake applies): the rows of
+    one local process, each from the file's trunk_attitude."""
+    distributed = pytest.importorskip("distributed")
+    from stumble.control.fsm_params import read_params
+
+    def simulate_trip(sc, params=None):
+        return SimpleNamespace(summary={**fake_summary(sc), "trunk_attitude":
+                                        None if params is None else params.trunk_attitude})
+
+    monkeypatch.setattr(pipeline, "simulate_trip", simulate_trip)
+    pf = read_params(_params_file(tmp_path / "p.json"))
+    local = run_study(small_grid(), tmp_path / "a", workers=1, progress=False, params=pf)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as cluster:
+        res = run_study(small_grid(), tmp_path / "b", scheduler=cluster.scheduler_address,
+                        progress=False, params=pf)
+    assert strip(res.rows) == strip(local.rows) and len(res.rows) == 8
+    assert all(r["trunk_attitude"] == 1.0 for r in res.rows)
+
+
 def test_dask_time_limit_on_worker_threads(tmp_path, monkeypatch):
     distributed = pytest.importorskip("distributed")
 
