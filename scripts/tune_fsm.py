@@ -18,6 +18,15 @@ time survived; every generation's best is written to ``--out`` as it goes.
 recovery-foot contact; ``--grid-floor N``: the objective loses 2 per trip of the first
 48 (the full grid; with ``full+bodies`` the bodies follow) recovered below N.
 Prints the best parameter set as JSON, to be carried into fsm_params.py by hand.
+
+The ``--out`` file is a state-machine parameter file (``stumble trip --params FILE``,
+``stumble study --params FILE``, ``fsm_params.load_params``): ``"params"`` holds the
+searched values, ``"settings"`` the ``trunk_attitude`` every candidate ran with
+(``--trunk-attitude``). ``--around`` takes such a file (its path), or JSON text: such a
+file's text or a bare object of SPACE names (``"$(cat scripts/fsm_start_trunk.json)"``).
+A file's ``settings.trunk_attitude`` becomes the search's unless ``--trunk-attitude``
+is given; an explicit ``--trunk-attitude`` that differs from the file's is refused (the
+start values were found with the file's), so give the same value or leave it out.
 """
 
 from __future__ import annotations
@@ -53,6 +62,62 @@ BODY_GRID = [(f, 1.2, mech, *body) for body in BODIES for mech in ("force", "obs
 
 ATTITUDE_DAMPING = "joint"  # --attitude-damping (FSMParams.attitude_damping)
 TRUNK_ATTITUDE = 0.0  # --trunk-attitude (FSMParams.trunk_attitude)
+
+
+def read_around(text: str) -> tuple[dict, float | None]:
+    """The start values of ``--around`` and its trunk_attitude (None: no settings):
+    ``text`` is JSON text or the path of a JSON file, either a parameter file
+    (``{"params": {...}, "settings": {...}}``, as ``--out`` writes it) or a bare object of
+    SPACE/GAINS names. InputError (one line) names a bad file or setting."""
+    from pathlib import Path
+
+    from stumble.control.fsm_params import SETTINGS, check_trunk_attitude
+    from stumble.errors import InputError
+
+    where = "--around"
+    if not text.lstrip().startswith("{"):  # a path
+        where = text
+        try:
+            text = Path(text).read_text()
+        except (OSError, ValueError) as e:
+            raise InputError(f"{where}: cannot be read ({type(e).__name__})") from None
+    try:
+        doc = json.loads(text)
+    except ValueError:
+        raise InputError(f"{where}: not JSON") from None
+    if not isinstance(doc, dict):
+        raise InputError(f"{where}: not a JSON object")
+    if "params" not in doc:
+        return doc, None
+    values, settings = doc["params"], doc.get("settings", {})
+    if not isinstance(values, dict) or not isinstance(settings, dict):
+        raise InputError(f"{where}: \"params\" and \"settings\" must be JSON objects")
+    if set(settings) - set(SETTINGS):
+        raise InputError(f"{where}: unknown setting(s) {sorted(set(settings) - set(SETTINGS))} "
+                         f"(known: {', '.join(SETTINGS)})")
+    trunk = settings.get("trunk_attitude")
+    return dict(values), None if trunk is None else check_trunk_attitude(trunk, where)
+
+
+def trunk_attitude_of(explicit: float | None, from_file: float | None) -> float:
+    """The search's trunk_attitude: ``--trunk-attitude`` (``explicit``) or the ``--around``
+    file's; both given and different: InputError."""
+    from stumble.errors import InputError
+
+    if explicit is not None and from_file is not None and explicit != from_file:
+        raise InputError(f"--trunk-attitude {explicit:g} conflicts with the --around file's "
+                         f"settings.trunk_attitude {from_file:g}: give the same value or "
+                         "leave --trunk-attitude out")
+    return explicit if explicit is not None else from_file if from_file is not None else 0.0
+
+
+def out_record(best: tuple, generation: int, argv: list[str]) -> dict:
+    """The ``--out`` file: the best so far as a parameter file (``params`` and
+    ``settings``, ``fsm_params.load_params``) with its score and the command."""
+    return {"recovered": best[1][0], "of": len(GRID), "grid_recovered": best[1][2],
+            "survived_s": round(best[1][1], 3), "generation": generation,
+            "command": " ".join(["python scripts/tune_fsm.py", *argv]),
+            "params": best[0], "settings": {"trunk_attitude": TRUNK_ATTITUDE}}
 
 
 def params_from(x: dict):
@@ -119,9 +184,11 @@ def main() -> None:
                     "96 trips at 1.2 m/s")
     ap.add_argument("--only", choices=("all", "lowering"), default="all",
                     help="search only the lowering strategy's targets (others stay default)")
-    ap.add_argument("--around", metavar="JSON",
+    ap.add_argument("--around", metavar="FILE|JSON",
                     help="search locally: Gaussian steps (15 %% of each range) around these "
-                    "values, a JSON object of SPACE names (default: uniform over the ranges)")
+                    "values: a parameter file (as --out writes it; its settings' "
+                    "trunk_attitude too) or JSON text, a parameter file's or an object of "
+                    "SPACE names (default: uniform over the ranges)")
     ap.add_argument("--method", choices=("random", "cma"), default="random")
     ap.add_argument("--generations", type=int, default=20, help="cma: generations")
     ap.add_argument("--popsize", type=int, default=12, help="cma: candidates per generation")
@@ -139,8 +206,9 @@ def main() -> None:
                     help="FSMParams.attitude_damping of every candidate (default joint)")
     ap.add_argument("--gains", action="store_true",
                     help="search the servo gains too (GAINS) as well as the targets")
-    ap.add_argument("--trunk-attitude", type=float, default=0.0, metavar="K",
-                    help="FSMParams.trunk_attitude of every candidate (default 0: off)")
+    ap.add_argument("--trunk-attitude", type=float, default=None, metavar="K",
+                    help="FSMParams.trunk_attitude of every candidate (default: the --around "
+                    "file's settings, else 0: off; one differing from the file's is refused)")
     ap.add_argument("--max-tilt", type=float, default=None, metavar="DEG",
                     help="a recovery counts only if the trunk is within DEG of vertical at "
                     "recovery-foot contact (people: 23-26, van den Bogert et al. 2002)")
@@ -148,8 +216,18 @@ def main() -> None:
                     help="penalise the objective by 2 per trip of the first 48 (the full "
                     "grid, before full+bodies' bodies) recovered below N")
     args = ap.parse_args()
-    if not (np.isfinite(args.trunk_attitude) and args.trunk_attitude >= 0):
+    if args.trunk_attitude is not None and not (np.isfinite(args.trunk_attitude)
+                                                and args.trunk_attitude >= 0):
         ap.error(f"--trunk-attitude must be a number >= 0, got {args.trunk_attitude}")
+    from stumble.errors import InputError
+
+    around, file_trunk = {}, None
+    try:
+        if args.around:
+            around, file_trunk = read_around(args.around)
+        trunk_attitude = trunk_attitude_of(args.trunk_attitude, file_trunk)
+    except InputError as e:
+        ap.error(str(e))
     if args.max_tilt is not None and not (np.isfinite(args.max_tilt) and args.max_tilt > 0):
         ap.error(f"--max-tilt must be a number of degrees > 0, got {args.max_tilt}")
     if args.grid_floor is not None:
@@ -162,7 +240,7 @@ def main() -> None:
     GRID = {"small": GRID, "full": FULL_GRID, "lowering": LOWERING_GRID,
             "full+bodies": FULL_GRID + BODY_GRID}[args.grid]
     ATTITUDE_DAMPING = args.attitude_damping
-    TRUNK_ATTITUDE, MAX_TILT, GRID_FLOOR = args.trunk_attitude, args.max_tilt, args.grid_floor
+    TRUNK_ATTITUDE, MAX_TILT, GRID_FLOOR = trunk_attitude, args.max_tilt, args.grid_floor
     STRENGTH, WALK_ON_S = args.strength, args.walk_on
     space = {k: v for k, v in SPACE.items() if args.only == "all" or k in LOWERING}
     if args.gains:
@@ -171,10 +249,8 @@ def main() -> None:
     from stumble.control.fsm_params import FSMParams
 
     default = FSMParams()
-    base = {}
     base = default.values()
-    if args.around:
-        base.update(json.loads(args.around))
+    base.update(around)
     if args.method == "cma":
         _cma(args, base, space)
         return
@@ -202,7 +278,8 @@ def main() -> None:
         if ex:
             ex.shutdown()
     print(json.dumps({"recovered": best[1][0], "of": len(GRID), "grid_recovered": best[1][2],
-                      "params": best[0]}, indent=1))
+                      "params": best[0], "settings": {"trunk_attitude": TRUNK_ATTITUDE}},
+                     indent=1))
 
 
 def _worker_init(strength: str, grid: list, walk_on_s: float | None,
@@ -252,17 +329,13 @@ def _cma(args, base: dict, space: dict) -> None:
                   f"{best[1][0]} (grid {best[1][2]}) ({time.time() - t0:.0f} s)", flush=True)
             if args.out:
                 with open(args.out, "w") as fh:
-                    json.dump({"recovered": best[1][0], "of": len(GRID),
-                               "grid_recovered": best[1][2],
-                               "survived_s": round(best[1][1], 3), "generation": g,
-                               "command": " ".join(["python scripts/tune_fsm.py",
-                                                    *__import__("sys").argv[1:]]),
-                               "params": best[0]}, fh, indent=1)
+                    json.dump(out_record(best, g, __import__("sys").argv[1:]), fh, indent=1)
     finally:
         if ex:
             ex.shutdown()
     print(json.dumps({"recovered": best[1][0], "of": len(GRID), "grid_recovered": best[1][2],
-                      "params": best[0]}, indent=1))
+                      "params": best[0], "settings": {"trunk_attitude": TRUNK_ATTITUDE}},
+                     indent=1))
 
 
 if __name__ == "__main__":

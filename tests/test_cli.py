@@ -182,10 +182,28 @@ def _one_line_error(r: subprocess.CompletedProcess, *words: str) -> None:
      ["--stance-weight", "-2"]),
     (["reflex", "fit", "--controller", "gh2010", "--stance-weight", "nan", "--out", "OUT"],
      ["--stance-weight", "nan"]),
+    (["study", "--out", "OUT", "--params", "missing.json"],
+     ["missing.json: not a state-machine parameter file"]),
+    (["study", "--out", "OUT", "--controller", "reflex", "--params", "anderson2007"],
+     ["--params is for --controller fsm"]),
 ])
 def test_bad_input_is_one_line_and_non_zero(tmp_path, args, words):
     args = [str(tmp_path / "o") if a == "OUT" else a for a in args]
     _one_line_error(run(*args), *words)
+
+
+@pytest.mark.parametrize(("text", "words"), [
+    ('{"params": {}, "settings": {"trunk_attitude": -0.3}}', "trunk_attitude = -0.3 is not"),
+    ('{"params": {"kp_knee": 5000}}', "kp_knee = 5000 is outside 100-800"),
+    ('{"params": {}, "settings": {"trunk": 1}}', "unknown setting 'trunk'"),
+])
+@pytest.mark.parametrize("command", ["study", "trip"])
+def test_a_bad_params_file_is_one_line_naming_it(tmp_path, text, words, command):
+    bad = tmp_path / "bad-params.json"
+    bad.write_text(text)
+    r = run(command, "--out", str(tmp_path / "o"), "--params", str(bad))
+    _one_line_error(r, f"{bad}: {words}")
+    assert not (tmp_path / "o").exists()
 
 
 def test_pipes_devices_and_absurd_files_are_one_line_errors(tmp_path):

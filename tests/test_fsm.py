@@ -212,6 +212,86 @@ def test_load_params_names_bad_files_and_values(tmp_path):
             load_params(bad)
 
 
+
+def test_a_params_file_carries_trunk_attitude(tmp_path):
+    import hashlib
+    import json
+
+    from stumble.control.fsm_params import load_params, read_params
+    from stumble.errors import InputError
+
+    f = tmp_path / "t.json"
+    f.write_text(json.dumps({"params": {"kp_knee": 250.0}, "settings": {"trunk_attitude": 0.3}}))
+    p = load_params(f)
+    assert p.trunk_attitude == 0.3 and p.kp_passive["knee"] == 250.0
+    assert load_params("anderson2007").trunk_attitude == 0.0  # no settings: the default
+    rec = read_params(f).record()
+    assert rec["path"] == str(f) and rec["sha256"] == hashlib.sha256(f.read_bytes()).hexdigest()
+    assert rec["values"]["kp_knee"] == 250.0 and rec["settings"] == {"trunk_attitude": 0.3}
+    for settings, match in (('{"trunk_attitude": -0.5}', "trunk_attitude = -0.5 is not"),
+                            ('{"trunk_attitude": NaN}', "trunk_attitude = nan is not"),
+                            ('{"trunk_attitude": Infinity}', "trunk_attitude = inf is not"),
+                            ('{"trunk_attitude": "0.3"}', "trunk_attitude = '0.3' is not"),
+                            ('{"trunk_attitude": true}', "trunk_attitude = True is not"),
+                            ('{"trunk_atitude": 0.3}', "unknown setting 'trunk_atitude'"),
+                            ('[0.3]', '"settings" is not an object')):
+        bad = tmp_path / "bad.json"
+        bad.write_text(f'{{"params": {{}}, "settings": {settings}}}')
+        with pytest.raises(InputError, match=match) as e:
+            load_params(bad)
+        assert str(e.value).startswith(f"{bad}: ") and "\n" not in str(e.value)
+
+
+def _tune_fsm():
+    """scripts/tune_fsm.py as a module (its functions; no search is run)."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "scripts" / "tune_fsm.py"
+    spec = importlib.util.spec_from_file_location("tune_fsm", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_tune_fsm_out_carries_trunk_attitude_to_around_and_load_params(tmp_path, monkeypatch):
+    import json
+    import re
+
+    from stumble.control.fsm_params import load_params
+    from stumble.errors import InputError
+
+    tune = _tune_fsm()
+    monkeypatch.setattr(tune, "TRUNK_ATTITUDE", 0.4)
+    best = ({"kp_knee": 250.0, "elev_sup_ankle": -30.0}, (40, 100.0, 40))
+    out = tmp_path / "best.json"
+    out.write_text(json.dumps(tune.out_record(best, 3, ["--trunk-attitude", "0.4"]), indent=1))
+    # the search's file is a parameter file: the values and the trunk attitude it ran with
+    p = load_params(out)
+    assert p.trunk_attitude == 0.4 and p.kp_passive["knee"] == 250.0
+    assert p.targets_deg["clearance_elevating"]["sup.ankle_angle"] == -30.0
+    assert p == tune.params_from(best[0])  # what the search measured
+    # --around FILE (and the file's text) reads both back
+    for around in (str(out), out.read_text()):
+        values, trunk = tune.read_around(around)
+        assert values == best[0] and trunk == 0.4
+        assert tune.trunk_attitude_of(None, trunk) == 0.4
+        assert tune.trunk_attitude_of(0.4, trunk) == 0.4
+        with pytest.raises(InputError, match=re.escape(
+                "--trunk-attitude 0.3 conflicts with the --around file's "
+                "settings.trunk_attitude 0.4")):
+            tune.trunk_attitude_of(0.3, trunk)
+    # a bare object of names (scripts/fsm_start_*.json) has no settings: the option's or 0
+    bare = tmp_path / "start.json"
+    bare.write_text(json.dumps(best[0]))
+    assert tune.read_around(str(bare)) == (best[0], None)
+    assert tune.trunk_attitude_of(None, None) == 0.0 and tune.trunk_attitude_of(0.3, None) == 0.3
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"params": {}, "settings": {"trunk_attitude": -1}}))
+    with pytest.raises(InputError, match=f"{bad}: trunk_attitude = -1 is not"):
+        tune.read_around(str(bad))
+
+
 @pytest.mark.parametrize("swing,strategy", [(0.2, "elevating"), (0.65, "lowering")])
 def test_walks_on_for_six_seconds_after_the_trip(swing, strategy):
     s = simulate_trip(Scenario(swing_fraction=swing, recovery="walk_on",

@@ -390,6 +390,27 @@ def test_dask_cluster_gives_the_same_rows_as_local_processes(tmp_path, fake):
     assert strip(res.rows) == strip(local.rows) and len(res.rows) == 8
 
 
+def test_dask_cluster_runs_with_the_params(tmp_path, monkeypatch):
+    """--params reach the Dask workers (threads here, so the fake applies): the rows of
+    one local process, each from the file's trunk_attitude."""
+    distributed = pytest.importorskip("distributed")
+    from stumble.control.fsm_params import read_params
+
+    def simulate_trip(sc, params=None):
+        return SimpleNamespace(summary={**fake_summary(sc), "trunk_attitude":
+                                        None if params is None else params.trunk_attitude})
+
+    monkeypatch.setattr(pipeline, "simulate_trip", simulate_trip)
+    pf = read_params(_params_file(tmp_path / "p.json"))
+    local = run_study(small_grid(), tmp_path / "a", workers=1, progress=False, params=pf)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as cluster:
+        res = run_study(small_grid(), tmp_path / "b", scheduler=cluster.scheduler_address,
+                        progress=False, params=pf)
+    assert strip(res.rows) == strip(local.rows) and len(res.rows) == 8
+    assert all(r["trunk_attitude"] == 1.0 for r in res.rows)
+
+
 def test_dask_time_limit_on_worker_threads(tmp_path, monkeypatch):
     distributed = pytest.importorskip("distributed")
 
@@ -450,6 +471,102 @@ def test_real_trips_through_the_cli(tmp_path, capsys):
         if k not in WALL:
             assert rows[0][k] == v, k
     assert (out / "strategy_map.png").exists() and (out / "outcome_map.png").exists()
+
+
+def _params_file(path: Path) -> Path:
+    """A parameter file that matters: SCA's 60 deg push-off plantarflexion (elevating) and
+    the trunk held against 1.0 times its forward pitch."""
+    path.write_text(json.dumps({"params": {"elev_sup_ankle": -60.0},
+                                "settings": {"trunk_attitude": 1.0}}))
+    return path
+
+
+def test_real_trips_with_params_differ_and_match_on_one_or_two_workers(tmp_path, capsys):
+    from stumble.control.fsm_params import load_params
+
+    p = _params_file(tmp_path / "p.json")
+    grid = ["--swing", "0.2,0.65", "--speed", "1.2", "--duration", "0.6", "--quiet",
+            "--no-plots"]
+    for name, extra in (("two", ["--workers", "2", "--params", str(p)]),
+                        ("one", ["--workers", "1", "--params", str(p)]),
+                        ("default", ["--workers", "1"])):
+        assert main(["study", "--out", str(tmp_path / name), *grid, *extra]) == 0
+    two, one, default = (rows_of(tmp_path / n / "results.parquet")
+                         for n in ("two", "one", "default"))
+    assert strip(two) == strip(one)  # the parameters reach the worker processes
+    assert [r["key"] for r in two] == [r["key"] for r in default]  # run keys: the scenario's
+    # the trunk held upright: far less tilt at recovery-foot contact than the defaults'
+    tilt = [(r["trunk_tilt_at_recovery_contact_deg"],
+             d["trunk_tilt_at_recovery_contact_deg"]) for r, d in zip(two, default, strict=True)]
+    assert tilt[0][0] < tilt[0][1] - 5.0, tilt  # elevating at 0.2 of swing: ~14 against ~24
+    assert two[0]["support_peak_moments_nm.ankle_plantarflexion"] > \
+        default[0]["support_peak_moments_nm.ankle_plantarflexion"]
+    # each row is the trip run here with those parameters
+    direct = flatten(pipeline.simulate_trip(Scenario(
+        swing_fraction=0.2, speed_m_per_s=1.2, duration_after_trip_s=0.6),
+        params=load_params(p)).summary)
+    for k, v in direct.items():
+        if k not in WALL:
+            assert two[0][k] == v, k
+
+
+def test_params_go_to_every_run_and_are_recorded(tmp_path, monkeypatch, capsys):
+    import hashlib
+
+    got = []
+
+    def simulate_trip(sc, **kw):
+        got.append(kw.get("params"))
+        return SimpleNamespace(summary=fake_summary(sc))
+
+    monkeypatch.setattr(pipeline, "simulate_trip", simulate_trip)
+    p = _params_file(tmp_path / "p.json")
+    argv = ["study", "--swing", "0.2,0.4", "--workers", "1", "--quiet", "--no-plots"]
+    assert main([*argv, "--out", str(tmp_path / "a"), "--params", str(p)]) == 0
+    assert len(got) == 2 and all(g.trunk_attitude == 1.0 for g in got)
+    assert all(g.targets_deg["clearance_elevating"]["sup.ankle_angle"] == -60.0 for g in got)
+    rec = json.loads((tmp_path / "a" / "study.json").read_text())["params"]
+    assert rec["path"] == str(p) and rec["file"] == str(p.resolve())
+    assert rec["sha256"] == hashlib.sha256(p.read_bytes()).hexdigest()
+    assert rec["values"]["elev_sup_ankle"] == -60.0 and len(rec["values"]) == 33
+    assert rec["settings"] == {"trunk_attitude": 1.0}
+    # without --params: no parameters passed, nothing recorded (as before --params existed)
+    got.clear()
+    assert main([*argv, "--out", str(tmp_path / "b")]) == 0
+    assert got == [None, None]
+    assert "params" not in json.loads((tmp_path / "b" / "study.json").read_text())
+    # a shipped set by name
+    assert main([*argv, "--out", str(tmp_path / "c"), "--params", "anderson2007"]) == 0
+    assert json.loads((tmp_path / "c" / "study.json").read_text())["params"]["path"] == \
+        "anderson2007"
+    capsys.readouterr()
+    # a directory holds one parameter set: resuming with others is one line, nothing run
+    got.clear()
+    for out, extra, words in (("a", [], "made with --params of SHA-256 " + rec["sha256"][:16]),
+                              ("b", ["--params", str(p)], "made without --params"),
+                              ("a", ["--params", "anderson2007"], "resumed with --params "
+                               "anderson2007")):
+        assert main([*argv, "--out", str(tmp_path / out), *extra]) == 2
+        err = capsys.readouterr().err
+        assert words in err and err.count("\n") == 1, err
+    assert not got
+    # the same bytes under another name resume it: nothing to run
+    same = tmp_path / "same.json"
+    same.write_bytes(p.read_bytes())
+    assert main([*argv, "--out", str(tmp_path / "a"), "--params", str(same)]) == 0
+    assert not got and "2 runs (0 run now, 2 before)" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(("extra", "words"), [
+    (["--controller", "reflex"], "--params is for --controller fsm in a study (the grid has "
+     "reflex)"),
+    (["--controller", "fsm,gh2010"], "(the grid has gh2010)"),
+])
+def test_params_for_other_controllers_is_one_line(tmp_path, capsys, fake, extra, words):
+    code = main(["study", "--out", str(tmp_path / "s"), "--params", "anderson2007", *extra])
+    err = capsys.readouterr().err
+    assert code == 2 and words in err and err.count("\n") == 1 and not fake
+    assert not (tmp_path / "s").exists()
 
 
 # ---------------------------------------------------------------- hardening

@@ -19,7 +19,9 @@ is beside it. Everything here can be overridden (``FSMParams(**changes)``).
 from __future__ import annotations
 
 import copy
+import hashlib
 import json
+import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -432,17 +434,52 @@ def human_strength_params() -> FSMParams:
 
 
 SHIPPED = {"anderson2007": HUMAN_STRENGTH_FILE}  # named parameter sets (load_params)
+# The settings a parameter file may carry beside its tunable values (its top-level
+# "settings" object): FSMParams fields that no search varies but that a set was found
+# with (scripts/tune_fsm.py --trunk-attitude writes it there).
+SETTINGS = ("trunk_attitude",)
 
 
-def load_params(path_or_name) -> FSMParams:
-    """The defaults with the tunable values of a JSON file (``{"params": {name: value}}``,
-    as ``scripts/tune_fsm.py --out`` writes it) or of a shipped set by name
-    (``SHIPPED``); InputError names a bad file, an unknown name or a value out of range."""
+def check_trunk_attitude(value, where: str) -> float:
+    """``value`` as a trunk_attitude (a finite number >= 0), or InputError naming
+    ``where`` and the value."""
     from stumble.errors import InputError
 
-    path = SHIPPED.get(str(path_or_name), Path(path_or_name))
+    ok = (isinstance(value, (int, float)) and not isinstance(value, bool)
+          and math.isfinite(value) and value >= 0)
+    if not ok:
+        raise InputError(f"{where}: trunk_attitude = {value!r} is not a finite number >= 0")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class ParamsFile:
+    """A state-machine parameter file as read: what was asked for (a path or a shipped
+    name), the file read, the SHA-256 of its bytes and the parameters it gives."""
+
+    name: str
+    path: Path
+    sha256: str
+    params: FSMParams
+
+    def record(self) -> dict:
+        """What a study records of it (study.json ``params``): the file, its SHA-256, the
+        tunable values used (``FSMParams.values``, the file's and the defaults') and the
+        settings."""
+        return {"path": self.name, "file": str(self.path.resolve()), "sha256": self.sha256,
+                "values": self.params.values(),
+                "settings": {k: getattr(self.params, k) for k in SETTINGS}}
+
+
+def read_params(path_or_name) -> ParamsFile:
+    """``load_params`` with the file it read and that file's SHA-256."""
+    from stumble.errors import InputError
+
+    path = Path(SHIPPED.get(str(path_or_name), path_or_name))
     try:
-        values = json.loads(Path(path).read_text())["params"]
+        data = path.read_bytes()
+        doc = json.loads(data)
+        values = doc["params"]
     except (OSError, ValueError, KeyError, TypeError) as e:
         raise InputError(f"{path_or_name}: not a state-machine parameter file with "
                          f"\"params\" ({type(e).__name__})") from None
@@ -453,6 +490,26 @@ def load_params(path_or_name) -> FSMParams:
         if name not in space:
             raise InputError(f"{path_or_name}: unknown parameter {name!r}")
         lo, hi = space[name][1:]
-        if not isinstance(value, (int, float)) or not lo <= value <= hi:
+        if (not isinstance(value, (int, float)) or isinstance(value, bool)
+                or not lo <= value <= hi):
             raise InputError(f"{path_or_name}: {name} = {value!r} is outside {lo:g}-{hi:g}")
-    return FSMParams().with_values(values)
+    settings = doc.get("settings", {})
+    if not isinstance(settings, dict):
+        raise InputError(f"{path_or_name}: \"settings\" is not an object of named values")
+    for name in settings:
+        if name not in SETTINGS:
+            raise InputError(f"{path_or_name}: unknown setting {name!r} (known: "
+                             f"{', '.join(SETTINGS)})")
+    p = FSMParams().with_values(values)
+    if "trunk_attitude" in settings:
+        p = replace(p, trunk_attitude=check_trunk_attitude(settings["trunk_attitude"],
+                                                           str(path_or_name)))
+    return ParamsFile(str(path_or_name), path, hashlib.sha256(data).hexdigest(), p)
+
+
+def load_params(path_or_name) -> FSMParams:
+    """The defaults with the tunable values of a JSON file (``{"params": {name: value}}``,
+    as ``scripts/tune_fsm.py --out`` writes it) or of a shipped set by name
+    (``SHIPPED``), and the file's optional ``"settings"`` (``{"trunk_attitude": k}``,
+    ``SETTINGS``); InputError names a bad file, an unknown name or a value out of range."""
+    return read_params(path_or_name).params

@@ -72,6 +72,10 @@ def add_study_parser(sub) -> None:
     p.add_argument("--run-timeout", type=timeout_arg, default=RUN_TIMEOUT_S, metavar="S",
                    help=f"wall-time limit of one run in s; a run past it is stopped and "
                    f"recorded as a timeout row (default {RUN_TIMEOUT_S:g}; 0: no limit)")
+    p.add_argument("--params", metavar="FILE|NAME",
+                   help="state-machine parameters for every trip (--controller fsm): a JSON "
+                   "file as scripts/tune_fsm.py --out writes it, or a shipped set "
+                   "(anderson2007); recorded in DIR/study.json with its SHA-256")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG maps")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     g = p.add_argument_group("grid axes (default: the `stumble trip` default)")
@@ -90,6 +94,19 @@ def grid_from_namespace(args) -> Grid:
     return base.merged(grid_from_args(specs, args.repeats))
 
 
+def params_arg(path_or_name: str, grid: Grid):
+    """The parameter file of ``--params`` (``fsm_params.ParamsFile``); InputError when
+    the grid has a controller other than the state machines, or the file is bad."""
+    from stumble.control.fsm_params import read_params
+    from stumble.errors import InputError
+
+    others = [c for c in grid.values("controller") if c != "fsm"]
+    if others:
+        raise InputError(f"--params is for --controller fsm in a study (the grid has "
+                         f"{', '.join(others)})")
+    return read_params(path_or_name)
+
+
 def run_study_cli(args) -> int:
     """``stumble study``: check the whole grid, run what is missing, report and plot."""
     from stumble.study.runner import (
@@ -103,10 +120,12 @@ def run_study_cli(args) -> int:
     grid = grid_from_namespace(args)
     grid.checked_count()  # counted before anything is built
     meta = {"grid": grid.to_json(), "varying": grid.varying()}
+    params = params_arg(args.params, grid) if args.params is not None else None
     try:
         res = run_study(grid, args.out, workers=args.workers, scheduler=args.scheduler,
                         retry_errors=args.retry_errors, progress=not args.quiet,
-                        metadata=meta, run_timeout_s=args.run_timeout or None)
+                        metadata=meta, run_timeout_s=args.run_timeout or None,
+                        params=params)
     except StudyInterrupted as e:
         print(f"stumble: {e}", file=sys.stderr)
         return 130

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import json
 import math
 import multiprocessing
 import os
@@ -41,6 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from stumble import __version__
+from stumble.control.fsm_params import FSMParams, ParamsFile
 from stumble.errors import SimulationDiverged, StumbleError
 from stumble.jsonio import dumps, strict
 from stumble.study.grid import Grid, check_scenario, run_key, scenario_fields
@@ -227,11 +229,13 @@ class _Watchdog:
             self.token = None
 
 
-def run_one(sc: Scenario, timeout_s: float | None = None) -> tuple[dict, str | None]:
+def run_one(sc: Scenario, timeout_s: float | None = None,
+            params: FSMParams | None = None) -> tuple[dict, str | None]:
     """Simulate one trip; return (row, traceback text or None). Never raises an Exception.
 
     ``timeout_s``: wall-time limit (None or 0: none); past it the run is stopped and its
-    row is a timeout row."""
+    row is a timeout row. ``params``: the state machines' parameters (None: the
+    defaults ``simulate_trip`` chooses)."""
     from stumble import pipeline
 
     t0 = time.perf_counter()
@@ -239,7 +243,8 @@ def run_one(sc: Scenario, timeout_s: float | None = None) -> tuple[dict, str | N
     guard = _Watchdog(timeout_s)
     try:
         try:
-            summary = pipeline.simulate_trip(sc).summary
+            summary = (pipeline.simulate_trip(sc) if params is None
+                       else pipeline.simulate_trip(sc, params=params)).summary
             error = None
         except SimulationDiverged as e:
             summary = {**NO_OUTCOME, "diverged": True}
@@ -261,9 +266,10 @@ def run_one(sc: Scenario, timeout_s: float | None = None) -> tuple[dict, str | N
 Result = tuple[dict, str | None]
 
 
-def _serial(todo: Iterable[Scenario], timeout_s: float | None) -> Iterator[Result]:
+def _serial(todo: Iterable[Scenario], timeout_s: float | None,
+            params: FSMParams | None = None) -> Iterator[Result]:
     for sc in todo:
-        yield run_one(sc, timeout_s)
+        yield run_one(sc, timeout_s, params)
 
 
 def _worker_init(parent_pid: int, close_fds: tuple[int, ...] = ()) -> None:
@@ -339,13 +345,14 @@ def _terminate(ex: ProcessPoolExecutor) -> None:
             p.join(timeout=2.0)
 
 
-def _isolated(sc: Scenario, close_fds: tuple[int, ...], timeout_s: float | None) -> Result:
+def _isolated(sc: Scenario, close_fds: tuple[int, ...], timeout_s: float | None,
+              params: FSMParams | None = None) -> Result:
     """Run one scenario alone in a fresh worker; a dead worker makes it an error row (a
     timeout row when it died past the time limit)."""
     ex = _pool(1, close_fds)
     t0 = time.perf_counter()
     try:
-        return ex.submit(run_one, sc, timeout_s).result()
+        return ex.submit(run_one, sc, timeout_s, params).result()
     except BrokenProcessPool:
         took = time.perf_counter() - t0
         if timeout_s and took >= timeout_s:
@@ -357,7 +364,8 @@ def _isolated(sc: Scenario, close_fds: tuple[int, ...], timeout_s: float | None)
 
 
 def _local(todo: Iterator[Scenario], workers: int, close_fds: tuple[int, ...] = (),
-           timeout_s: float | None = None) -> Iterator[Result]:
+           timeout_s: float | None = None, params: FSMParams | None = None
+           ) -> Iterator[Result]:
     """A process pool, at most 2 × workers runs queued; a dead worker breaks the pool, the
     runs it may have held are retried one at a time, and a new pool goes on."""
     todo = iter(todo)
@@ -378,7 +386,7 @@ def _local(todo: Iterator[Scenario], workers: int, close_fds: tuple[int, ...] = 
                     if sc is None:
                         break
                     try:
-                        running[ex.submit(run_one, sc, timeout_s)] = sc
+                        running[ex.submit(run_one, sc, timeout_s, params)] = sc
                     except BrokenProcessPool:  # a worker died since the last wait
                         held.appendleft(sc)
                         broken = True
@@ -401,7 +409,7 @@ def _local(todo: Iterator[Scenario], workers: int, close_fds: tuple[int, ...] = 
             else:
                 ex.shutdown(wait=True)
         for sc in suspects:  # which of them killed the worker: each alone
-            yield _isolated(sc, close_fds, timeout_s)
+            yield _isolated(sc, close_fds, timeout_s, params)
         if not broken:
             return
 
@@ -418,8 +426,8 @@ def _dask_client(address: str):
                            ) from None
 
 
-def _dask(todo: Iterator[Scenario], client, timeout_s: float | None = None
-          ) -> Iterator[Result]:
+def _dask(todo: Iterator[Scenario], client, timeout_s: float | None = None,
+          params: ParamsFile | None = None) -> Iterator[Result]:
     from distributed import as_completed
 
     def window() -> int:
@@ -442,8 +450,12 @@ def _dask(todo: Iterator[Scenario], client, timeout_s: float | None = None
             sc = next(todo, None)
             if sc is None:
                 return
-            fut = client.submit(run_one, sc, timeout_s, key=f"stumble-trip-{run_key(sc)}",
-                                pure=False)
+            # the parameters' SHA in the task key: studies of other parameters on the
+            # same cluster never share a task
+            suffix = "" if params is None else f"-{params.sha256[:16]}"
+            fut = client.submit(run_one, sc, timeout_s,
+                                None if params is None else params.params,
+                                key=f"stumble-trip-{run_key(sc)}{suffix}", pure=False)
             running[fut.key] = (fut, sc)
             ac.add(fut)
 
@@ -591,7 +603,7 @@ def run_study(scenarios: Grid | Iterable[Scenario], out: Path, workers: int | No
               scheduler: str | None = None, retry_errors: bool = False,
               progress: bool = True, on_start: Callable[[str], None] | None = None,
               metadata: dict | None = None, run_timeout_s: float | None = RUN_TIMEOUT_S,
-              warn: Warn | None = None) -> StudyResult:
+              warn: Warn | None = None, params: ParamsFile | None = None) -> StudyResult:
     """Check every scenario, run those ``out`` does not hold yet, write results.parquet.
 
     ``scenarios``: a Grid (streamed) or scenarios. ``workers``: local processes (default
@@ -599,6 +611,10 @@ def run_study(scenarios: Grid | Iterable[Scenario], out: Path, workers: int | No
     ``retry_errors``: run again the scenarios whose stored row has an error.
     ``run_timeout_s``: per-run wall-time limit (None or 0: none). ``metadata`` goes into
     ``out/study.json``; ``warn`` receives one-line warnings (bad journal rows).
+    ``params``: the state machines' parameters of every run (``fsm_params.read_params``),
+    recorded in study.json (``params``: path, SHA-256, values); a directory holds the
+    runs of one parameter set: resuming it with other parameters (or none, or with
+    parameters when it was made without) is a one-line StumbleError.
     Raises StudyInterrupted (all finished runs stored) on Ctrl-C or SIGTERM.
     """
     source = _Scenarios(scenarios)
@@ -618,8 +634,12 @@ def run_study(scenarios: Grid | Iterable[Scenario], out: Path, workers: int | No
     out = Path(out)
     shield = _Shield()
     n_runs = int(unique.sum())
+    fsm = None if params is None else params.params
     try:
         with Store(out, warn) as store:
+            _check_same_params(out, params, bool(len(store.done)))
+            if params is not None:
+                metadata = {**(metadata or {}), "params": params.record()}
             _write_study_json(out, n_runs, metadata)
             stored_any = contains(store.done, keys)
             finished = contains(store.done_ok, keys) if retry_errors else stored_any
@@ -636,13 +656,14 @@ def run_study(scenarios: Grid | Iterable[Scenario], out: Path, workers: int | No
             bar = Progress(n_todo, enabled=progress)
             todo = (sc for sc, go in zip(source, todo_mask, strict=True) if go)
             if client is not None:
-                runs = _dask(todo, client, run_timeout_s)
+                runs = _dask(todo, client, run_timeout_s, params)
             elif workers == 1 or n_todo <= 1:
-                runs = _serial(todo, run_timeout_s)
+                runs = _serial(todo, run_timeout_s, fsm)
             else:
                 import stumble.pipeline  # noqa: F401  (imported once, shared by the forks)
 
-                runs = _local(todo, min(workers, n_todo), store.inherited_fds(), run_timeout_s)
+                runs = _local(todo, min(workers, n_todo), store.inherited_fds(), run_timeout_s,
+                              fsm)
             retried = ({int(k) for k in keys[todo_mask & stored_any]} if retry_errors
                        else set())
             ran = new = 0
@@ -667,6 +688,34 @@ def run_study(scenarios: Grid | Iterable[Scenario], out: Path, workers: int | No
         shield.off()
     written, other = write_results(out, keys[unique])
     return StudyResult(written, ran, before, out, other)
+
+
+def _stored_params_sha(out: Path) -> tuple[bool, str | None]:
+    """(whether out/study.json exists, the SHA-256 of the parameter file it records or
+    None); an unreadable study.json records none."""
+    path = out / "study.json"
+    if not path.exists():
+        return False, None
+    try:
+        sha = json.loads(path.read_text()).get("params", {}).get("sha256")
+    except (OSError, ValueError, AttributeError):
+        return True, None
+    return True, sha if isinstance(sha, str) else None
+
+
+def _check_same_params(out: Path, params: ParamsFile | None, has_runs: bool) -> None:
+    """StumbleError when ``out`` was made with other state-machine parameters than
+    ``params`` (run keys name scenarios, not parameters: the runs must not mix)."""
+    exists, before = _stored_params_sha(out)
+    now = None if params is None else params.sha256
+    if before == now or not (exists or has_runs):
+        return
+    made = (f"with --params of SHA-256 {before[:16]}" if before is not None
+            else "without --params")
+    asked = (f"--params {params.name} (SHA-256 {now[:16]})" if params is not None
+             else "no --params")
+    raise StumbleError(f"{out} holds a study made {made}; it cannot be resumed with "
+                       f"{asked}: give another --out")
 
 
 def _write_study_json(out: Path, runs: int, metadata: dict | None) -> None:
