@@ -21,12 +21,13 @@ Prints the best parameter set as JSON, to be carried into fsm_params.py by hand.
 
 The ``--out`` file is a state-machine parameter file (``stumble trip --params FILE``,
 ``stumble study --params FILE``, ``fsm_params.load_params``): ``"params"`` holds the
-searched values, ``"settings"`` the ``trunk_attitude`` every candidate ran with
-(``--trunk-attitude``). ``--around`` takes such a file (its path), or JSON text: such a
-file's text or a bare object of SPACE names (``"$(cat scripts/fsm_start_trunk.json)"``).
-A file's ``settings.trunk_attitude`` becomes the search's unless ``--trunk-attitude``
-is given; an explicit ``--trunk-attitude`` that differs from the file's is refused (the
-start values were found with the file's), so give the same value or leave it out.
+searched values, ``"settings"`` the ``trunk_attitude`` and ``attitude_damping`` every
+candidate ran with (``--trunk-attitude``, ``--attitude-damping``). ``--around`` takes
+such a file (its path), or JSON text: such a file's text or a bare object of SPACE names
+(``"$(cat scripts/fsm_start_trunk.json)"``). A file's settings become the search's
+unless the option is given; an explicit option that differs from the file's setting is
+refused (the start values were found with the file's), so give the same value or leave
+it out.
 """
 
 from __future__ import annotations
@@ -61,17 +62,18 @@ BODY_GRID = [(f, 1.2, mech, *body) for body in BODIES for mech in ("force", "obs
 
 
 ATTITUDE_DAMPING = "joint"  # --attitude-damping (FSMParams.attitude_damping)
+DEFAULT_SETTINGS = {"trunk_attitude": 0.0, "attitude_damping": "joint"}  # FSMParams' own
 TRUNK_ATTITUDE = 0.0  # --trunk-attitude (FSMParams.trunk_attitude)
 
 
-def read_around(text: str) -> tuple[dict, float | None]:
-    """The start values of ``--around`` and its trunk_attitude (None: no settings):
+def read_around(text: str) -> tuple[dict, dict]:
+    """The start values of ``--around`` and its checked settings ({}: none):
     ``text`` is JSON text or the path of a JSON file, either a parameter file
     (``{"params": {...}, "settings": {...}}``, as ``--out`` writes it) or a bare object of
     SPACE/GAINS names. InputError (one line) names a bad file or setting."""
     from pathlib import Path
 
-    from stumble.control.fsm_params import SETTINGS, check_trunk_attitude
+    from stumble.control.fsm_params import check_setting
     from stumble.errors import InputError
 
     where = "--around"
@@ -88,27 +90,26 @@ def read_around(text: str) -> tuple[dict, float | None]:
     if not isinstance(doc, dict):
         raise InputError(f"{where}: not a JSON object")
     if "params" not in doc:
-        return doc, None
+        return doc, {}
     values, settings = doc["params"], doc.get("settings", {})
     if not isinstance(values, dict) or not isinstance(settings, dict):
         raise InputError(f"{where}: \"params\" and \"settings\" must be JSON objects")
-    if set(settings) - set(SETTINGS):
-        raise InputError(f"{where}: unknown setting(s) {sorted(set(settings) - set(SETTINGS))} "
-                         f"(known: {', '.join(SETTINGS)})")
-    trunk = settings.get("trunk_attitude")
-    return dict(values), None if trunk is None else check_trunk_attitude(trunk, where)
+    return dict(values), {name: check_setting(name, value, where)
+                          for name, value in settings.items()}
 
 
-def trunk_attitude_of(explicit: float | None, from_file: float | None) -> float:
-    """The search's trunk_attitude: ``--trunk-attitude`` (``explicit``) or the ``--around``
-    file's; both given and different: InputError."""
+def setting_of(name: str, explicit, from_file: dict):
+    """The search's setting ``name``: its option's value (``explicit``, None when not
+    given), else the ``--around`` file's (``from_file``, read_around's settings), else
+    FSMParams' default; the option and the file both given and different: InputError."""
     from stumble.errors import InputError
 
-    if explicit is not None and from_file is not None and explicit != from_file:
-        raise InputError(f"--trunk-attitude {explicit:g} conflicts with the --around file's "
-                         f"settings.trunk_attitude {from_file:g}: give the same value or "
-                         "leave --trunk-attitude out")
-    return explicit if explicit is not None else from_file if from_file is not None else 0.0
+    option = "--" + name.replace("_", "-")
+    if explicit is not None and name in from_file and explicit != from_file[name]:
+        raise InputError(f"{option} {explicit} conflicts with the --around file's "
+                         f"settings.{name} {from_file[name]}: give the same value or "
+                         f"leave {option} out")
+    return explicit if explicit is not None else from_file.get(name, DEFAULT_SETTINGS[name])
 
 
 def out_record(best: tuple, generation: int, argv: list[str]) -> dict:
@@ -117,7 +118,8 @@ def out_record(best: tuple, generation: int, argv: list[str]) -> dict:
     return {"recovered": best[1][0], "of": len(GRID), "grid_recovered": best[1][2],
             "survived_s": round(best[1][1], 3), "generation": generation,
             "command": " ".join(["python scripts/tune_fsm.py", *argv]),
-            "params": best[0], "settings": {"trunk_attitude": TRUNK_ATTITUDE}}
+            "params": best[0], "settings": {"trunk_attitude": TRUNK_ATTITUDE,
+                                            "attitude_damping": ATTITUDE_DAMPING}}
 
 
 def params_from(x: dict):
@@ -202,8 +204,10 @@ def main() -> None:
     ap.add_argument("--walk-on", type=float, default=None, metavar="S",
                     help="recovered = still walking S s after the trip (Scenario recovery "
                     "walk_on) instead of 1 s after the recovery step")
-    ap.add_argument("--attitude-damping", choices=("joint", "pelvis"), default="joint",
-                    help="FSMParams.attitude_damping of every candidate (default joint)")
+    ap.add_argument("--attitude-damping", choices=("joint", "pelvis"), default=None,
+                    help="FSMParams.attitude_damping of every candidate (default: the "
+                    "--around file's settings, else joint; one differing from the file's "
+                    "is refused)")
     ap.add_argument("--gains", action="store_true",
                     help="search the servo gains too (GAINS) as well as the targets")
     ap.add_argument("--trunk-attitude", type=float, default=None, metavar="K",
@@ -221,11 +225,13 @@ def main() -> None:
         ap.error(f"--trunk-attitude must be a number >= 0, got {args.trunk_attitude}")
     from stumble.errors import InputError
 
-    around, file_trunk = {}, None
+    around, file_settings = {}, {}
     try:
         if args.around:
-            around, file_trunk = read_around(args.around)
-        trunk_attitude = trunk_attitude_of(args.trunk_attitude, file_trunk)
+            around, file_settings = read_around(args.around)
+        trunk_attitude = setting_of("trunk_attitude", args.trunk_attitude, file_settings)
+        attitude_damping = setting_of("attitude_damping", args.attitude_damping,
+                                      file_settings)
     except InputError as e:
         ap.error(str(e))
     if args.max_tilt is not None and not (np.isfinite(args.max_tilt) and args.max_tilt > 0):
@@ -239,7 +245,7 @@ def main() -> None:
     global GRID, STRENGTH, WALK_ON_S, ATTITUDE_DAMPING, TRUNK_ATTITUDE, MAX_TILT, GRID_FLOOR
     GRID = {"small": GRID, "full": FULL_GRID, "lowering": LOWERING_GRID,
             "full+bodies": FULL_GRID + BODY_GRID}[args.grid]
-    ATTITUDE_DAMPING = args.attitude_damping
+    ATTITUDE_DAMPING = attitude_damping
     TRUNK_ATTITUDE, MAX_TILT, GRID_FLOOR = trunk_attitude, args.max_tilt, args.grid_floor
     STRENGTH, WALK_ON_S = args.strength, args.walk_on
     space = {k: v for k, v in SPACE.items() if args.only == "all" or k in LOWERING}
@@ -278,7 +284,8 @@ def main() -> None:
         if ex:
             ex.shutdown()
     print(json.dumps({"recovered": best[1][0], "of": len(GRID), "grid_recovered": best[1][2],
-                      "params": best[0], "settings": {"trunk_attitude": TRUNK_ATTITUDE}},
+                      "params": best[0], "settings": {"trunk_attitude": TRUNK_ATTITUDE,
+                                                      "attitude_damping": ATTITUDE_DAMPING}},
                      indent=1))
 
 
@@ -334,7 +341,8 @@ def _cma(args, base: dict, space: dict) -> None:
         if ex:
             ex.shutdown()
     print(json.dumps({"recovered": best[1][0], "of": len(GRID), "grid_recovered": best[1][2],
-                      "params": best[0], "settings": {"trunk_attitude": TRUNK_ATTITUDE}},
+                      "params": best[0], "settings": {"trunk_attitude": TRUNK_ATTITUDE,
+                                                      "attitude_damping": ATTITUDE_DAMPING}},
                      indent=1))
 
 

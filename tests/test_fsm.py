@@ -213,7 +213,7 @@ def test_load_params_names_bad_files_and_values(tmp_path):
 
 
 
-def test_a_params_file_carries_trunk_attitude(tmp_path):
+def test_a_params_file_carries_its_settings(tmp_path):
     import hashlib
     import json
 
@@ -227,13 +227,19 @@ def test_a_params_file_carries_trunk_attitude(tmp_path):
     assert load_params("anderson2007").trunk_attitude == 0.0  # no settings: the default
     rec = read_params(f).record()
     assert rec["path"] == str(f) and rec["sha256"] == hashlib.sha256(f.read_bytes()).hexdigest()
-    assert rec["values"]["kp_knee"] == 250.0 and rec["settings"] == {"trunk_attitude": 0.3}
+    assert rec["values"]["kp_knee"] == 250.0
+    assert rec["settings"] == {"trunk_attitude": 0.3, "attitude_damping": "joint"}
+    f.write_text(json.dumps({"params": {}, "settings": {"attitude_damping": "pelvis"}}))
+    assert load_params(f).attitude_damping == "pelvis" and load_params(f).trunk_attitude == 0.0
     for settings, match in (('{"trunk_attitude": -0.5}', "trunk_attitude = -0.5 is not"),
                             ('{"trunk_attitude": NaN}', "trunk_attitude = nan is not"),
                             ('{"trunk_attitude": Infinity}', "trunk_attitude = inf is not"),
                             ('{"trunk_attitude": "0.3"}', "trunk_attitude = '0.3' is not"),
                             ('{"trunk_attitude": true}', "trunk_attitude = True is not"),
                             ('{"trunk_atitude": 0.3}', "unknown setting 'trunk_atitude'"),
+                            ('{"attitude_damping": "torso"}',
+                             "attitude_damping = 'torso' is not one of joint, pelvis"),
+                            ('{"attitude_damping": 1}', "attitude_damping = 1 is not one of"),
                             ('[0.3]', '"settings" is not an object')):
         bad = tmp_path / "bad.json"
         bad.write_text(f'{{"params": {{}}, "settings": {settings}}}')
@@ -254,7 +260,7 @@ def _tune_fsm():
     return mod
 
 
-def test_tune_fsm_out_carries_trunk_attitude_to_around_and_load_params(tmp_path, monkeypatch):
+def test_tune_fsm_out_carries_its_settings_to_around_and_load_params(tmp_path, monkeypatch):
     import json
     import re
 
@@ -263,29 +269,39 @@ def test_tune_fsm_out_carries_trunk_attitude_to_around_and_load_params(tmp_path,
 
     tune = _tune_fsm()
     monkeypatch.setattr(tune, "TRUNK_ATTITUDE", 0.4)
+    monkeypatch.setattr(tune, "ATTITUDE_DAMPING", "pelvis")
     best = ({"kp_knee": 250.0, "elev_sup_ankle": -30.0}, (40, 100.0, 40))
     out = tmp_path / "best.json"
     out.write_text(json.dumps(tune.out_record(best, 3, ["--trunk-attitude", "0.4"]), indent=1))
     # the search's file is a parameter file: the values and the trunk attitude it ran with
     p = load_params(out)
     assert p.trunk_attitude == 0.4 and p.kp_passive["knee"] == 250.0
+    assert p.attitude_damping == "pelvis"
     assert p.targets_deg["clearance_elevating"]["sup.ankle_angle"] == -30.0
     assert p == tune.params_from(best[0])  # what the search measured
     # --around FILE (and the file's text) reads both back
     for around in (str(out), out.read_text()):
-        values, trunk = tune.read_around(around)
-        assert values == best[0] and trunk == 0.4
-        assert tune.trunk_attitude_of(None, trunk) == 0.4
-        assert tune.trunk_attitude_of(0.4, trunk) == 0.4
+        values, settings = tune.read_around(around)
+        assert values == best[0]
+        assert settings == {"trunk_attitude": 0.4, "attitude_damping": "pelvis"}
+        assert tune.setting_of("trunk_attitude", None, settings) == 0.4
+        assert tune.setting_of("trunk_attitude", 0.4, settings) == 0.4
+        assert tune.setting_of("attitude_damping", None, settings) == "pelvis"
         with pytest.raises(InputError, match=re.escape(
                 "--trunk-attitude 0.3 conflicts with the --around file's "
                 "settings.trunk_attitude 0.4")):
-            tune.trunk_attitude_of(0.3, trunk)
+            tune.setting_of("trunk_attitude", 0.3, settings)
+        with pytest.raises(InputError, match=re.escape(
+                "--attitude-damping joint conflicts with the --around file's "
+                "settings.attitude_damping pelvis")):
+            tune.setting_of("attitude_damping", "joint", settings)
     # a bare object of names (scripts/fsm_start_*.json) has no settings: the option's or 0
     bare = tmp_path / "start.json"
     bare.write_text(json.dumps(best[0]))
-    assert tune.read_around(str(bare)) == (best[0], None)
-    assert tune.trunk_attitude_of(None, None) == 0.0 and tune.trunk_attitude_of(0.3, None) == 0.3
+    assert tune.read_around(str(bare)) == (best[0], {})
+    assert tune.setting_of("trunk_attitude", None, {}) == 0.0
+    assert tune.setting_of("trunk_attitude", 0.3, {}) == 0.3
+    assert tune.setting_of("attitude_damping", None, {}) == "joint"
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps({"params": {}, "settings": {"trunk_attitude": -1}}))
     with pytest.raises(InputError, match=f"{bad}: trunk_attitude = -1 is not"):

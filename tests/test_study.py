@@ -529,7 +529,7 @@ def test_params_go_to_every_run_and_are_recorded(tmp_path, monkeypatch, capsys):
     assert rec["path"] == str(p) and rec["file"] == str(p.resolve())
     assert rec["sha256"] == hashlib.sha256(p.read_bytes()).hexdigest()
     assert rec["values"]["elev_sup_ankle"] == -60.0 and len(rec["values"]) == 33
-    assert rec["settings"] == {"trunk_attitude": 1.0}
+    assert rec["settings"] == {"trunk_attitude": 1.0, "attitude_damping": "joint"}
     # without --params: no parameters passed, nothing recorded (as before --params existed)
     got.clear()
     assert main([*argv, "--out", str(tmp_path / "b")]) == 0

@@ -436,8 +436,8 @@ def human_strength_params() -> FSMParams:
 SHIPPED = {"anderson2007": HUMAN_STRENGTH_FILE}  # named parameter sets (load_params)
 # The settings a parameter file may carry beside its tunable values (its top-level
 # "settings" object): FSMParams fields that no search varies but that a set was found
-# with (scripts/tune_fsm.py --trunk-attitude writes it there).
-SETTINGS = ("trunk_attitude",)
+# with (scripts/tune_fsm.py writes its --trunk-attitude and --attitude-damping there).
+SETTINGS = ("trunk_attitude", "attitude_damping")
 
 
 def check_trunk_attitude(value, where: str) -> float:
@@ -450,6 +450,21 @@ def check_trunk_attitude(value, where: str) -> float:
     if not ok:
         raise InputError(f"{where}: trunk_attitude = {value!r} is not a finite number >= 0")
     return float(value)
+
+
+def check_setting(name: str, value, where: str):
+    """``value`` as the setting ``name`` (``SETTINGS``), or InputError naming ``where``,
+    the setting and the value."""
+    from stumble.errors import InputError
+
+    if name == "trunk_attitude":
+        return check_trunk_attitude(value, where)
+    if name == "attitude_damping":
+        if not isinstance(value, str) or value not in ATTITUDE_DAMPING:
+            raise InputError(f"{where}: attitude_damping = {value!r} is not one of "
+                             f"{', '.join(ATTITUDE_DAMPING)}")
+        return value
+    raise InputError(f"{where}: unknown setting {name!r} (known: {', '.join(SETTINGS)})")
 
 
 @dataclass(frozen=True)
@@ -496,20 +511,16 @@ def read_params(path_or_name) -> ParamsFile:
     settings = doc.get("settings", {})
     if not isinstance(settings, dict):
         raise InputError(f"{path_or_name}: \"settings\" is not an object of named values")
-    for name in settings:
-        if name not in SETTINGS:
-            raise InputError(f"{path_or_name}: unknown setting {name!r} (known: "
-                             f"{', '.join(SETTINGS)})")
-    p = FSMParams().with_values(values)
-    if "trunk_attitude" in settings:
-        p = replace(p, trunk_attitude=check_trunk_attitude(settings["trunk_attitude"],
-                                                           str(path_or_name)))
+    checked = {name: check_setting(name, value, str(path_or_name))
+               for name, value in settings.items()}
+    p = replace(FSMParams().with_values(values), **checked)
     return ParamsFile(str(path_or_name), path, hashlib.sha256(data).hexdigest(), p)
 
 
 def load_params(path_or_name) -> FSMParams:
     """The defaults with the tunable values of a JSON file (``{"params": {name: value}}``,
     as ``scripts/tune_fsm.py --out`` writes it) or of a shipped set by name
-    (``SHIPPED``), and the file's optional ``"settings"`` (``{"trunk_attitude": k}``,
-    ``SETTINGS``); InputError names a bad file, an unknown name or a value out of range."""
+    (``SHIPPED``), and the file's optional ``"settings"`` (``{"trunk_attitude": k,
+    "attitude_damping": "joint"|"pelvis"}``, ``SETTINGS``); InputError names a bad file,
+    an unknown name or a value out of range."""
     return read_params(path_or_name).params
