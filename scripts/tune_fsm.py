@@ -62,7 +62,6 @@ BODY_GRID = [(f, 1.2, mech, *body) for body in BODIES for mech in ("force", "obs
 
 
 ATTITUDE_DAMPING = "joint"  # --attitude-damping (FSMParams.attitude_damping)
-DEFAULT_SETTINGS = {"trunk_attitude": 0.0, "attitude_damping": "joint"}  # FSMParams' own
 TRUNK_ATTITUDE = 0.0  # --trunk-attitude (FSMParams.trunk_attitude)
 
 
@@ -102,6 +101,7 @@ def setting_of(name: str, explicit, from_file: dict):
     """The search's setting ``name``: its option's value (``explicit``, None when not
     given), else the ``--around`` file's (``from_file``, read_around's settings), else
     FSMParams' default; the option and the file both given and different: InputError."""
+    from stumble.control.fsm_params import FSMParams
     from stumble.errors import InputError
 
     option = "--" + name.replace("_", "-")
@@ -109,7 +109,14 @@ def setting_of(name: str, explicit, from_file: dict):
         raise InputError(f"{option} {explicit} conflicts with the --around file's "
                          f"settings.{name} {from_file[name]}: give the same value or "
                          f"leave {option} out")
-    return explicit if explicit is not None else from_file.get(name, DEFAULT_SETTINGS[name])
+    if explicit is not None:
+        return explicit
+    return from_file[name] if name in from_file else getattr(FSMParams(), name)
+
+
+def settings() -> dict:
+    """The settings every candidate runs with (a parameter file's ``"settings"``)."""
+    return {"trunk_attitude": TRUNK_ATTITUDE, "attitude_damping": ATTITUDE_DAMPING}
 
 
 def out_record(best: tuple, generation: int, argv: list[str]) -> dict:
@@ -118,8 +125,7 @@ def out_record(best: tuple, generation: int, argv: list[str]) -> dict:
     return {"recovered": best[1][0], "of": len(GRID), "grid_recovered": best[1][2],
             "survived_s": round(best[1][1], 3), "generation": generation,
             "command": " ".join(["python scripts/tune_fsm.py", *argv]),
-            "params": best[0], "settings": {"trunk_attitude": TRUNK_ATTITUDE,
-                                            "attitude_damping": ATTITUDE_DAMPING}}
+            "params": best[0], "settings": settings()}
 
 
 def params_from(x: dict):
@@ -188,8 +194,8 @@ def main() -> None:
                     help="search only the lowering strategy's targets (others stay default)")
     ap.add_argument("--around", metavar="FILE|JSON",
                     help="search locally: Gaussian steps (15 %% of each range) around these "
-                    "values: a parameter file (as --out writes it; its settings' "
-                    "trunk_attitude too) or JSON text, a parameter file's or an object of "
+                    "values: a parameter file (as --out writes it; its settings too) "
+                    "or JSON text, a parameter file's or an object of "
                     "SPACE names (default: uniform over the ranges)")
     ap.add_argument("--method", choices=("random", "cma"), default="random")
     ap.add_argument("--generations", type=int, default=20, help="cma: generations")
@@ -284,9 +290,7 @@ def main() -> None:
         if ex:
             ex.shutdown()
     print(json.dumps({"recovered": best[1][0], "of": len(GRID), "grid_recovered": best[1][2],
-                      "params": best[0], "settings": {"trunk_attitude": TRUNK_ATTITUDE,
-                                                      "attitude_damping": ATTITUDE_DAMPING}},
-                     indent=1))
+                      "params": best[0], "settings": settings()}, indent=1))
 
 
 def _worker_init(strength: str, grid: list, walk_on_s: float | None,
@@ -341,9 +345,7 @@ def _cma(args, base: dict, space: dict) -> None:
         if ex:
             ex.shutdown()
     print(json.dumps({"recovered": best[1][0], "of": len(GRID), "grid_recovered": best[1][2],
-                      "params": best[0], "settings": {"trunk_attitude": TRUNK_ATTITUDE,
-                                                      "attitude_damping": ATTITUDE_DAMPING}},
-                     indent=1))
+                      "params": best[0], "settings": settings()}, indent=1))
 
 
 if __name__ == "__main__":

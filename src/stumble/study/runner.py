@@ -243,8 +243,7 @@ def run_one(sc: Scenario, timeout_s: float | None = None,
     guard = _Watchdog(timeout_s)
     try:
         try:
-            summary = (pipeline.simulate_trip(sc) if params is None
-                       else pipeline.simulate_trip(sc, params=params)).summary
+            summary = pipeline.simulate_trip(sc, params=params).summary
             error = None
         except SimulationDiverged as e:
             summary = {**NO_OUTCOME, "diverged": True}
