@@ -217,6 +217,20 @@ def test_the_trip_stage_fits_the_stumbling_reflex_from_the_walking_fit(tmp_path)
     assert "--crossing" in fit["command"] and fit["crossing"] is True
     with pytest.raises(ValueError, match="crossing is for the trip stage"):
         fit_gh2010(crossing=True)
+    # the touch's reflexes alone: the walking gains stay the start's, bit for bit
+    start = load_params("walk")
+    res = fit_gh2010(seed=2, stages=((1, 2.0, ((0.1, 1.2),)),), popsize=4, trips=True,
+                     out=tmp_path, crossing=True, touch_only=True)
+    assert set(res.space.names) == (set(SCR_BOUNDS) - set(SCR_EXTENSION)) | set(CROSS_BOUNDS)
+    fitted = load_params(tmp_path / "gh2010.json")
+    walking = [n for n in start.free() if n not in SCR_BOUNDS and n not in CROSS_BOUNDS]
+    assert len(walking) > 20
+    assert all(getattr(fitted, n) == getattr(start, n) for n in walking)
+    assert all(getattr(fitted, n) > 0.0 for n in CROSS_GAINS)
+    fit = json.loads((tmp_path / "gh2010.json").read_text())["fit"]
+    assert "--crossing --touch-only" in fit["command"] and fit["touch_only"] is True
+    with pytest.raises(ValueError, match="touch_only is for the trip stage"):
+        fit_gh2010(touch_only=True)
 
 
 def test_the_ta_bound_option_narrows_the_ta_length_reflex_only():

@@ -258,6 +258,10 @@ def _parser() -> argparse.ArgumentParser:
                    help="gh2010 --trips: fit the crossing step after a touch too (each "
                    "leg's next step after the foot's obstacle touch, launched when the "
                    "other foot lands, with extra hip flexor, HAMS, TA and GAS drive)")
+    f.add_argument("--touch-only", action="store_true",
+                   help="gh2010 --trips: fit only the reflexes a touch triggers (the "
+                   "stumbling corrective reflex, and the crossing step with --crossing); "
+                   "the walking gains stay the starting fit's, and so does its walk")
     f.add_argument("--load-from", choices=("floor", "any"), default=None,
                    help="gh2010 --trips: a leg's load, which switches it to stance: the "
                    "floor's force on its foot (floor, the shipped fits') or the floor's "
@@ -626,6 +630,7 @@ def cmd_reflex_fit_gh2010(args) -> int:
                         ("--scr-phase", args.scr_phase),
                         ("--strategy-cost", args.strategy_cost),
                         ("--crossing", args.crossing or None),
+                        ("--touch-only", args.touch_only or None),
                         ("--load-from", args.load_from)):
         if given is not None and not args.trips:
             raise InputError(f"{flag} is for --trips (the trip stage)")
@@ -675,7 +680,7 @@ def cmd_reflex_fit_gh2010(args) -> int:
                      ta_bound=args.ta_bound, strategy_cost=strategy_cost,
                      crossing=args.crossing, foot_angle=args.foot_angle,
                      load_from=args.load_from, stride_time=args.stride_time,
-                     stance_weight=stance_weight)
+                     stance_weight=stance_weight, touch_only=args.touch_only)
     bar.done()
     written, walk = write_gh2010_fit(out, res)
     s = walk.summary
@@ -694,9 +699,9 @@ def cmd_reflex(args) -> int:
     if (args.trips or args.params is not None or args.trip_set or args.scr_phase
             or args.ta_bound != "wide" or args.strategy_cost is not None or args.crossing
             or args.foot_angle or args.load_from is not None or args.stride_time
-            or args.stance_weight is not None):
+            or args.stance_weight is not None or args.touch_only):
         raise InputError("--trips, --params, --trip-set, --scr-phase, --strategy-cost, "
-                         "--crossing, --load-from, --foot-angle, --stride-time, "
+                         "--crossing, --touch-only, --load-from, --foot-angle, --stride-time, "
                          "--stance-weight and --ta-bound are for "
                          "--controller gh2010")
     from stumble.control.reflex.identify import ITERATIONS, REFINE_ITERATIONS, fit

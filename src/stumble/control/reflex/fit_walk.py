@@ -263,14 +263,16 @@ SCR_MIN_SCALE = 0.15
 
 def gh2010_space(start=None, stumble_reflex: bool = False,
                  scr_phase: str | None = None, ta_bound: str = "wide",
-                 crossing: bool = False) -> Space:
+                 crossing: bool = False, touch_only: bool = False) -> Space:
     """The GH2010 gains a fit may change, scaled to about 30 % of the paper's values
     (or of ``start``'s), each within its bounds; ``stumble_reflex``: with the gains of
     the stumbling corrective reflex (``SCR_BOUNDS``; its extension set only where
     ``scr_phase``, default ``start``'s, is ``foot``); ``ta_bound``: the TA length
     reflex's bounds (``TA_BOUNDS``: ``wide``, the default, or ``paper``, near the
-    paper's); ``crossing``: with the crossing step after a touch (``CROSS_BOUNDS``). A
-    start outside the bounds is clipped into them at the first candidate."""
+    paper's); ``crossing``: with the crossing step after a touch (``CROSS_BOUNDS``);
+    ``touch_only``: only the reflexes a touch triggers (``SCR_BOUNDS``, ``CROSS_BOUNDS``),
+    the walking gains left out (fixed). A start outside the bounds is clipped into them
+    at the first candidate."""
     from stumble.control.reflex.gh2010 import GH2010Params
 
     p = start or GH2010Params()
@@ -279,7 +281,8 @@ def gh2010_space(start=None, stumble_reflex: bool = False,
     names = tuple(n for n in p.free() if n not in GH2010_FIXED
                   and (stumble_reflex or n not in SCR_BOUNDS)
                   and (crossing or n not in CROSS_BOUNDS)
-                  and (phase == "foot" or n not in SCR_EXTENSION))
+                  and (phase == "foot" or n not in SCR_EXTENSION)
+                  and (not touch_only or n in SCR_BOUNDS or n in CROSS_BOUNDS))
     theta = np.array([getattr(p, n) for n in names])
     scale = np.maximum(0.3 * np.abs(theta), [SCR_MIN_SCALE if n in SCR_BOUNDS
                                              or n in CROSS_BOUNDS else 0.02 for n in names])
@@ -304,15 +307,17 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                    trips: tuple = (), stumble_reflex: bool = False,
                    strategy_cost: float = 0.0, crossing: bool = False,
                    foot_angle: float = 0.0, stride_time: bool = False,
-                   stance_weight: float = W_STANCE) -> None:
+                   stance_weight: float = W_STANCE, touch_only: bool = False) -> None:
     """Worker set-up: what ``evaluate_walk`` simulates: a walk, and the obstacle trips
     ``trips`` ((swing fraction, speed) pairs) the walker must walk on from; GH2010
     candidates in ``gh2010_space(stumble_reflex=...)``; ``strategy_cost``: what a trip in
     a human window taken otherwise than humans take it costs (``trip_terms``);
     ``crossing``: with the crossing step's gains; ``foot_angle``, ``stride_time``,
     ``stance_weight``: the objective's foot term's weight, its stride-time term and its
-    stance term's weight (``walk_cost``)."""
-    _EVAL.update(kind=kind, duration_s=duration_s, speed=speed_m_per_s, base=base,
+    stance term's weight (``walk_cost``); ``touch_only``: candidates of the touch's
+    reflexes alone (``gh2010_space(touch_only=True)``)."""
+    _EVAL.update(touch_only=touch_only, kind=kind, duration_s=duration_s,
+                 speed=speed_m_per_s, base=base,
                  trips=tuple(trips), stumble_reflex=stumble_reflex,
                  strategy_cost=float(strategy_cost), crossing=crossing,
                  foot_angle=foot_angle, stride_time=stride_time,
@@ -329,7 +334,8 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
 
         names = gh2010_space(stumble_reflex=_EVAL.get("stumble_reflex", False),
                              scr_phase=_EVAL["base"].get("scr_phase", "any"),
-                             crossing=_EVAL.get("crossing", False)).names
+                             crossing=_EVAL.get("crossing", False),
+                             touch_only=_EVAL.get("touch_only", False)).names
         params = GH2010Params(**{**_EVAL["base"],
                                  **dict(zip(names, map(float, theta), strict=True))})
         r = simulate_walk("gh2010", _EVAL["duration_s"], _EVAL["speed"], params=params)
@@ -477,7 +483,7 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                ta_bound: str = "wide", strategy_cost: float = 0.0,
                crossing: bool = False, foot_angle: float = 0.0,
                load_from: str | None = None, stride_time: bool = False,
-               stance_weight: float = W_STANCE) -> FitResult:
+               stance_weight: float = W_STANCE, touch_only: bool = False) -> FitResult:
     """Optimise the GH2010 gains in closed loop: per stage (generations, walk s, obstacle
     trips), CMA-ES on ``walk_cost`` plus, for each trip, ``W_TRIP`` times the part of the
     3 s after it not walked on. ``wiring`` ``gh2010`` starts from the paper's values
@@ -500,7 +506,10 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     its stride-time term (``walk_cost``), in every stage; ``stance_weight``: the stance
     term's weight (``W_STANCE``; a trip stage that lengthened the stance phase below the
     band paid 1.4 for it at weight 1, a fourteenth of a lost trip); ``load_from`` (trip stages):
-    what a leg's load is (``GH2010Params.load_from``; default ``start``'s). Writes
+    what a leg's load is (``GH2010Params.load_from``; default ``start``'s);
+    ``touch_only`` (trip stages): fit only the reflexes a touch triggers (the stumbling
+    corrective reflex and, with ``crossing``, the crossing step), the walking gains held
+    at ``start``'s, so that the walk is the start's to the first touch. Writes
     ``gh2010.json`` to ``out`` (the best parameters and the fit's figures) when given."""
     if strategy_cost < 0 or not math.isfinite(strategy_cost):
         raise ValueError(f"strategy_cost must be a finite number >= 0, got {strategy_cost}")
@@ -512,6 +521,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
         raise ValueError(f"stance_weight must be a finite number >= 0, got {stance_weight}")
     if load_from is not None and not trips:
         raise ValueError("load_from is for the trip stage (trips=True)")
+    if touch_only and not trips:
+        raise ValueError("touch_only is for the trip stage (trips=True)")
     from dataclasses import replace
 
     from stumble.control.reflex.gh2010 import (
@@ -543,7 +554,7 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     with_trips = trips
     for k, (gens, walk_s, trips) in enumerate(stages):
         space = gh2010_space(params, stumble_reflex=with_trips, ta_bound=ta_bound,
-                             crossing=crossing)
+                             crossing=crossing, touch_only=touch_only)
         first = k == 0 and wiring == "gh2010"
         sigma = (TRIP_SIGMA if with_trips else GH2010_SIGMA if first else GH2010_SIGMA_TRIPS)
         fixed = {n: v for n, v in params.to_json().items() if n not in space.names}
@@ -554,7 +565,7 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                       initargs=("gh2010", walk_s, GH2010_SPEED_M_PER_S,
                                 fixed if with_trips else {"wiring": wiring}, trips,
                                 with_trips, strategy_cost, crossing, foot_angle,
-                                stride_time, stance_weight),
+                                stride_time, stance_weight, touch_only),
                       first_generation=total, stage="walk" if not trips else "walk+trips",
                       fixed=fixed)
         params = replace(params, **dict(zip(space.names, map(float, res.best_theta),
@@ -589,10 +600,11 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                     "load_from": params.load_from,
                     "stride_time": stride_time,
                     "stance_weight": stance_weight,
+                    "touch_only": touch_only,
                     "command": _fit_command(wiring, with_trips, stages, scr_phase, seed,
                                             ta_bound, strategy_cost, crossing,
                                             foot_angle, load_from, stride_time,
-                                            stance_weight)}})
+                                            stance_weight, touch_only)}})
     return res
 
 
@@ -600,7 +612,7 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
                  ta_bound: str = "wide", strategy_cost: float = 0.0,
                  crossing: bool = False, foot_angle: float = 0.0,
                  load_from: str | None = None, stride_time: bool = False,
-                 stance_weight: float = W_STANCE) -> str:
+                 stance_weight: float = W_STANCE, touch_only: bool = False) -> str:
     """The ``stumble reflex fit`` command of a GH2010 fit (``--params`` aside)."""
     opts = ["--trips"] if trips else []
     if ta_bound != "wide":
@@ -621,6 +633,8 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
             opts.append(f"--strategy-cost {strategy_cost:g}")
         if crossing:
             opts.append("--crossing")
+        if touch_only:
+            opts.append("--touch-only")
         if load_from is not None:
             opts.append(f"--load-from {load_from}")
     default = (TRIP_STAGES if trips else GH2010_STAGES if wiring == "gh2010"
