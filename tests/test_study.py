@@ -530,11 +530,14 @@ def test_params_go_to_every_run_and_are_recorded(tmp_path, monkeypatch, capsys):
     assert rec["sha256"] == hashlib.sha256(p.read_bytes()).hexdigest()
     assert rec["values"]["elev_sup_ankle"] == -60.0 and len(rec["values"]) == 33
     assert rec["settings"] == {"trunk_attitude": 1.0, "attitude_damping": "joint"}
+    table = pq.read_table(tmp_path / "a" / "results.parquet").to_pydict()
+    assert table["params_sha256"] == [rec["sha256"]] * 2  # every row names its parameters
     # without --params: no parameters passed, nothing recorded (as before --params existed)
     got.clear()
     assert main([*argv, "--out", str(tmp_path / "b")]) == 0
     assert got == [None, None]
     assert "params" not in json.loads((tmp_path / "b" / "study.json").read_text())
+    assert "params_sha256" not in pq.read_table(tmp_path / "b" / "results.parquet").schema.names
     # a shipped set by name
     assert main([*argv, "--out", str(tmp_path / "c"), "--params", "anderson2007"]) == 0
     assert json.loads((tmp_path / "c" / "study.json").read_text())["params"]["path"] == \
@@ -555,6 +558,44 @@ def test_params_go_to_every_run_and_are_recorded(tmp_path, monkeypatch, capsys):
     same.write_bytes(p.read_bytes())
     assert main([*argv, "--out", str(tmp_path / "a"), "--params", str(same)]) == 0
     assert not got and "2 runs (0 run now, 2 before)" in capsys.readouterr().out
+
+
+def test_a_study_file_names_its_params_relative_to_itself(tmp_path, monkeypatch, capsys):
+    """``params = "p.json"`` in a TOML study file is the file beside it (whatever the
+    working directory); ``--params`` on the command line wins; the maps' caption names
+    it; a value that is not a string is one line."""
+    from stumble.study.cli import params_caption
+
+    got = []
+
+    def simulate_trip(sc, **kw):
+        got.append(kw.get("params"))
+        return SimpleNamespace(summary=fake_summary(sc))
+
+    monkeypatch.setattr(pipeline, "simulate_trip", simulate_trip)
+    d = tmp_path / "studies"
+    d.mkdir()
+    p = _params_file(d / "p.json")
+    toml = d / "s.toml"
+    toml.write_text('params = "p.json"\nswing = [0.2, 0.4]\n')
+    argv = ["study", str(toml), "--workers", "1", "--quiet", "--no-plots"]
+    assert main([*argv, "--out", str(tmp_path / "a")]) == 0
+    assert len(got) == 2 and all(g.trunk_attitude == 1.0 for g in got)
+    rec = json.loads((tmp_path / "a" / "study.json").read_text())["params"]
+    assert rec["path"] == str(p)
+    assert params_caption(tmp_path / "a") == (f"state-machine parameters: {p} "
+                                              f"(SHA-256 {rec['sha256'][:12]})")
+    assert params_caption(tmp_path / "nowhere") == ""
+    got.clear()
+    assert main([*argv, "--out", str(tmp_path / "b"), "--params", "anderson2007"]) == 0
+    assert json.loads((tmp_path / "b" / "study.json").read_text())["params"]["path"] == \
+        "anderson2007"
+    assert load_toml(toml).params == str(p)
+    toml.write_text("params = 3\n")
+    capsys.readouterr()
+    assert main([*argv, "--out", str(tmp_path / "c")]) == 2
+    err = capsys.readouterr().err
+    assert "s.toml: params must be a file name" in err and err.count("\n") == 1
 
 
 @pytest.mark.parametrize(("extra", "words"), [

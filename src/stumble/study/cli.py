@@ -107,6 +107,20 @@ def params_arg(path_or_name: str, grid: Grid):
     return read_params(path_or_name)
 
 
+def params_caption(out: Path) -> str:
+    """The line the maps carry under their titles when the study ran with a parameter
+    file (its name and SHA-256, from ``out/study.json``), else empty."""
+    import json
+
+    try:
+        rec = json.loads((Path(out) / "study.json").read_text()).get("params")
+    except (OSError, ValueError, AttributeError):
+        return ""
+    if not isinstance(rec, dict) or not rec.get("sha256"):
+        return ""
+    return f"state-machine parameters: {rec.get('path')} (SHA-256 {rec['sha256'][:12]})"
+
+
 def run_study_cli(args) -> int:
     """``stumble study``: check the whole grid, run what is missing, report and plot."""
     from stumble.study.runner import (
@@ -120,7 +134,8 @@ def run_study_cli(args) -> int:
     grid = grid_from_namespace(args)
     grid.checked_count()  # counted before anything is built
     meta = {"grid": grid.to_json(), "varying": grid.varying()}
-    params = params_arg(args.params, grid) if args.params is not None else None
+    source = args.params if args.params is not None else grid.params  # the option wins
+    params = params_arg(source, grid) if source is not None else None
     try:
         res = run_study(grid, args.out, workers=args.workers, scheduler=args.scheduler,
                         retry_errors=args.retry_errors, progress=not args.quiet,
@@ -134,7 +149,8 @@ def run_study_cli(args) -> int:
     if not args.no_plots:
         from stumble.viz.study_plots import PLOT_COLUMNS, write_study_plots
 
-        written += write_study_plots(res.out, iter_results(res.out, PLOT_COLUMNS))
+        written += write_study_plots(res.out, iter_results(res.out, PLOT_COLUMNS),
+                                     params_caption(res.out))
     note = (f"; {res.other_rows} other runs in {res.out}/runs are not in this grid"
             if res.other_rows else "")
     print(f"{res.runs} runs ({res.ran} run now, {res.before} before); wrote "

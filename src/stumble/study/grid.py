@@ -75,7 +75,7 @@ AXES: dict[str, Axis] = {a.name: a for a in (
     Axis("swing", "swing_fraction", float, "trip instant as a fraction of swing, 0.05-0.9"),
     Axis("seed", "seed", int, "0: the recorded walk; others perturb the initial state"),
 )}
-OTHER_KEYS = ("repeats", "description")  # TOML keys that are not axes
+OTHER_KEYS = ("repeats", "description", "params")  # TOML keys that are not axes
 
 
 @dataclass(frozen=True)
@@ -84,6 +84,7 @@ class Grid:
 
     axes: dict[str, list] = field(default_factory=dict)
     repeats: int | None = None
+    params: str | None = None  # state-machine parameters (``--params``): a path or a name
 
     def values(self, name: str) -> list:
         """The values of axis ``name``: given, implied by repeats, or the default."""
@@ -146,14 +147,14 @@ class Grid:
         return d
 
     def merged(self, other: Grid) -> Grid:
-        """This grid with ``other``'s axes (and repeats) replacing its own."""
+        """This grid with ``other``'s axes (and repeats, params) replacing its own."""
         axes = {**self.axes, **other.axes}
         repeats = other.repeats if other.repeats is not None else self.repeats
         if "seed" in other.axes:
             repeats = None
         elif other.repeats is not None:
             axes.pop("seed", None)
-        return Grid(axes, repeats)
+        return Grid(axes, repeats, other.params if other.params is not None else self.params)
 
 
 def normalised(sc: Scenario) -> Scenario:
@@ -300,15 +301,26 @@ def _repeats(v, where: str) -> int:
     return n
 
 
-def grid_from_mapping(d: dict, where: str) -> Grid:
+def grid_from_mapping(d: dict, where: str, base_dir: Path | None = None) -> Grid:
     """A grid from a mapping of axis names to values (a parsed TOML file).
 
-    Keys may use ``_`` or ``-`` (``obstacle_height`` or ``obstacle-height``)."""
+    Keys may use ``_`` or ``-`` (``obstacle_height`` or ``obstacle-height``). ``params``
+    is a state-machine parameter file (a path, relative to ``base_dir``, the TOML file's
+    directory) or a shipped set's name, as ``stumble study --params`` takes it."""
     axes: dict[str, list] = {}
-    repeats = None
+    repeats = params = None
     for raw, v in d.items():
         key = raw.replace("-", "_")
         if key == "description":
+            continue
+        if key == "params":
+            if not isinstance(v, str) or not v.strip():
+                raise InputError(f"{where}: params must be a file name or a shipped set's "
+                                 f"name (a string), got {v!r}")
+            from stumble.control.fsm_params import SHIPPED
+
+            params = (v if v in SHIPPED or base_dir is None or Path(v).is_absolute()
+                      else str(base_dir / v))
             continue
         if key == "repeats":
             repeats = _repeats(v, f"{where}: repeats")
@@ -319,7 +331,7 @@ def grid_from_mapping(d: dict, where: str) -> Grid:
         axes[key] = parse_values(key, v, f"{where}: {key}")
     if "seed" in axes and repeats:
         raise InputError(f"{where}: give seed or repeats, not both")
-    return Grid(axes, repeats)
+    return Grid(axes, repeats, params)
 
 
 def load_toml(path: Path) -> Grid:
@@ -338,7 +350,7 @@ def load_toml(path: Path) -> Grid:
     if "grid" in d and isinstance(d["grid"], dict):  # a [grid] table is accepted too
         rest = {k: v for k, v in d.items() if k != "grid"}
         d = {**rest, **d["grid"]}
-    return grid_from_mapping(d, path.name)
+    return grid_from_mapping(d, path.name, path.parent)
 
 
 def grid_from_args(specs: dict[str, str | None], repeats: int | None) -> Grid:

@@ -669,6 +669,8 @@ def run_study(scenarios: Grid | Iterable[Scenario], out: Path, workers: int | No
             try:
                 with _sigterm_as_interrupt(), contextlib.closing(runs):
                     for row, tb in runs:
+                        if params is not None:  # the parameter file's, in every row
+                            row["params_sha256"] = params.sha256
                         store.add(row, tb)
                         ran += 1
                         new += int(row["key"], 16) not in retried

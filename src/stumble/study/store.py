@@ -60,7 +60,7 @@ BOOL_COLUMNS = ("recovered", "fell", "diverged", "timed_out")
 INT_COLUMNS = ("seed", "steps")
 TEXT_COLUMNS = ("key", "checksum", "controller", "leg", "mechanism", "strategy_mode", "sex",
                 "contact", "strategy", "variant", "error", "stumble_version", "stop_reason",
-                "states", "strength_model", "population", "recovery")
+                "states", "strength_model", "population", "recovery", "params_sha256")
 UNIT_SUFFIXES = ("_s", "_m", "_m_per_s", "_deg", "_kg", "_scale", "_n", "_nm", "_fraction")
 
 Warn = Callable[[str], None]

@@ -210,7 +210,7 @@ def _tally(rows) -> Tally:
     return rows if isinstance(rows, Tally) else Tally.of(rows)
 
 
-def plot_strategy_map(path, rows: Tally | Iterable[dict]) -> Path:
+def plot_strategy_map(path, rows: Tally | Iterable[dict], caption: str = "") -> Path:
     """Swing fraction × speed → strategy taken (fraction elevating where runs are pooled).
 
     A strip above each panel shows the human windows of SCA 2009 §3. Grey cells: every
@@ -251,12 +251,12 @@ def plot_strategy_map(path, rows: Tally | Iterable[dict]) -> Path:
     note = _pooled_note(t)
     fig.suptitle("Strategy taken: E elevating, L lowering" + ("; (n): runs in the cell; "
                  "E k/n: k of n elevating" if t.pooled() else "")
-                 + (f"\n{note}" if note else ""), fontsize=10)
+                 + "".join(f"\n{x}" for x in (note, caption) if x), fontsize=10)
     fig.savefig(path, dpi=110)
     return Path(path)
 
 
-def plot_outcome_map(path, rows: Tally | Iterable[dict]) -> Path:
+def plot_outcome_map(path, rows: Tally | Iterable[dict], caption: str = "") -> Path:
     """Swing fraction × speed → recovered / fell / diverged / neither / timeout / error.
 
     One run per cell: its outcome as a colour. Pooled runs: the fraction recovered, with
@@ -307,7 +307,7 @@ def plot_outcome_map(path, rows: Tally | Iterable[dict]) -> Path:
         fig.legend(handles=handles, loc="outside right center", fontsize=8, frameon=False)
     note = _pooled_note(t)
     fig.suptitle("Outcome" + (": recovered / runs without error" if pooled else "")
-                 + (f"\n{note}" if note else ""), fontsize=10)
+                 + "".join(f"\n{x}" for x in (note, caption) if x), fontsize=10)
     fig.savefig(path, dpi=110)
     return Path(path)
 
@@ -323,7 +323,8 @@ def wilson_interval(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
     return max(0.0, centre - half), min(1.0, centre + half)
 
 
-def plot_fall_rate(path, rows: Tally | Iterable[dict], scales: list[str]) -> Path:
+def plot_fall_rate(path, rows: Tally | Iterable[dict], scales: list[str],
+                   caption: str = "") -> Path:
     """Fall rate (falls / runs without error, 95 % Wilson interval) against each scale.
 
     ``scales``: ``delay_scale`` and/or ``strength_scale``. One line per controller and
@@ -365,23 +366,24 @@ def plot_fall_rate(path, rows: Tally | Iterable[dict], scales: list[str]) -> Pat
         ax.legend(fontsize=8, loc="best")
         ax.grid(alpha=0.3)
     fig.suptitle("Fall rate, 95 % Wilson intervals (runs that raised or timed out are left "
-                 "out)", fontsize=10)
+                 "out)" + (f"\n{caption}" if caption else ""), fontsize=10)
     fig.savefig(path, dpi=110)
     return Path(path)
 
 
-def write_study_plots(out: Path, rows: Tally | Iterable[dict]) -> list[str]:
+def write_study_plots(out: Path, rows: Tally | Iterable[dict], caption: str = "") -> list[str]:
     """strategy_map.png and outcome_map.png; fall_rate.png when a delay or strength scale
-    varies. ``rows``: a Tally, or rows (any iterable, read once). Returns the names written."""
+    varies. ``rows``: a Tally, or rows (any iterable, read once); ``caption``: a line under
+    each title (the study's parameter file). Returns the names written."""
     out = Path(out)
     t = _tally(rows)
     if t.empty():
         return []
-    plot_strategy_map(out / "strategy_map.png", t)
-    plot_outcome_map(out / "outcome_map.png", t)
+    plot_strategy_map(out / "strategy_map.png", t, caption)
+    plot_outcome_map(out / "outcome_map.png", t, caption)
     written = ["strategy_map.png", "outcome_map.png"]
     scales = t.varying_scales()
     if scales:
-        plot_fall_rate(out / "fall_rate.png", t, scales)
+        plot_fall_rate(out / "fall_rate.png", t, scales, caption)
         written.append("fall_rate.png")
     return written
