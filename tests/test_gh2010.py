@@ -340,3 +340,43 @@ def test_crossing_step_after_a_touch_launches_the_other_legs_step_when_a_foot_la
 
     with pytest.raises(InputError, match="cross_hold_s is a time and must be >= 0"):
         GH2010Params.from_json({"cross_hold_s": -0.1})
+
+
+def test_a_cached_walk_in_gives_the_same_trip_as_walking_it_again():
+    """``pipeline.WalkInCache``: trips whose parameters differ only in the reflexes a
+    touch triggers share the walk to the trip; going on from the cached walk with the
+    other reflexes gives the same numbers, bit for bit, as walking it again (here a
+    late-swing trip, where the reflexes act); other walking gains are not served from it,
+    and ``retouch`` refuses them."""
+    from dataclasses import replace
+
+    from stumble.control.reflex.gh2010 import load_params
+    from stumble.pipeline import WalkInCache, simulate_trip
+    from stumble.trip import Scenario
+
+    a = load_params("walk")
+    a = replace(a, scr_phase="foot", load_from="any", g_scr_ham=0.2, g_scr_ta=0.2,
+                g_scr_flex=0.2, g_scr_ext_rf=0.2, g_cross_flex=0.2)
+    b = replace(a, g_scr_ham=0.7, g_scr_ext_rf=0.0, g_scr_ext_glu=0.5, scr_hold_s=0.3,
+                g_cross_flex=0.6, cross_hold_s=0.3)
+    sc = Scenario(controller="gh2010", mechanism="obstacle", swing_fraction=0.65,
+                  speed_m_per_s=1.2, duration_after_trip_s=1.5)
+    fresh = simulate_trip(sc, gh2010=b)
+    cache = WalkInCache()
+    first = simulate_trip(sc, gh2010=a, walk_in_cache=cache)
+    again = simulate_trip(sc, gh2010=b, walk_in_cache=cache)
+    assert len(cache) == 1
+    for k in ("qpos", "qvel", "activation", "foot_force", "sensordata"):
+        assert np.array_equal(getattr(fresh.recording, k), getattr(again.recording, k)), k
+    assert not np.array_equal(first.recording.qpos, again.recording.qpos)  # they acted
+    assert fresh.summary["walk_in"] == again.summary["walk_in"]
+    for k in ("recovered", "strategy", "sim_time_s", "trunk_tilt_at_recovery_contact_deg"):
+        assert fresh.summary[k] == again.summary[k], k
+    # another walking gain: another walk, not the cached one
+    c = replace(b, g_sol=b.g_sol * 1.01)
+    simulate_trip(sc, gh2010=c, walk_in_cache=cache)
+    assert len(cache) == 2
+    ctl = GH2010Controller(b)
+    with pytest.raises(ValueError, match="more than the touch"):
+        ctl.p = b
+        ctl.retouch(c)

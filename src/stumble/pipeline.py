@@ -108,10 +108,39 @@ def _strength(m: mujoco.MjModel, sc: Scenario, reflex: bool) -> Strength | None:
     return Strength.for_model(m, sc.mass_kg, sc.height_m, sc.sex, age, sc.strength_scale)
 
 
+class WalkInCache:
+    """Own-start walks to the trip instant, kept for trips that differ only in the
+    reflexes a touch triggers (``gh2010.TOUCH_FIELDS``): before the first touch those add
+    nothing, so the walk is the same, bit for bit, and is run once. Keyed by the scenario
+    and ``GH2010Controller.walk_key``; each use resumes from a deep copy of the model,
+    data, controller and walk recording. For fits of the touch's reflexes alone
+    (``fit_walk.fit_gh2010(touch_only=True)``), whose every candidate walks the same."""
+
+    def __init__(self) -> None:
+        self._walks: dict = {}
+
+    def __len__(self) -> int:
+        return len(self._walks)
+
+    def get(self, key):
+        """A deep copy of what was put under ``key``, or None."""
+        import copy
+
+        hit = self._walks.get(key)
+        return None if hit is None else copy.deepcopy(hit)
+
+    def put(self, key, walked) -> None:
+        """Keep a deep copy of ``walked`` under ``key``."""
+        import copy
+
+        self._walks[key] = copy.deepcopy(walked)
+
+
 def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
                   reference: dict | None = None, network=None,
                   trunk_balance: bool = True, gh2010=None,
-                  log_controls: bool = False) -> TripResult:
+                  log_controls: bool = False,
+                  walk_in_cache: WalkInCache | None = None) -> TripResult:
     """Walk, trip and recover (or fall): the whole pipeline for one scenario.
 
     Controller ``fsm`` (SCA 2009) drives the 3D human; ``reflex`` (seed 003) the planar
@@ -126,7 +155,9 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     (t = 0 the trip; coordinates named as our model: pelvis_tilt, hip_flexion_l, ...)
     for the joint-pitch RMSE of SCA 2009 Table 2. ``log_controls``: keep every block's
     controls, gains and trip forces in the recording (``stumble.sim.run``), for benchmarks
-    that replay them.
+    that replay them. ``walk_in_cache`` (``gh2010``, own start): reuse the walk to the
+    trip of an earlier trip whose parameters differed only in the touch's reflexes (the
+    same numbers as walking it again).
     """
     sc = scenario.validated()
     reflex = sc.controller in MUSCLE_CONTROLLERS
@@ -179,9 +210,19 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     fall_height = FALL_PELVIS_FRACTION * _standing_pelvis(body)
     walk_in = None
     if own:
-        timer = TripTimer(sc.side, sc.swing_fraction, sc.walk_in_s, fall_height)
-        walk_rec = run(ctx, controller, sc.walk_in_s + WALK_IN_MARGIN_S, stop=timer)
-        walk_in = _walk_in_summary(walk_rec, timer, sc)
+        key = ((repr(sc), controller.walk_key()) if walk_in_cache is not None
+               and hasattr(controller, "retouch") and not log_controls else None)
+        hit = walk_in_cache.get(key) if key is not None else None
+        if hit is not None:  # the same walk, with other touch reflexes: go on from it
+            m, d, body, ctx, walked, walk_rec, walk_in = hit
+            walked.retouch(controller.p)
+            controller = walked
+        else:
+            timer = TripTimer(sc.side, sc.swing_fraction, sc.walk_in_s, fall_height)
+            walk_rec = run(ctx, controller, sc.walk_in_s + WALK_IN_MARGIN_S, stop=timer)
+            walk_in = _walk_in_summary(walk_rec, timer, sc)
+            if key is not None:
+                walk_in_cache.put(key, (m, d, body, ctx, controller, walk_rec, walk_in))
         if walk_rec.stop_reason != "trip":
             return _no_trip(sc, controller, walk_rec, walk_in, body, pb)
         qpos = d.qpos.copy()

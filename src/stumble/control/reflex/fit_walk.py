@@ -316,6 +316,10 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
     ``stance_weight``: the objective's foot term's weight, its stride-time term and its
     stance term's weight (``walk_cost``); ``touch_only``: candidates of the touch's
     reflexes alone (``gh2010_space(touch_only=True)``)."""
+    from stumble.pipeline import WalkInCache
+
+    _EVAL.pop("walk", None)
+    _EVAL.update(walk_ins=WalkInCache() if touch_only else None)
     _EVAL.update(touch_only=touch_only, kind=kind, duration_s=duration_s,
                  speed=speed_m_per_s, base=base,
                  trips=tuple(trips), stumble_reflex=stumble_reflex,
@@ -338,7 +342,12 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
                              touch_only=_EVAL.get("touch_only", False)).names
         params = GH2010Params(**{**_EVAL["base"],
                                  **dict(zip(names, map(float, theta), strict=True))})
-        r = simulate_walk("gh2010", _EVAL["duration_s"], _EVAL["speed"], params=params)
+        if _EVAL.get("touch_only") and "walk" in _EVAL:  # no obstacle, no touch: the same
+            r = _EVAL["walk"]  # walk for every candidate, run once per process
+        else:
+            r = simulate_walk("gh2010", _EVAL["duration_s"], _EVAL["speed"], params=params)
+            if _EVAL.get("touch_only"):
+                _EVAL["walk"] = r
     elif kind == "network":
         from stumble.control.reflex.network import Network
 
@@ -358,7 +367,8 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
         for swing, speed in trips:
             t_walked, strategy = trip_outcome(kind, swing, speed,
                                               params if kind == "gh2010" else None,
-                                              net if kind == "network" else None)
+                                              net if kind == "network" else None,
+                                              walk_in_cache=_EVAL.get("walk_ins"))
             terms.update(trip_terms(swing, speed, t_walked, strategy, w_strategy))
             ok += t_walked >= WALK_ON_TRIP_S
             human += strategy is not None and strategy == human_strategy(swing)
@@ -423,10 +433,12 @@ def trip_walked_s(kind: str, swing: float, speed: float, params=None, network=No
 
 
 def trip_outcome(kind: str, swing: float, speed: float, params=None, network=None,
-                 start: str | None = None) -> tuple[float, str | None]:
+                 start: str | None = None,
+                 walk_in_cache=None) -> tuple[float, str | None]:
     """``trip_walked_s`` and the strategy read from the motion (the trip summary's
     ``strategy``: elevating, lowering, or None when the tripped foot never came down, the
-    trip could not be set or the walker fell before it)."""
+    trip could not be set or the walker fell before it). ``walk_in_cache``: a
+    ``pipeline.WalkInCache`` (fits of the touch's reflexes alone)."""
     from stumble.errors import InputError
     from stumble.pipeline import simulate_trip
     from stumble.trip import Scenario
@@ -435,7 +447,7 @@ def trip_outcome(kind: str, swing: float, speed: float, params=None, network=Non
                   swing_fraction=swing, speed_m_per_s=speed, start=start,
                   duration_after_trip_s=WALK_ON_TRIP_S)
     try:
-        r = simulate_trip(sc, network=network, gh2010=params)
+        r = simulate_trip(sc, network=network, gh2010=params, walk_in_cache=walk_in_cache)
     except InputError:  # the toe is over the obstacle at that instant of its own swing
         return 0.0, None
     s = r.summary

@@ -98,6 +98,10 @@ SCR_PHASES = ("any", "foot")
 # a lowering both do, the other leg first. No strategy is chosen: whichever foot lands
 # first launches the other's step.
 CROSS_GAINS = ("g_cross_flex", "g_cross_ham", "g_cross_ta", "g_cross_gas")
+# the parameters of the reflexes a touch triggers: before the first touch they add
+# nothing (``GH2010Controller.retouch``)
+TOUCH_FIELDS = (*SCR_GAINS, *CROSS_GAINS, "scr_hold_s", "scr_vas_after_s", "scr_ahead_m",
+                "cross_hold_s", "cross_ahead_m")
 # What a leg's load is (``load_from``; our choice, a parameter): ``floor``, the floor's
 # force on the foot alone (the paper's ground contact, and every shipped fit's), or
 # ``any``, the floor's and the obstacle's: a person feels weight on the sole whatever it
@@ -451,8 +455,24 @@ class GH2010Controller:
         self._ahead = np.zeros(2, bool)  # it was ahead of the other at its last onset
         # (a model without an obstacle is never touched: nothing to add)
         self._scr = p.stumble_reflex and self.lay.obstacle_found is not None
-        self._scr_hold = max(1, round(p.scr_hold_s * p.delay_scale / dt))
         self._scr_since = np.full(2, np.inf)  # ticks since each foot's last (sensed) touch
+        self._dt = dt
+        self._touch_weights()
+        self._armed = np.zeros(2, bool)  # each leg's next step is to cross
+        self._cross_since = np.full(2, np.iinfo(np.int64).max // 2)  # ticks since its onset
+        self._was_on = np.ones(2, bool)  # each foot loaded at the last tick
+        self._mark = -np.inf  # where the obstacle was touched (foot x, m)
+        self._f_cols = [ix[k] for k in ("GAS", "VAS", "GLU", "HAMS")]
+        self._l_cols = [ix["TA"], ix[self.flexor]]
+        self._l_offs = np.array([p.l_off_ta, p.l_off_hfl])
+        # the trunk-lean laws reach the hip extensors (GLU, HAMS) and the flexor only
+        self._i_glu, self._i_hams, self._i_flex = ix["GLU"], ix["HAMS"], ix[self.flexor]
+
+    def _touch_weights(self) -> None:
+        """What the reflexes a touch triggers add, from the parameters (``TOUCH_FIELDS``):
+        no state, so that ``retouch`` can set them again."""
+        p, nm, ix, dt = self.p, self.nm, self.idx, self._dt
+        self._scr_hold = max(1, round(p.scr_hold_s * p.delay_scale / dt))
         w = np.zeros((3, 2, 2, nm))  # (set, touched leg, leg, muscle): the tripped
         # leg's flexion set, its extension set, the other leg's
         for leg in range(2):
@@ -479,15 +499,25 @@ class GH2010Controller:
                            ("TA", p.g_cross_ta), ("GAS", p.g_cross_gas)):
             self._w_cross[ix[name]] += gain
         self._cross_hold = max(1, round(p.cross_hold_s * p.delay_scale / dt))
-        self._armed = np.zeros(2, bool)  # each leg's next step is to cross
-        self._cross_since = np.full(2, np.iinfo(np.int64).max // 2)  # ticks since its onset
-        self._was_on = np.ones(2, bool)  # each foot loaded at the last tick
-        self._mark = -np.inf  # where the obstacle was touched (foot x, m)
-        self._f_cols = [ix[k] for k in ("GAS", "VAS", "GLU", "HAMS")]
-        self._l_cols = [ix["TA"], ix[self.flexor]]
-        self._l_offs = np.array([p.l_off_ta, p.l_off_hfl])
-        # the trunk-lean laws reach the hip extensors (GLU, HAMS) and the flexor only
-        self._i_glu, self._i_hams, self._i_flex = ix["GLU"], ix["HAMS"], ix[self.flexor]
+
+    def walk_key(self) -> tuple:
+        """What the walk before a first touch depends on: every parameter but those of
+        the reflexes a touch triggers (``TOUCH_FIELDS``), and whether they are on."""
+        p = self.p
+        return (*(getattr(p, f.name) for f in fields(p) if f.name not in TOUCH_FIELDS),
+                p.stumble_reflex, p.crossing)
+
+    def retouch(self, params: GH2010Params) -> None:
+        """Go on with ``params``, which differ from the present ones only in the reflexes
+        a touch triggers (``TOUCH_FIELDS``): before a touch those add nothing, so a
+        walk to that instant is the same with either (``pipeline.WalkInCache``)."""
+        before = self.walk_key()
+        was, self.p = self.p, params
+        if self.walk_key() != before:
+            self.p = was
+            raise ValueError("retouch: the parameters differ in more than the touch's "
+                             "reflexes")
+        self._touch_weights()
 
     def _channel_map(self) -> None:
         """One gather and one affine map from a sensor row to the channels: F (F_max),
