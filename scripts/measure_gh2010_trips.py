@@ -7,9 +7,13 @@ or nothing: the shipped trip fit); ``--start playback`` trips the recording inst
 Prints the strategy map (E elevating, L lowering, - neither, x not set; * recovered),
 the recoveries of 45, the human strategy in the 30 window trips (elevating at
 0.05-0.25, lowering at 0.55-0.75) and the lowering-window recoveries; ``--out FILE``
-writes each trip's figures as JSON.
+writes each trip's figures as JSON. ``--grid held-out``: 28 other trips instead, none of
+them among the 45 or a trip stage's (swing 0.075-0.725 in steps of 0.05 at 1.1 and
+1.3 m/s; the human windows 0.075-0.225 and 0.575-0.725), to check a fit chosen by its
+figures on the 45.
 
-Run:  python scripts/measure_gh2010_trips.py [PARAMS] [--start own|playback] [--out FILE]
+Run:  python scripts/measure_gh2010_trips.py [PARAMS] [--start own|playback]
+      [--grid main|held-out] [--out FILE]
 """
 
 from __future__ import annotations
@@ -28,6 +32,9 @@ from stumble.trip import Scenario
 
 SWINGS = tuple(round(float(s), 2) for s in np.linspace(0.05, 0.75, 15))
 SPEEDS = (1.0, 1.2, 1.4)
+GRIDS = {"main": (SWINGS, SPEEDS),
+         "held-out": (tuple(round(float(s), 3) for s in np.linspace(0.075, 0.725, 14)),
+                      (1.1, 1.3))}
 
 
 def main() -> None:
@@ -36,12 +43,15 @@ def main() -> None:
     ap.add_argument("--out", default=None)
     ap.add_argument("--start", choices=("own", "playback"), default="own",
                     help="the walk tripped: the walker's own (default) or the recording's")
+    ap.add_argument("--grid", choices=tuple(GRIDS), default="main",
+                    help="the 45 trips (main) or 28 others (held-out)")
     args = ap.parse_args()
+    swings, speeds = GRIDS[args.grid]
     p = shipped_params("gh2010") if args.params is None else load_params(args.params)
     t0 = time.perf_counter()
     rows = []
-    for v in SPEEDS:
-        for s in SWINGS:
+    for v in speeds:
+        for s in swings:
             sc = Scenario(controller="gh2010", mechanism="obstacle", swing_fraction=s,
                           speed_m_per_s=v, start=args.start)
             try:
@@ -56,8 +66,8 @@ def main() -> None:
                        "recovered": False, "error": str(e)}
             rows.append(row)
     wall = time.perf_counter() - t0
-    print("speed | " + " ".join(f"{s:.2f}" for s in SWINGS))
-    for v in SPEEDS:
+    print("speed | " + " ".join(f"{s:.2f}" for s in swings))
+    for v in speeds:
         cells = []
         for r in (r for r in rows if r["speed"] == v):
             c = ("x" if not r["set"] else {"elevating": "E", "lowering": "L"}.get(
