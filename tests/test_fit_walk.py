@@ -349,3 +349,17 @@ def test_shipped_gh2010_fits_score_today_what_they_scored_in_their_fit(name):
                    float(fit.get("stance_weight", 1.0)))
     cost, _terms = evaluate_walk(np.array([getattr(p, n) for n in space.names]))
     assert cost == pytest.approx(fit["cost"], rel=1e-6)
+
+
+def test_the_dense_trip_set_is_thirty_trips_apart_from_the_maps_45():
+    """``--trip-set dense``: swing 0.05-0.75 at 1.1 and 1.3 m/s, so that a stage fitted on
+    it is measured on the strategy map's 45 (1.0, 1.2, 1.4 m/s) out of sample, and named
+    in the fit's command."""
+    from stumble.control.reflex.fit_walk import TRIP_SETS, _fit_command
+
+    dense = TRIP_SETS["dense"]
+    assert len(dense) == len(set(dense)) == 30
+    assert {v for _s, v in dense} == {1.1, 1.3}
+    assert min(s for s, _v in dense) == 0.05 and max(s for s, _v in dense) == 0.75
+    assert not {v for _s, v in dense} & {1.0, 1.2, 1.4}
+    assert "--trip-set dense " in _fit_command("gh2010", True, ((30, 10.0, dense),), None, 5)

@@ -242,9 +242,10 @@ def _parser() -> argparse.ArgumentParser:
                    "and four obstacle trips in its own gait (60 generations)")
     f.add_argument("--params", type=Path, default=None, metavar="FILE",
                    help="gh2010 --trips: the gh2010.json to start from")
-    f.add_argument("--trip-set", choices=("four", "wide"), default=None,
-                   help="gh2010 --trips: the stage's obstacle trips: four (the default) or "
-                   "twelve across swing 0.1-0.75 and the three start speeds")
+    f.add_argument("--trip-set", choices=("four", "wide", "dense"), default=None,
+                   help="gh2010 --trips: the stage's obstacle trips: four (the default), "
+                   "twelve across swing 0.1-0.75 and the three start speeds (wide), or "
+                   "thirty, swing 0.05-0.75 at 1.1 and 1.3 m/s (dense)")
     f.add_argument("--scr-phase", choices=("any", "foot"), default=None,
                    help="gh2010 --trips: the stumbling corrective reflex the same at every "
                    "phase (any), or reversing as the tripped foot is behind or ahead of "
