@@ -87,3 +87,36 @@ def test_no_pyplot_figures_leak(tmp_path):
     for i in range(3):
         plot_joint_angles(tmp_path / f"p{i}.png", pct, angles)
     assert plt.get_fignums() == before
+
+
+def test_a_trip_stages_objective_plot_shows_its_trips_not_the_time_walked(tmp_path,
+                                                                          monkeypatch):
+    """``plot_objective``: a walking fit's lower panel is the best's time walked; a trip
+    stage's (whose best walks its whole walk in every generation) the best's trips
+    recovered and taken as people do, of the stage's trips."""
+    import matplotlib.pyplot as plt
+
+    from stumble.viz import reflex_plots
+
+    figs, close = [], plt.close
+    monkeypatch.setattr(reflex_plots.plt, "close", lambda fig: figs.append(fig))
+
+    def history(trips):
+        terms = {"walked_s": 10.0}
+        if trips:
+            terms.update({f"trip_{s}_1.2": 20.0 for s in (0.1, 0.3, 0.6)},
+                         trips_recovered=1, trips_human_strategy=2)
+        return [{"generation": g, "best": 10.0 - g, "generation_best": 10.0 - g,
+                 "generation_median": 12.0 - g, "terms": terms} for g in range(3)]
+
+    reflex_plots.plot_objective(tmp_path / "walk.png", history(False), "walk")
+    reflex_plots.plot_objective(tmp_path / "trips.png", history(True), "trips")
+    walk_ax, trips_ax = figs[0].axes[1], figs[1].axes[1]
+    assert walk_ax.get_ylabel() == "best walks (s)"
+    assert trips_ax.get_ylabel() == "best's trips (of 3)"
+    assert [t.get_text() for t in trips_ax.get_legend().get_texts()] == [
+        "recovered", "human strategy (window trips)"]
+    assert list(trips_ax.lines[0].get_ydata()) == [1, 1, 1]
+    for f in figs:
+        close(f)
+    assert (tmp_path / "trips.png").stat().st_size > 10_000

@@ -73,7 +73,8 @@ def plot_muscle_tensions(path: Path, t_trip: np.ndarray, f_trip: np.ndarray,
 
 def plot_objective(path: Path, history: list[dict], title: str) -> None:
     """A closed-loop fit's objective per generation: best so far, the generation's best
-    and median (log scale), and the best's time walked."""
+    and median (log scale), and the best's time walked, or, for a trip stage, how many of
+    its trips the best recovers and takes as people do."""
     gen = [h["generation"] for h in history]
     fig, (ax, ax2) = plt.subplots(2, 1, figsize=(7.0, 5.5), sharex=True,
                                   gridspec_kw={"height_ratios": (3, 1)})
@@ -86,9 +87,20 @@ def plot_objective(path: Path, history: list[dict], title: str) -> None:
     ax.set_ylabel("objective J")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
-    walked = [h["terms"].get("walked_s", np.nan) for h in history]
-    ax2.plot(gen, walked, "-", color="tab:blue")
-    ax2.set_ylabel("best walks (s)")
+    if any("trips_recovered" in h["terms"] for h in history):  # a trip stage: its trips
+        n = max(sum(k.startswith("trip_") for k in h["terms"]) for h in history)
+        for key, label, color in (("trips_recovered", "recovered", "tab:green"),
+                                  ("trips_human_strategy", "human strategy (window trips)", "tab:purple")):
+            if any(key in h["terms"] for h in history):
+                ax2.step(gen, [h["terms"].get(key, np.nan) for h in history], where="post",
+                         color=color, label=label)
+        ax2.set_ylim(-0.5, n + 0.5)
+        ax2.set_ylabel(f"best's trips (of {n})")
+        ax2.legend(fontsize=7, loc="upper left")
+    else:
+        walked = [h["terms"].get("walked_s", np.nan) for h in history]
+        ax2.plot(gen, walked, "-", color="tab:blue")
+        ax2.set_ylabel("best walks (s)")
     ax2.set_xlabel("generation")
     ax2.grid(alpha=0.3)
     fig.suptitle(title, fontsize=10)
