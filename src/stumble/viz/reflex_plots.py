@@ -90,7 +90,8 @@ def plot_objective(path: Path, history: list[dict], title: str) -> None:
     if any("trips_recovered" in h["terms"] for h in history):  # a trip stage: its trips
         n = max(sum(k.startswith("trip_") for k in h["terms"]) for h in history)
         for key, label, color in (("trips_recovered", "recovered", "tab:green"),
-                                  ("trips_human_strategy", "human strategy (window trips)", "tab:purple")):
+                                  ("trips_human_strategy", "human strategy (window trips)",
+                                   "tab:purple")):
             if any(key in h["terms"] for h in history):
                 ax2.step(gen, [h["terms"].get(key, np.nan) for h in history], where="post",
                          color=color, label=label)
