@@ -10,6 +10,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.ticker import MaxNLocator
 
 from stumble.body.muscles import MUSCLE_NAMES
 
@@ -76,10 +77,11 @@ def plot_objective(path: Path, history: list[dict], title: str) -> None:
     and median (log scale), and the best's time walked, or, for a trip stage, how many of
     its trips the best recovers and takes as people do."""
     gen = [h["generation"] for h in history]
+    mark = {"marker": "o", "ms": 3} if len(gen) < 25 else {}  # a short fit's lines show
     fig, (ax, ax2) = plt.subplots(2, 1, figsize=(7.0, 5.5), sharex=True,
                                   gridspec_kw={"height_ratios": (3, 1)})
     ax.semilogy(gen, [h["best"] for h in history], "-", color="tab:red", lw=1.8,
-                label="best so far")
+                label="best so far", **mark)
     ax.semilogy(gen, [h["generation_best"] for h in history], ".", color="tab:orange",
                 ms=4, label="generation's best")
     ax.semilogy(gen, [h["generation_median"] for h in history], "-", color="0.6", lw=0.8,
@@ -94,15 +96,16 @@ def plot_objective(path: Path, history: list[dict], title: str) -> None:
                                    "tab:purple")):
             if any(key in h["terms"] for h in history):
                 ax2.step(gen, [h["terms"].get(key, np.nan) for h in history], where="post",
-                         color=color, label=label)
+                         color=color, label=label, **mark)
         ax2.set_ylim(-0.5, n + 0.5)
         ax2.set_ylabel(f"best's trips (of {n})")
         ax2.legend(fontsize=7, loc="upper left")
     else:
         walked = [h["terms"].get("walked_s", np.nan) for h in history]
-        ax2.plot(gen, walked, "-", color="tab:blue")
+        ax2.plot(gen, walked, "-", color="tab:blue", **mark)
         ax2.set_ylabel("best walks (s)")
     ax2.set_xlabel("generation")
+    ax2.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax2.grid(alpha=0.3)
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
