@@ -17,6 +17,10 @@ time survived; every generation's best is written to ``--out`` as it goes.
 ``--max-tilt DEG``: a recovery counts only with the trunk within DEG of vertical at
 recovery-foot contact; ``--grid-floor N``: the objective loses 2 per trip of the first
 48 (the full grid; with ``full+bodies`` the bodies follow) recovered below N.
+``--only lowering`` searches the lowering strategy's own targets (``LOWERING``): the
+trips the start sends to the elevating strategy do not use them, so they run once, with
+the start's values, and every candidate runs only the lowering trips (the score is the
+same as running all; ``tests/test_fsm.py``): 54 of the 144 ``full+bodies`` trips.
 Prints the best parameter set as JSON, to be carried into fsm_params.py by hand.
 
 The ``--out`` file is a state-machine parameter file (``stumble trip --params FILE``,
@@ -153,25 +157,62 @@ def counts(s: dict) -> bool:
     return MAX_TILT is None or (tilt is not None and tilt <= MAX_TILT)
 
 
-def evaluate(x: dict) -> tuple[int, float, int]:
-    """(recoveries, total time survived, recoveries among the first 48) over the grid."""
+def trip_counts(x: dict, i: int) -> tuple[bool, float]:
+    """Whether ``GRID[i]`` recovers under ``x`` (``counts``), and the time it survived."""
     from stumble.pipeline import simulate_trip
     from stumble.trip import Scenario
 
+    f, v, mech, *body = GRID[i]
+    walk_on = ({} if WALK_ON_S is None else
+               {"recovery": "walk_on", "duration_after_trip_s": WALK_ON_S})
+    if body:  # (height m, mass kg, sex): a grid point of another body
+        walk_on.update(height_m=body[0], mass_kg=body[1], sex=body[2])
+    s = simulate_trip(Scenario(swing_fraction=f, speed_m_per_s=v, mechanism=mech,
+                               strength_model=STRENGTH, **walk_on),
+                      params=params_from(x)).summary
+    return counts(s), s["sim_time_s"] if not s["fell"] else (s["fall_time_s"] or 0.0)
+
+
+# --only lowering: the trips the searched targets act on (those the start sends to the
+# lowering strategy; no target of ``LOWERING`` is used by an elevating trip), and the
+# score of the others, run once with the start's values (``fixed_part``); None: all
+ACTIVE = None
+FIXED = (0, 0.0, 0)
+
+
+def score_of(x: dict, indices) -> tuple[int, float, int]:
+    """(recoveries, total time survived, recoveries among the first 48) of GRID[indices]."""
     rec, survived, rec_grid = 0, 0.0, 0
-    for i, (f, v, mech, *body) in enumerate(GRID):
-        walk_on = ({} if WALK_ON_S is None else
-                   {"recovery": "walk_on", "duration_after_trip_s": WALK_ON_S})
-        if body:  # (height m, mass kg, sex): a grid point of another body
-            walk_on.update(height_m=body[0], mass_kg=body[1], sex=body[2])
-        s = simulate_trip(Scenario(swing_fraction=f, speed_m_per_s=v, mechanism=mech,
-                                   strength_model=STRENGTH, **walk_on),
-                          params=params_from(x)).summary
-        ok = counts(s)
+    for i in indices:
+        ok, t = trip_counts(x, i)
         rec += int(ok)
         rec_grid += int(ok and i < FLOOR_N)
-        survived += s["sim_time_s"] if not s["fell"] else (s["fall_time_s"] or 0.0)
+        survived += t
     return rec, survived, rec_grid
+
+
+def evaluate(x: dict) -> tuple[int, float, int]:
+    """(recoveries, total time survived, recoveries among the first 48) over the grid:
+    with ``--only lowering`` its lowering trips run and the others' ``FIXED`` score is
+    added (the same figures as running them: they do not use the searched targets)."""
+    if ACTIVE is None:
+        return score_of(x, range(len(GRID)))
+    rec, survived, rec_grid = score_of(x, ACTIVE)
+    return rec + FIXED[0], survived + FIXED[1], rec_grid + FIXED[2]
+
+
+def fixed_part(base: dict, ex=None) -> tuple[list[int], tuple[int, float, int]]:
+    """--only lowering: the indices of the trips the start sends to the lowering strategy,
+    and the score of the rest under the start's values (run once, in ``ex`` if given)."""
+    p = params_from(base)
+    active = [i for i, (f, *_rest) in enumerate(GRID) if p.strategy_for(f) == "lowering"]
+    rest = [i for i in range(len(GRID)) if i not in set(active)]
+    half = (len(rest) + 1) // 2
+    parts = ([ex.submit(score_of, base, rest[:half]), ex.submit(score_of, base, rest[half:])]
+             if ex else None)
+    a, b = ([q.result() for q in parts] if parts else
+            (score_of(base, rest), (0, 0.0, 0)))
+    return active, (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
 def penalised(score: tuple) -> tuple[float, float]:
@@ -249,6 +290,7 @@ def main() -> None:
         if not 0 <= args.grid_floor <= FLOOR_N:
             ap.error(f"--grid-floor must be 0-{FLOOR_N}, got {args.grid_floor}")
     global GRID, STRENGTH, WALK_ON_S, ATTITUDE_DAMPING, TRUNK_ATTITUDE, MAX_TILT, GRID_FLOOR
+    global ACTIVE, FIXED
     GRID = {"small": GRID, "full": FULL_GRID, "lowering": LOWERING_GRID,
             "full+bodies": FULL_GRID + BODY_GRID}[args.grid]
     ATTITUDE_DAMPING = attitude_damping
@@ -263,6 +305,17 @@ def main() -> None:
     default = FSMParams()
     base = default.values()
     base.update(around)
+    if args.only == "lowering":  # the other trips do not use the searched targets: once
+        t0 = time.time()
+        if args.workers > 1:
+            with ProcessPoolExecutor(2, initializer=_worker_init,
+                                     initargs=_init_args()) as pool:
+                ACTIVE, FIXED = fixed_part(base, pool)
+        else:
+            ACTIVE, FIXED = fixed_part(base)
+        print(f"--only lowering: {len(ACTIVE)} of {len(GRID)} trips searched; the other "
+              f"{len(GRID) - len(ACTIVE)} recover {FIXED[0]} (grid {FIXED[2]}) with the "
+              f"start's values, run once ({time.time() - t0:.0f} s)", flush=True)
     if args.method == "cma":
         _cma(args, base, space)
         return
@@ -278,7 +331,8 @@ def main() -> None:
     t0 = time.time()
     best = None
     # one worker: evaluate in this process (no pool), for a machine shared with others
-    ex = ProcessPoolExecutor(args.workers) if args.workers > 1 else None
+    ex = ProcessPoolExecutor(args.workers, initializer=_worker_init, initargs=_init_args()
+                             ) if args.workers > 1 else None
     scores = ex.map(evaluate, cands) if ex else map(evaluate, cands)
     try:
         for i, (x, score) in enumerate(zip(cands, scores, strict=True)):
@@ -293,12 +347,20 @@ def main() -> None:
                       "params": best[0], "settings": settings()}, indent=1))
 
 
+def _init_args() -> tuple:
+    """The module's settings, for ``_worker_init`` in a worker process."""
+    return (STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING, TRUNK_ATTITUDE, MAX_TILT, ACTIVE,
+            FIXED)
+
+
 def _worker_init(strength: str, grid: list, walk_on_s: float | None,
                  attitude_damping: str = "joint", trunk_attitude: float = 0.0,
-                 max_tilt: float | None = None) -> None:
+                 max_tilt: float | None = None, active=None,
+                 fixed: tuple = (0, 0.0, 0)) -> None:
     global STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING, TRUNK_ATTITUDE, MAX_TILT
+    global ACTIVE, FIXED
     STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING = strength, grid, walk_on_s, attitude_damping
-    TRUNK_ATTITUDE, MAX_TILT = trunk_attitude, max_tilt
+    TRUNK_ATTITUDE, MAX_TILT, ACTIVE, FIXED = trunk_attitude, max_tilt, active, fixed
 
 
 def _cma(args, base: dict, space: dict) -> None:
@@ -315,9 +377,7 @@ def _cma(args, base: dict, space: dict) -> None:
     def point(u: np.ndarray) -> dict:
         return {**base, **{k: float(v) for k, v in zip(names, lo + u * (hi - lo), strict=True)}}
 
-    ex = ProcessPoolExecutor(args.workers, initializer=_worker_init,
-                             initargs=(STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING,
-                                       TRUNK_ATTITUDE, MAX_TILT)
+    ex = ProcessPoolExecutor(args.workers, initializer=_worker_init, initargs=_init_args()
                              ) if args.workers > 1 else None
     t0, best = time.time(), None
     span = (WALK_ON_S or 3.0) * len(GRID)  # the grid's time budget

@@ -371,3 +371,23 @@ def test_push_off_hip_limit_caps_the_support_hip_in_the_first_300_ms():
     assert base["support_peak_moments_nm"]["hip_extension"] > 250.0
     assert capped["support_peak_moments_nm"]["hip_extension"] <= 150.5
     assert capped["recovered"]
+
+
+def test_tune_fsm_only_lowering_runs_the_other_trips_once_with_the_same_score(monkeypatch):
+    """--only lowering: the trips the start sends to elevating run once; a candidate's
+    score is the same as running every trip (no LOWERING target acts on them)."""
+    tune = _tune_fsm()
+    grid = [(0.15, 1.2, "force"), (0.45, 1.2, "obstacle"), (0.65, 1.2, "force")]
+    monkeypatch.setattr(tune, "GRID", grid)
+    monkeypatch.setattr(tune, "WALK_ON_S", None)
+    start = tune.params_from({}).values()
+    # a candidate far from the start in every lowering target
+    cand = {**start, **{k: lo + 0.9 * (hi - lo) for k, (_p, lo, hi) in tune.SPACE.items()
+                        if k in tune.LOWERING}}
+    whole = [tune.evaluate(x) for x in (start, cand)]
+    active, fixed = tune.fixed_part(start)
+    assert active == [2]  # the trip at 0.65 of swing
+    monkeypatch.setattr(tune, "ACTIVE", active)
+    monkeypatch.setattr(tune, "FIXED", fixed)
+    assert [tune.evaluate(x) for x in (start, cand)] == whole
+    assert whole[0] != whole[1]  # the candidate changes the lowering trip
