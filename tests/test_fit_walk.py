@@ -320,6 +320,37 @@ def test_the_trip_stage_records_its_strategy_cost(tmp_path):
     assert fit["strategy_cost"] == 7.0 and "--strategy-cost 7" in fit["command"]
 
 
+def test_the_recovery_cost_charges_a_trip_not_walked_on_to_the_end():
+    """``--recovery-cost W``: a trip walked on less than the whole 3 s costs W on top of
+    its time term (2.9 s walked: nearly a recovery's credit without it); a recovery costs
+    nothing; the default adds no term; the fit's command and the CLI say so."""
+    from stumble.control.reflex.fit_walk import W_TRIP, WALK_ON_TRIP_S, _fit_command, trip_terms
+
+    def cost(walked, w):
+        return sum(trip_terms(0.4, 1.2, walked, "elevating", 0.0, w).values())
+
+    assert cost(WALK_ON_TRIP_S, 20.0) == 0.0
+    assert cost(2.9, 0.0) == pytest.approx(W_TRIP / 30.0)  # two thirds of a unit
+    assert cost(2.9, 20.0) == pytest.approx(W_TRIP / 30.0 + 20.0)
+    assert cost(0.0, 20.0) == pytest.approx(W_TRIP + 20.0)
+    assert trip_terms(0.4, 1.2, 1.5, None) == {"trip_0.4_1.2": pytest.approx(10.0)}
+    assert "unrecovered_0.4_1.2" in trip_terms(0.4, 1.2, 1.5, None, 0.0, 5.0)
+    stages = ((9, 10.0, ((0.1, 1.2),)),)
+    assert "--recovery-cost" not in _fit_command("gh2010", True, stages, None, 1)
+    assert "--recovery-cost 20 " in _fit_command("gh2010", True, stages, None, 1,
+                                                 recovery_cost=20.0)
+    with pytest.raises(ValueError, match="recovery_cost must be"):
+        fit_walk_gh2010(recovery_cost=-1.0, trips=True)
+    with pytest.raises(ValueError, match="for the trip stage"):
+        fit_walk_gh2010(recovery_cost=5.0)
+
+
+def fit_walk_gh2010(**kw):
+    from stumble.control.reflex.fit_walk import fit_gh2010
+
+    return fit_gh2010(**kw)
+
+
 @pytest.mark.parametrize("name", ["gh2010.json", "gh2010_seed003.json"])
 def test_shipped_gh2010_fits_score_today_what_they_scored_in_their_fit(name):
     """Reproducibility guard: a shipped fit's own parameters, evaluated by today's
@@ -346,7 +377,8 @@ def test_shipped_gh2010_fits_score_today_what_they_scored_in_their_fit(name):
                    fixed if trips else {"wiring": p.wiring}, trips, bool(trips),
                    fit.get("strategy_cost", 0.0), crossing, float(fit.get("foot_angle", 0)),
                    bool(fit.get("stride_time", False)),
-                   float(fit.get("stance_weight", 1.0)))
+                   float(fit.get("stance_weight", 1.0)),
+                   recovery_cost=float(fit.get("recovery_cost", 0.0)))
     cost, _terms = evaluate_walk(np.array([getattr(p, n) for n in space.names]))
     assert cost == pytest.approx(fit["cost"], rel=1e-6)
 

@@ -255,6 +255,11 @@ def _parser() -> argparse.ArgumentParser:
                    "(elevating at 0.05-0.25 of swing, lowering at 0.55-0.75) costs W more "
                    "when the strategy read from the motion is not the human one (default "
                    "0: recovery alone; fit_walk.W_STRATEGY, 10, is half a lost trip)")
+    f.add_argument("--recovery-cost", type=float, default=None, metavar="W",
+                   help="gh2010 --trips: each of the stage's trips not recovered costs W "
+                   "more, on top of its time term (default 0: the time walked on alone, "
+                   "which gives a trip walked on 2.9 s nearly a recovery's credit; a lost "
+                   "trip's time term is 20)")
     f.add_argument("--crossing", action="store_true",
                    help="gh2010 --trips: fit the crossing step after a touch too (each "
                    "leg's next step after the foot's obstacle touch, launched when the "
@@ -630,6 +635,7 @@ def cmd_reflex_fit_gh2010(args) -> int:
     for flag, given in (("--params", args.params), ("--trip-set", args.trip_set),
                         ("--scr-phase", args.scr_phase),
                         ("--strategy-cost", args.strategy_cost),
+                        ("--recovery-cost", args.recovery_cost),
                         ("--crossing", args.crossing or None),
                         ("--touch-only", args.touch_only or None),
                         ("--load-from", args.load_from)):
@@ -668,6 +674,9 @@ def cmd_reflex_fit_gh2010(args) -> int:
         raise InputError(f"--stance-weight must be a number >= 0, got {args.stance_weight}")
     if not (math.isfinite(strategy_cost) and strategy_cost >= 0):
         raise InputError(f"--strategy-cost must be a number >= 0, got {args.strategy_cost}")
+    recovery_cost = args.recovery_cost or 0.0
+    if not (math.isfinite(recovery_cost) and recovery_cost >= 0):
+        raise InputError(f"--recovery-cost must be a number >= 0, got {args.recovery_cost}")
     gens = sum(g for g, _w, _t in stages)
     workers = args.workers or os.cpu_count() or 1
     if workers < 1:
@@ -681,7 +690,8 @@ def cmd_reflex_fit_gh2010(args) -> int:
                      ta_bound=args.ta_bound, strategy_cost=strategy_cost,
                      crossing=args.crossing, foot_angle=args.foot_angle,
                      load_from=args.load_from, stride_time=args.stride_time,
-                     stance_weight=stance_weight, touch_only=args.touch_only)
+                     stance_weight=stance_weight, touch_only=args.touch_only,
+                     recovery_cost=recovery_cost)
     bar.done()
     written, walk = write_gh2010_fit(out, res)
     s = walk.summary
@@ -699,12 +709,13 @@ def cmd_reflex(args) -> int:
         return cmd_reflex_fit_gh2010(args)
     if (args.trips or args.params is not None or args.trip_set or args.scr_phase
             or args.ta_bound != "wide" or args.strategy_cost is not None or args.crossing
+            or args.recovery_cost is not None
             or args.foot_angle or args.load_from is not None or args.stride_time
             or args.stance_weight is not None or args.touch_only):
         raise InputError("--trips, --params, --trip-set, --scr-phase, --strategy-cost, "
-                         "--crossing, --touch-only, --load-from, --foot-angle, --stride-time, "
-                         "--stance-weight and --ta-bound are for "
-                         "--controller gh2010")
+                         "--recovery-cost, --crossing, --touch-only, --load-from, "
+                         "--foot-angle, --stride-time, --stance-weight and --ta-bound are "
+                         "for --controller gh2010")
     from stumble.control.reflex.identify import ITERATIONS, REFINE_ITERATIONS, fit
     from stumble.outputs import prepare_dir, write_fit
 

@@ -307,7 +307,8 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                    trips: tuple = (), stumble_reflex: bool = False,
                    strategy_cost: float = 0.0, crossing: bool = False,
                    foot_angle: float = 0.0, stride_time: bool = False,
-                   stance_weight: float = W_STANCE, touch_only: bool = False) -> None:
+                   stance_weight: float = W_STANCE, touch_only: bool = False,
+                   recovery_cost: float = 0.0) -> None:
     """Worker set-up: what ``evaluate_walk`` simulates: a walk, and the obstacle trips
     ``trips`` ((swing fraction, speed) pairs) the walker must walk on from; GH2010
     candidates in ``gh2010_space(stumble_reflex=...)``; ``strategy_cost``: what a trip in
@@ -315,7 +316,8 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
     ``crossing``: with the crossing step's gains; ``foot_angle``, ``stride_time``,
     ``stance_weight``: the objective's foot term's weight, its stride-time term and its
     stance term's weight (``walk_cost``); ``touch_only``: candidates of the touch's
-    reflexes alone (``gh2010_space(touch_only=True)``)."""
+    reflexes alone (``gh2010_space(touch_only=True)``); ``recovery_cost``: what a trip not
+    recovered costs on top of its time term (``trip_terms``)."""
     from stumble.pipeline import WalkInCache
 
     _EVAL.pop("walk", None)
@@ -325,7 +327,7 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                  trips=tuple(trips), stumble_reflex=stumble_reflex,
                  strategy_cost=float(strategy_cost), crossing=crossing,
                  foot_angle=foot_angle, stride_time=stride_time,
-                 stance_weight=float(stance_weight))
+                 stance_weight=float(stance_weight), recovery_cost=float(recovery_cost))
 
 
 def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
@@ -369,15 +371,17 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
                                               params if kind == "gh2010" else None,
                                               net if kind == "network" else None,
                                               walk_in_cache=_EVAL.get("walk_ins"))
-            terms.update(trip_terms(swing, speed, t_walked, strategy, w_strategy))
+            terms.update(trip_terms(swing, speed, t_walked, strategy, w_strategy,
+                                    _EVAL.get("recovery_cost", 0.0)))
             ok += t_walked >= WALK_ON_TRIP_S
             human += strategy is not None and strategy == human_strategy(swing)
         terms["trips_recovered"] = ok
         if w_strategy:
             terms["trips_human_strategy"] = human
-        cost += sum(v for k, v in terms.items() if k.startswith(("trip_", "strategy_")))
+        cost += sum(v for k, v in terms.items()
+                    if k.startswith(("trip_", "strategy_", "unrecovered_")))
     elif trips:  # a walker that falls: every trip lost, no window trip taken as humans do
-        cost += W_TRIP * len(trips) + w_strategy * sum(
+        cost += (W_TRIP + _EVAL.get("recovery_cost", 0.0)) * len(trips) + w_strategy * sum(
             human_strategy(s) is not None for s, _v in trips)
     return cost, terms
 
@@ -410,17 +414,23 @@ def human_strategy(swing: float) -> str | None:
 
 
 def trip_terms(swing: float, speed: float, walked_s: float, strategy: str | None,
-               strategy_cost: float = 0.0) -> dict:
+               strategy_cost: float = 0.0, recovery_cost: float = 0.0) -> dict:
     """The objective's terms of one trip of a trip stage: ``trip_<swing>_<speed>``,
     ``W_TRIP`` times the part of ``WALK_ON_TRIP_S`` after it not walked on, and, when
     ``strategy_cost`` is not 0, ``strategy_<swing>_<speed>``: ``strategy_cost`` if the
     trip is in a human window (``human_strategy``) and ``strategy`` is not the human one,
-    else 0."""
+    else 0; when ``recovery_cost`` is not 0, ``unrecovered_<swing>_<speed>``:
+    ``recovery_cost`` if the trip was not walked on for the whole ``WALK_ON_TRIP_S``,
+    else 0 (the time term alone gives a trip walked on 2.9 s nearly a recovery's
+    credit)."""
     terms = {f"trip_{swing}_{speed}": W_TRIP * (1.0 - walked_s / WALK_ON_TRIP_S)}
     if strategy_cost:
         want = human_strategy(swing)
         terms[f"strategy_{swing}_{speed}"] = (
             float(strategy_cost) if want is not None and strategy != want else 0.0)
+    if recovery_cost:
+        terms[f"unrecovered_{swing}_{speed}"] = (
+            float(recovery_cost) if walked_s < WALK_ON_TRIP_S else 0.0)
     return terms
 
 
@@ -501,7 +511,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                ta_bound: str = "wide", strategy_cost: float = 0.0,
                crossing: bool = False, foot_angle: float = 0.0,
                load_from: str | None = None, stride_time: bool = False,
-               stance_weight: float = W_STANCE, touch_only: bool = False) -> FitResult:
+               stance_weight: float = W_STANCE, touch_only: bool = False,
+               recovery_cost: float = 0.0) -> FitResult:
     """Optimise the GH2010 gains in closed loop: per stage (generations, walk s, obstacle
     trips), CMA-ES on ``walk_cost`` plus, for each trip, ``W_TRIP`` times the part of the
     3 s after it not walked on. ``wiring`` ``gh2010`` starts from the paper's values
@@ -527,12 +538,19 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     what a leg's load is (``GH2010Params.load_from``; default ``start``'s);
     ``touch_only`` (trip stages): fit only the reflexes a touch triggers (the stumbling
     corrective reflex and, with ``crossing``, the crossing step), the walking gains held
-    at ``start``'s, so that the walk is the start's to the first touch. Writes
+    at ``start``'s, so that the walk is the start's to the first touch;
+    ``recovery_cost`` (trip stages): what each of the stage's trips not recovered costs
+    on top of its time term (``trip_terms``; 0, the default, leaves the objective as it
+    was). Writes
     ``gh2010.json`` to ``out`` (the best parameters and the fit's figures) when given."""
     if strategy_cost < 0 or not math.isfinite(strategy_cost):
         raise ValueError(f"strategy_cost must be a finite number >= 0, got {strategy_cost}")
     if strategy_cost and not trips:
         raise ValueError("strategy_cost is for the trip stage (trips=True)")
+    if recovery_cost < 0 or not math.isfinite(recovery_cost):
+        raise ValueError(f"recovery_cost must be a finite number >= 0, got {recovery_cost}")
+    if recovery_cost and not trips:
+        raise ValueError("recovery_cost is for the trip stage (trips=True)")
     if crossing and not trips:
         raise ValueError("crossing is for the trip stage (trips=True)")
     if not (math.isfinite(stance_weight) and stance_weight >= 0):
@@ -583,7 +601,7 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                       initargs=("gh2010", walk_s, GH2010_SPEED_M_PER_S,
                                 fixed if with_trips else {"wiring": wiring}, trips,
                                 with_trips, strategy_cost, crossing, foot_angle,
-                                stride_time, stance_weight, touch_only),
+                                stride_time, stance_weight, touch_only, recovery_cost),
                       first_generation=total, stage="walk" if not trips else "walk+trips",
                       fixed=fixed)
         params = replace(params, **dict(zip(space.names, map(float, res.best_theta),
@@ -619,10 +637,11 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                     "stride_time": stride_time,
                     "stance_weight": stance_weight,
                     "touch_only": touch_only,
+                    "recovery_cost": recovery_cost,
                     "command": _fit_command(wiring, with_trips, stages, scr_phase, seed,
                                             ta_bound, strategy_cost, crossing,
                                             foot_angle, load_from, stride_time,
-                                            stance_weight, touch_only)}})
+                                            stance_weight, touch_only, recovery_cost)}})
     return res
 
 
@@ -630,7 +649,8 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
                  ta_bound: str = "wide", strategy_cost: float = 0.0,
                  crossing: bool = False, foot_angle: float = 0.0,
                  load_from: str | None = None, stride_time: bool = False,
-                 stance_weight: float = W_STANCE, touch_only: bool = False) -> str:
+                 stance_weight: float = W_STANCE, touch_only: bool = False,
+                 recovery_cost: float = 0.0) -> str:
     """The ``stumble reflex fit`` command of a GH2010 fit (``--params`` aside)."""
     opts = ["--trips"] if trips else []
     if ta_bound != "wide":
@@ -649,6 +669,8 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
             opts.append(f"--scr-phase {scr_phase}")
         if strategy_cost:
             opts.append(f"--strategy-cost {strategy_cost:g}")
+        if recovery_cost:
+            opts.append(f"--recovery-cost {recovery_cost:g}")
         if crossing:
             opts.append("--crossing")
         if touch_only:
