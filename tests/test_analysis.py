@@ -53,3 +53,37 @@ def test_a_touch_lasting_three_samples_is_a_landing():
     timer = TripTimer("l", 0.5, after_s=100.0, fall_height_m=0.5)
     assert _feed(timer, _strides(3, brush_at=54, brush=3)) is None
     assert timer.swings_s[0] == pytest.approx(0.27)
+
+
+def test_steps_to_steady_counts_the_steps_until_two_in_a_row_walk_as_the_walk_on():
+    """A recovery's walking on: the first of two steps in a row within 15 % of the gait's
+    own step time (the median of its last four) and of the speed before the trip."""
+    from stumble.analysis import steps_to_steady, walk_on_step_s
+
+    settled = [(0.40, 1.2)] * 4
+    assert walk_on_step_s(settled) == 0.40
+    # long, fast steps first (elevating trips), then the gait settles
+    assert steps_to_steady([(0.48, 1.40), (0.44, 1.42), (0.42, 1.30), *settled], 1.2) == 3
+    assert steps_to_steady(settled, 1.2) == 1
+    # one steady step between unsteady ones is not a steady gait
+    assert steps_to_steady([(0.40, 1.2), (0.60, 1.2), (0.41, 1.25), *settled], 1.2) == 3
+    # walking on far slower than before the trip never becomes steady
+    assert steps_to_steady([(0.40, 0.9)] * 6, 1.2) is None
+    assert steps_to_steady(settled[:3], 1.2) is None and walk_on_step_s(settled[:3]) is None
+    # the tolerance is a parameter
+    assert steps_to_steady([(0.40, 1.05)] * 5, 1.2) == 1
+    assert steps_to_steady([(0.40, 1.05)] * 5, 1.2, tolerance=0.1) is None
+
+
+def test_a_walk_on_recovery_reports_its_steps_and_when_its_gait_is_steady():
+    from stumble.pipeline import simulate_trip
+    from stumble.trip import Scenario
+
+    s = simulate_trip(Scenario(swing_fraction=0.15, recovery="walk_on",
+                               duration_after_trip_s=6.0)).summary
+    assert s["recovered"]
+    steps = s["walk_on_steps"]
+    assert len(steps) == s["steps_after_recovery_step"] >= 4
+    assert all(0.2 < x["duration_s"] < 1.0 and 0.5 < x["speed_m_per_s"] < 2.0 for x in steps)
+    assert 1 <= s["steps_to_steady_gait"] <= len(steps) - 1
+    assert 0.3 < s["walk_on_step_s"] < 0.7

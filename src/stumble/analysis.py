@@ -426,6 +426,63 @@ def steps_after(rec: Recording, landing_s: float | None) -> int | None:
     return sum(1 for side in ev.values() for t in side["heel_strike_s"] if t > landing_s + 0.02)
 
 
+# A steady gait after a trip (our rule; the issue asks for the number of steps until the
+# gait is steady and gives none): STEADY_RUN steps in a row, each lasting within
+# STEADY_TOLERANCE of the gait the person walks on in (the median of the run's last
+# STEADY_TAIL steps) and advancing the pelvis at within STEADY_TOLERANCE of the speed
+# before the trip. The stride-to-stride variation of healthy walking is a few per cent
+# (coefficient of variation of stride time; Hausdorff 2005, J NeuroEng Rehabil 2:19):
+# 15 % is several times that, a step that is walking again. The step time is the walk
+# on's own, not the walk's before the trip: a person may settle into another cadence.
+STEADY_TOLERANCE = 0.15
+STEADY_RUN = 2
+STEADY_TAIL = 4
+
+
+def walk_on_steps(rec: Recording, landing_s: float | None) -> list[tuple[float, float]]:
+    """The steps after the recovery step (``landing_s``): (duration s, pelvis speed m/s)
+    from each heel strike of either foot to the next (``contact_events``)."""
+    if landing_s is None or not len(rec.time_s):
+        return []
+    ev = contact_events(rec.time_s, rec.foot_on_floor)
+    after = sorted(t for side in ev.values() for t in side["heel_strike_s"]
+                   if t > landing_s + 0.02)
+    strikes = [landing_s, *after]
+    x = rec.qpos[:, 0]
+    out = []
+    for a, b in itertools.pairwise(strikes):
+        dx = float(np.interp(b, rec.time_s, x) - np.interp(a, rec.time_s, x))
+        out.append((b - a, dx / (b - a)))
+    return out
+
+
+def walk_on_step_s(steps: list[tuple[float, float]], tail: int = STEADY_TAIL) -> float | None:
+    """The step time (s) of the gait walked on in: the median of the last ``tail`` steps
+    (``walk_on_steps``' figures), None with fewer."""
+    if len(steps) < tail:
+        return None
+    return float(np.median([d for d, _v in steps[-tail:]]))
+
+
+def steps_to_steady(steps: list[tuple[float, float]], speed_m_per_s: float,
+                    tolerance: float = STEADY_TOLERANCE, run: int = STEADY_RUN,
+                    tail: int = STEADY_TAIL) -> int | None:
+    """How many steps after the recovery step until the gait is steady: the number of the
+    first of ``run`` steps in a row (1: the first step after the recovery step) each
+    within ``tolerance`` of the walked-on step time (``walk_on_step_s``) and of
+    ``speed_m_per_s``, the speed before the trip (``walk_on_steps``' figures); None when
+    no such run occurs or there are fewer than ``tail`` steps."""
+    step_s = walk_on_step_s(steps, tail)
+    if step_s is None:
+        return None
+    ok = [abs(d / step_s - 1.0) <= tolerance and abs(v / speed_m_per_s - 1.0) <= tolerance
+          for d, v in steps]
+    for i in range(len(ok) - run + 1):
+        if all(ok[i:i + run]):
+            return i + 1
+    return None
+
+
 SUPPORT_WINDOW_S = 0.3  # the issue's window: the first 300 ms after the trip
 # (servo hinge, exertion of a negative torque, of a positive one): stumble.body.joints
 _EXERTIONS = (("hip_flexion", "hip_extension", "hip_flexion"),

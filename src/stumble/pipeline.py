@@ -22,10 +22,13 @@ from stumble.analysis import (
     pitch_angles_deg,
     rmse_deg,
     steps_after,
+    steps_to_steady,
     support_peak_moments,
     table2_from_coordinates,
     trunk_tilt_deg,
     variant,
+    walk_on_step_s,
+    walk_on_steps,
 )
 from stumble.body import Body, build
 from stumble.body.contact import DEFAULT_MODE as DEFAULT_CONTACT
@@ -381,6 +384,7 @@ def _summary(sc: Scenario, strategy: str, controller, rec: Recording, stop: Stop
     diverged = rec.diverged
     fell = stop.fell_s is not None and not diverged
     n_after = steps_after(rec, landing)
+    steps = walk_on_steps(rec, landing)
     recovered = stop.recovered_s is not None and not diverged
     if sc.recovery == "walk_on" and sc.controller not in MUSCLE_CONTROLLERS:
         # the walking on: at least WALK_ON_STEPS steps after the recovery step
@@ -419,6 +423,10 @@ def _summary(sc: Scenario, strategy: str, controller, rec: Recording, stop: Stop
         "recovery": sc.recovery,
         "steps_after_recovery_step": n_after,
         "walking_stride_s": None if stride_s is None else round(stride_s, 4),
+        "walk_on_steps": [{"duration_s": round(d, 4), "speed_m_per_s": round(v, 4)}
+                          for d, v in steps],
+        "walk_on_step_s": (None if (w := walk_on_step_s(steps)) is None else round(w, 4)),
+        "steps_to_steady_gait": steps_to_steady(steps, sc.speed_m_per_s),
     }
 
 
