@@ -371,14 +371,16 @@ def test_shipped_gh2010_fits_score_today_what_they_scored_in_their_fit(name):
                   for t in fit["stages"][-1]["trips"])
     crossing = fit.get("crossing", False)  # (a fit with the crossing step, the foot and
     # stride-time terms records them; earlier fits had none)
-    space = gh2010_space(p, stumble_reflex=bool(trips), crossing=crossing)
+    space = gh2010_space(p, stumble_reflex=bool(trips), crossing=crossing,
+                         placement=fit.get("placement", False))
     fixed = {n: v for n, v in p.to_json().items() if n not in space.names}
     init_walk_eval("gh2010", fit["stages"][-1]["walk_s"], fit["start_speed_m_per_s"],
                    fixed if trips else {"wiring": p.wiring}, trips, bool(trips),
                    fit.get("strategy_cost", 0.0), crossing, float(fit.get("foot_angle", 0)),
                    bool(fit.get("stride_time", False)),
                    float(fit.get("stance_weight", 1.0)),
-                   recovery_cost=float(fit.get("recovery_cost", 0.0)))
+                   recovery_cost=float(fit.get("recovery_cost", 0.0)),
+                   placement=fit.get("placement", False))
     cost, _terms = evaluate_walk(np.array([getattr(p, n) for n in space.names]))
     assert cost == pytest.approx(fit["cost"], rel=1e-6)
 
@@ -395,3 +397,30 @@ def test_the_dense_trip_set_is_thirty_trips_apart_from_the_maps_45():
     assert min(s for s, _v in dense) == 0.05 and max(s for s, _v in dense) == 0.75
     assert not {v for _s, v in dense} & {1.0, 1.2, 1.4}
     assert "--trip-set dense " in _fit_command("gh2010", True, ((30, 10.0, dense),), None, 5)
+
+
+def test_swing_leg_placement_is_off_by_default_and_fitted_only_when_asked():
+    """``--placement``: the swing-leg placement's fields join the space only then, within
+    their bounds; off (k_place 0) the controller is the paper's; on, a walk differs."""
+    import dataclasses
+
+    from stumble.control.reflex.fit_walk import PLACE_BOUNDS, _fit_command, fit_gh2010
+    from stumble.control.reflex.gh2010 import PLACE_FIELDS, GH2010Params, shipped_params
+    from stumble.pipeline import simulate_walk
+
+    assert set(PLACE_BOUNDS) == set(PLACE_FIELDS) and GH2010Params().k_place == 0.0
+    assert not set(PLACE_FIELDS) & set(gh2010_space().names)
+    space = gh2010_space(shipped_params(), placement=True)
+    assert set(PLACE_FIELDS) <= set(space.names)
+    for n in PLACE_FIELDS:
+        i = space.names.index(n)
+        assert (space.lo[i], space.hi[i]) == PLACE_BOUNDS[n] and space.scale[i] > 0
+    with pytest.raises(ValueError, match="walking law"):
+        fit_gh2010(trips=True, touch_only=True, placement=True)
+    assert "--placement" in _fit_command("gh2010", False, ((1, 10.0, ()),), None, 0,
+                                         placement=True)
+    p = shipped_params()
+    off = simulate_walk("gh2010", 2.0, 1.2, params=p).summary
+    on = simulate_walk("gh2010", 2.0, 1.2, params=dataclasses.replace(p, k_place=0.5)).summary
+    assert off["walked_s"] == on["walked_s"] == 2.0
+    assert on["distance_m"] != off["distance_m"]

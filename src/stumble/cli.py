@@ -255,6 +255,10 @@ def _parser() -> argparse.ArgumentParser:
                    "(elevating at 0.05-0.25 of swing, lowering at 0.55-0.75) costs W more "
                    "when the strategy read from the motion is not the human one (default "
                    "0: recovery alone; fit_walk.W_STRATEGY, 10, is half a lost trip)")
+    f.add_argument("--placement", action="store_true",
+                   help="gh2010: fit the swing-leg placement too (our addition after Song & "
+                   "Geyer 2015: the swing hip driven toward a leg angle set by the centre "
+                   "of mass's place and speed; a walking law, not with --touch-only)")
     f.add_argument("--recovery-cost", type=float, default=None, metavar="W",
                    help="gh2010 --trips: each of the stage's trips not recovered costs W "
                    "more, on top of its time term (default 0: the time walked on alone, "
@@ -674,6 +678,9 @@ def cmd_reflex_fit_gh2010(args) -> int:
         raise InputError(f"--stance-weight must be a number >= 0, got {args.stance_weight}")
     if not (math.isfinite(strategy_cost) and strategy_cost >= 0):
         raise InputError(f"--strategy-cost must be a number >= 0, got {args.strategy_cost}")
+    if args.placement and args.touch_only:
+        raise InputError("--placement is a walking law: it refits the walk, so not with "
+                         "--touch-only")
     recovery_cost = args.recovery_cost or 0.0
     if not (math.isfinite(recovery_cost) and recovery_cost >= 0):
         raise InputError(f"--recovery-cost must be a number >= 0, got {args.recovery_cost}")
@@ -691,7 +698,7 @@ def cmd_reflex_fit_gh2010(args) -> int:
                      crossing=args.crossing, foot_angle=args.foot_angle,
                      load_from=args.load_from, stride_time=args.stride_time,
                      stance_weight=stance_weight, touch_only=args.touch_only,
-                     recovery_cost=recovery_cost)
+                     recovery_cost=recovery_cost, placement=args.placement)
     bar.done()
     written, walk = write_gh2010_fit(out, res)
     s = walk.summary
@@ -709,13 +716,13 @@ def cmd_reflex(args) -> int:
         return cmd_reflex_fit_gh2010(args)
     if (args.trips or args.params is not None or args.trip_set or args.scr_phase
             or args.ta_bound != "wide" or args.strategy_cost is not None or args.crossing
-            or args.recovery_cost is not None
+            or args.recovery_cost is not None or args.placement
             or args.foot_angle or args.load_from is not None or args.stride_time
             or args.stance_weight is not None or args.touch_only):
         raise InputError("--trips, --params, --trip-set, --scr-phase, --strategy-cost, "
                          "--recovery-cost, --crossing, --touch-only, --load-from, "
-                         "--foot-angle, --stride-time, --stance-weight and --ta-bound are "
-                         "for --controller gh2010")
+                         "--foot-angle, --stride-time, --stance-weight, --placement and "
+                         "--ta-bound are for --controller gh2010")
     from stumble.control.reflex.identify import ITERATIONS, REFINE_ITERATIONS, fit
     from stumble.outputs import prepare_dir, write_fit
 

@@ -259,11 +259,18 @@ CROSS_BOUNDS = {"g_cross_flex": (0.0, 1.0), "g_cross_ham": (0.0, 1.0),
                 "g_cross_ta": (0.0, 1.0), "g_cross_gas": (0.0, 1.0),
                 "cross_hold_s": (0.05, 0.5), "cross_ahead_m": (0.1, 0.5)}
 SCR_MIN_SCALE = 0.15
+# swing-leg placement (``gh2010.PLACE_FIELDS``; off in the shipped fits): fitted only with
+# ``placement``; its gain restarts at PLACE_START where the start has it off (0)
+PLACE_BOUNDS = {"k_place": (0.0, 5.0), "place_a0": (0.1, 0.6), "place_cd": (0.0, 2.0),
+                "place_cv": (0.0, 1.0)}
+PLACE_START = 0.5
+PLACE_MIN_SCALE = {"k_place": 0.3, "place_a0": 0.05, "place_cd": 0.2, "place_cv": 0.1}
 
 
 def gh2010_space(start=None, stumble_reflex: bool = False,
                  scr_phase: str | None = None, ta_bound: str = "wide",
-                 crossing: bool = False, touch_only: bool = False) -> Space:
+                 crossing: bool = False, touch_only: bool = False,
+                 placement: bool = False) -> Space:
     """The GH2010 gains a fit may change, scaled to about 30 % of the paper's values
     (or of ``start``'s), each within its bounds; ``stumble_reflex``: with the gains of
     the stumbling corrective reflex (``SCR_BOUNDS``; its extension set only where
@@ -271,8 +278,9 @@ def gh2010_space(start=None, stumble_reflex: bool = False,
     reflex's bounds (``TA_BOUNDS``: ``wide``, the default, or ``paper``, near the
     paper's); ``crossing``: with the crossing step after a touch (``CROSS_BOUNDS``);
     ``touch_only``: only the reflexes a touch triggers (``SCR_BOUNDS``, ``CROSS_BOUNDS``),
-    the walking gains left out (fixed). A start outside the bounds is clipped into them
-    at the first candidate."""
+    the walking gains left out (fixed); ``placement``: with the swing-leg placement
+    (``PLACE_BOUNDS``). A start outside the bounds is clipped into them at the first
+    candidate."""
     from stumble.control.reflex.gh2010 import GH2010Params
 
     p = start or GH2010Params()
@@ -282,15 +290,17 @@ def gh2010_space(start=None, stumble_reflex: bool = False,
                   and (stumble_reflex or n not in SCR_BOUNDS)
                   and (crossing or n not in CROSS_BOUNDS)
                   and (phase == "foot" or n not in SCR_EXTENSION)
+                  and (placement or n not in PLACE_BOUNDS)
                   and (not touch_only or n in SCR_BOUNDS or n in CROSS_BOUNDS))
     theta = np.array([getattr(p, n) for n in names])
-    scale = np.maximum(0.3 * np.abs(theta), [SCR_MIN_SCALE if n in SCR_BOUNDS
-                                             or n in CROSS_BOUNDS else 0.02 for n in names])
+    scale = np.maximum(0.3 * np.abs(theta), [
+        SCR_MIN_SCALE if n in SCR_BOUNDS or n in CROSS_BOUNDS
+        else PLACE_MIN_SCALE.get(n, 0.02) for n in names])
     if ta_bound not in TA_BOUNDS:
         raise ValueError(f"ta_bound must be one of {sorted(TA_BOUNDS)}, got {ta_bound!r}")
     ta = {n: (a * getattr(paper, n), b * getattr(paper, n)) if n in TA_BOUND_GAINS else (a, b)
           for n, (a, b) in TA_BOUNDS[ta_bound].items()}
-    bounds = {**GH2010_BOUNDS, **SCR_BOUNDS, **CROSS_BOUNDS, **ta}
+    bounds = {**GH2010_BOUNDS, **SCR_BOUNDS, **CROSS_BOUNDS, **PLACE_BOUNDS, **ta}
     lo, hi = [], []
     for n in names:
         a, b = bounds.get(n, (GAIN_RANGE[0] * getattr(paper, n),
@@ -308,7 +318,7 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                    strategy_cost: float = 0.0, crossing: bool = False,
                    foot_angle: float = 0.0, stride_time: bool = False,
                    stance_weight: float = W_STANCE, touch_only: bool = False,
-                   recovery_cost: float = 0.0) -> None:
+                   recovery_cost: float = 0.0, placement: bool = False) -> None:
     """Worker set-up: what ``evaluate_walk`` simulates: a walk, and the obstacle trips
     ``trips`` ((swing fraction, speed) pairs) the walker must walk on from; GH2010
     candidates in ``gh2010_space(stumble_reflex=...)``; ``strategy_cost``: what a trip in
@@ -317,7 +327,8 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
     ``stance_weight``: the objective's foot term's weight, its stride-time term and its
     stance term's weight (``walk_cost``); ``touch_only``: candidates of the touch's
     reflexes alone (``gh2010_space(touch_only=True)``); ``recovery_cost``: what a trip not
-    recovered costs on top of its time term (``trip_terms``)."""
+    recovered costs on top of its time term (``trip_terms``); ``placement``: candidates
+    with the swing-leg placement (``gh2010_space(placement=True)``)."""
     from stumble.pipeline import WalkInCache
 
     _EVAL.pop("walk", None)
@@ -327,7 +338,8 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                  trips=tuple(trips), stumble_reflex=stumble_reflex,
                  strategy_cost=float(strategy_cost), crossing=crossing,
                  foot_angle=foot_angle, stride_time=stride_time,
-                 stance_weight=float(stance_weight), recovery_cost=float(recovery_cost))
+                 stance_weight=float(stance_weight), recovery_cost=float(recovery_cost),
+                 placement=placement)
 
 
 def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
@@ -341,7 +353,8 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
         names = gh2010_space(stumble_reflex=_EVAL.get("stumble_reflex", False),
                              scr_phase=_EVAL["base"].get("scr_phase", "any"),
                              crossing=_EVAL.get("crossing", False),
-                             touch_only=_EVAL.get("touch_only", False)).names
+                             touch_only=_EVAL.get("touch_only", False),
+                             placement=_EVAL.get("placement", False)).names
         params = GH2010Params(**{**_EVAL["base"],
                                  **dict(zip(names, map(float, theta), strict=True))})
         if _EVAL.get("touch_only") and "walk" in _EVAL:  # no obstacle, no touch: the same
@@ -512,7 +525,7 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                crossing: bool = False, foot_angle: float = 0.0,
                load_from: str | None = None, stride_time: bool = False,
                stance_weight: float = W_STANCE, touch_only: bool = False,
-               recovery_cost: float = 0.0) -> FitResult:
+               recovery_cost: float = 0.0, placement: bool = False) -> FitResult:
     """Optimise the GH2010 gains in closed loop: per stage (generations, walk s, obstacle
     trips), CMA-ES on ``walk_cost`` plus, for each trip, ``W_TRIP`` times the part of the
     3 s after it not walked on. ``wiring`` ``gh2010`` starts from the paper's values
@@ -541,7 +554,9 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     at ``start``'s, so that the walk is the start's to the first touch;
     ``recovery_cost`` (trip stages): what each of the stage's trips not recovered costs
     on top of its time term (``trip_terms``; 0, the default, leaves the objective as it
-    was). Writes
+    was); ``placement``: the swing-leg placement (``gh2010.PLACE_FIELDS``) joins the fit, in
+    every stage, its gain restarting at ``PLACE_START`` where ``start`` has it off (not
+    with ``touch_only``: it is a walking law). Writes
     ``gh2010.json`` to ``out`` (the best parameters and the fit's figures) when given."""
     if strategy_cost < 0 or not math.isfinite(strategy_cost):
         raise ValueError(f"strategy_cost must be a finite number >= 0, got {strategy_cost}")
@@ -559,6 +574,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
         raise ValueError("load_from is for the trip stage (trips=True)")
     if touch_only and not trips:
         raise ValueError("touch_only is for the trip stage (trips=True)")
+    if placement and touch_only:
+        raise ValueError("placement is a walking law: not with touch_only")
     from dataclasses import replace
 
     from stumble.control.reflex.gh2010 import (
@@ -589,8 +606,10 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     history: list[dict] = []
     with_trips = trips
     for k, (gens, walk_s, trips) in enumerate(stages):
+        if placement and not params.k_place:
+            params = replace(params, k_place=PLACE_START)
         space = gh2010_space(params, stumble_reflex=with_trips, ta_bound=ta_bound,
-                             crossing=crossing, touch_only=touch_only)
+                             crossing=crossing, touch_only=touch_only, placement=placement)
         first = k == 0 and wiring == "gh2010"
         sigma = (TRIP_SIGMA if with_trips else GH2010_SIGMA if first else GH2010_SIGMA_TRIPS)
         fixed = {n: v for n, v in params.to_json().items() if n not in space.names}
@@ -601,7 +620,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                       initargs=("gh2010", walk_s, GH2010_SPEED_M_PER_S,
                                 fixed if with_trips else {"wiring": wiring}, trips,
                                 with_trips, strategy_cost, crossing, foot_angle,
-                                stride_time, stance_weight, touch_only, recovery_cost),
+                                stride_time, stance_weight, touch_only, recovery_cost,
+                                placement),
                       first_generation=total, stage="walk" if not trips else "walk+trips",
                       fixed=fixed)
         params = replace(params, **dict(zip(space.names, map(float, res.best_theta),
@@ -638,10 +658,12 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                     "stance_weight": stance_weight,
                     "touch_only": touch_only,
                     "recovery_cost": recovery_cost,
+                    "placement": placement,
                     "command": _fit_command(wiring, with_trips, stages, scr_phase, seed,
                                             ta_bound, strategy_cost, crossing,
                                             foot_angle, load_from, stride_time,
-                                            stance_weight, touch_only, recovery_cost)}})
+                                            stance_weight, touch_only, recovery_cost,
+                                            placement)}})
     return res
 
 
@@ -650,7 +672,7 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
                  crossing: bool = False, foot_angle: float = 0.0,
                  load_from: str | None = None, stride_time: bool = False,
                  stance_weight: float = W_STANCE, touch_only: bool = False,
-                 recovery_cost: float = 0.0) -> str:
+                 recovery_cost: float = 0.0, placement: bool = False) -> str:
     """The ``stumble reflex fit`` command of a GH2010 fit (``--params`` aside)."""
     opts = ["--trips"] if trips else []
     if ta_bound != "wide":
@@ -661,6 +683,8 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
         opts.append(f"--stance-weight {stance_weight:g}")
     if foot_angle:
         opts.append("--foot-angle" if foot_angle == W_FOOT else f"--foot-angle {foot_angle:g}")
+    if placement:
+        opts.append("--placement")
     if trips:
         named = [k for k, v in TRIP_SETS.items() if all(t == v for _g, _w, t in stages)]
         if named and named[0] != "four":

@@ -102,6 +102,9 @@ CROSS_GAINS = ("g_cross_flex", "g_cross_ham", "g_cross_ta", "g_cross_gas")
 # nothing (``GH2010Controller.retouch``)
 TOUCH_FIELDS = (*SCR_GAINS, *CROSS_GAINS, "scr_hold_s", "scr_vas_after_s", "scr_ahead_m",
                 "cross_hold_s", "cross_ahead_m")
+# swing-leg placement (GH2010Params.k_place and after; off in the paper and the shipped
+# fits): fitted only with ``--placement``
+PLACE_FIELDS = ("k_place", "place_a0", "place_cd", "place_cv")
 # What a leg's load is (``load_from``; our choice, a parameter): ``floor``, the floor's
 # force on the foot alone (the paper's ground contact, and every shipped fit's), or
 # ``any``, the floor's and the obstacle's: a person feels weight on the sole whatever it
@@ -183,6 +186,18 @@ class GH2010Params:
     # choice: the toe 0.2 m ahead of the ankle, a 10 cm box; a foot landing beyond it
     # has crossed)
     cross_ahead_m: float = 0.3
+    # swing-leg placement (``PLACE_FIELDS``; our addition after Song & Geyer 2015, J Physiol
+    # 593:3493, whose swing leg is driven toward a target angle set by the centre of mass;
+    # off, k_place 0, in Geyer & Herr 2010 and every shipped fit): on a swing leg ahead of
+    # vertical, the flexor gets k_place·[α_tgt − α]+ and GLU k_place·[α − α_tgt]+, α the
+    # leg's angle from vertical (pelvis to ankle, forward positive), α_tgt = place_a0 +
+    # place_cd·d + place_cv·v, d the centre of mass ahead of the other (stance) ankle, v
+    # its forward speed; sensed with the trunk-lean laws' delay. A walking law: it acts
+    # from the first step, and a fit that uses it refits the walk (``--placement``)
+    k_place: float = 0.0  # per rad
+    place_a0: float = 0.35  # rad (the shipped walker's leg at touch-down: 0.32-0.41 rad)
+    place_cd: float = 0.0  # rad/m
+    place_cv: float = 0.0  # rad per m/s
     delay_scale: float = 1.0  # every delay multiplied by this
     wiring: str = "gh2010"  # "gh2010" or "seed003" (see GH2010Controller)
     load_from: str = "floor"  # "floor" or "any" (``LOAD_SOURCES``)
@@ -422,6 +437,11 @@ class GH2010Controller:
             tap(("x_touch", leg), c_x + leg, ticks(p.scr_latency_s))
         tap("lean", c_lean, vest)
         tap("lean_v", c_lean_v, vest)
+        n_channels = c_lean + 1
+        if self._place:  # after the lean: α (2), COM ahead of the other ankle (2), COM vx
+            for k in range(5):
+                tap(("place", k), n_channels + k, vest)
+            n_channels += 5
         # the taps in the order the laws read them, each group contiguous, so that a
         # block's reads are slices of one gather (``_excitations``; a tap read by two
         # groups, as seed003's flexor stretch, is read twice); the others after them
@@ -438,7 +458,8 @@ class GH2010Controller:
             "ds_load": pair("ds_load") if ds is not None else [],
             "ds_x": pair("ds_x") if ds is not None else [],
             "vest_load": pair("vest_load"), "vest_x": pair("vest_x"),
-            "touch": pair("touch"), "x_touch": pair("x_touch"), "lean": ["lean", "lean_v"]}
+            "touch": pair("touch"), "x_touch": pair("x_touch"), "lean": ["lean", "lean_v"],
+            "place": [("place", k) for k in range(5)] if self._place else []}
         order, self._sl = [], {}
         for name, keys in groups.items():
             self._sl[name] = slice(len(order), len(order) + len(keys))
@@ -448,7 +469,7 @@ class GH2010Controller:
         for new, old in enumerate(order):
             first.setdefault(old, new)
         self.at = at = {k: first[i] for k, i in at.items()}
-        self.delay = DelayTaps(c_lean + 1, [taps[i] for i in order])
+        self.delay = DelayTaps(n_channels, [taps[i] for i in order])
         self._has_ds = ds is not None
         self._iLean, self._iLeanV = at["lean"], at["lean_v"]
         self._touched = np.zeros(2, bool)  # each foot touched at the last tick
@@ -540,6 +561,11 @@ class GH2010Controller:
         self._ob_load = (lay.obstacle_force[:, 2].astype(int) if self.p.load_from == "any"
                          and lay.obstacle_force is not None else None)
         self._c_load = 2 * nm2 + 4
+        # swing-leg placement (``k_place`` not 0): pelvis x, z; ankles x, z; COM x, vx
+        self._place = self.p.k_place != 0.0
+        self._place_cols = np.concatenate([
+            lay.pelvis[[0, 2]], lay.foot_pos[:, 0], lay.foot_pos[:, 2],
+            [lay.com[0], lay.com_vel[0]]]).astype(int)
 
     def _channels(self, rows: np.ndarray) -> np.ndarray:
         """(n, channels) sensed signals from sensor rows (n, nsensordata)."""
@@ -549,7 +575,12 @@ class GH2010Controller:
         if self._ob_load is not None:
             v[:, self._c_load:self._c_load + 2] -= rows[:, self._ob_load] / self.weight_n
         v[:, -2] = np.arctan2(v[:, -2], v[:, -1])  # forward lean
-        return v[:, :-1]
+        if not self._place:
+            return v[:, :-1]
+        r = rows[:, self._place_cols]  # pelvis x, z, ankle x (2), ankle z (2), COM x, vx
+        alpha = np.arctan2(r[:, 2:4] - r[:, :1], r[:, 1:2] - r[:, 4:6])  # (n, 2)
+        ahead = r[:, 6:7] - r[:, 3:1:-1]  # COM ahead of the other leg's ankle (n, 2)
+        return np.hstack([v[:, :-1], alpha, ahead, r[:, 7:8]])
 
     # ---- the reflex laws ------------------------------------------------------------
     # the features of a leg's laws, in order: F of SOL, GAS, VAS, GLU, HAMS (own paths);
@@ -630,6 +661,8 @@ class GH2010Controller:
         if self.lean_free is not None:  # the laws without the trunk-lean terms (labels)
             self.lean_free = np.clip(u.reshape(n, 2 * nm), PRE_ACTIVATION, 1.0)
         self._add_vestibular(x, u)
+        if self._place:
+            self._add_placement(x, u)
         u = u.reshape(n, 2 * nm)
         if self._scr:
             u += self._stumble(x).reshape(n, 2 * nm)
@@ -722,6 +755,18 @@ class GH2010Controller:
         u[:, :, self._i_glu] += glu
         u[:, :, self._i_hams] += ext
         u[:, :, self._i_flex] += flex
+
+    def _add_placement(self, x: np.ndarray, u: np.ndarray) -> None:
+        """Add the swing-leg placement to ``u`` (n, 2, nm): on a leg below the stance load
+        and ahead of vertical, the flexor k_place·[α_tgt − α]+, GLU k_place·[α − α_tgt]+
+        (``GH2010Params.k_place``)."""
+        p, sl = self.p, self._sl["place"]
+        pl = x[:, sl]
+        alpha, ahead, speed = pl[:, 0:2], pl[:, 2:4], pl[:, 4:5]
+        e = p.k_place * (p.place_a0 + p.place_cd * ahead + p.place_cv * speed - alpha)
+        on = (x[:, self._sl["vest_load"]] < p.stance_load) & (alpha > 0.0)
+        u[:, :, self._i_flex] += on * np.maximum(e, 0.0)
+        u[:, :, self._i_glu] += on * np.maximum(-e, 0.0)
 
     # ---- Controller protocol -----------------------------------------------------------
     def update(self, ctx: Context) -> np.ndarray:
