@@ -2,6 +2,7 @@
 
 from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
 from stumble.analysis import TripTimer
@@ -87,3 +88,21 @@ def test_a_walk_on_recovery_reports_its_steps_and_when_its_gait_is_steady():
     assert all(0.2 < x["duration_s"] < 1.0 and 0.5 < x["speed_m_per_s"] < 2.0 for x in steps)
     assert 1 <= s["steps_to_steady_gait"] <= len(steps) - 1
     assert 0.3 < s["walk_on_step_s"] < 0.7
+
+
+def test_walk_on_steps_counts_both_feet_striking_at_one_sample_as_one_step():
+    """A reflex walker's trip ended with both feet landing at the same sample: one step,
+    not a step of no time (which divided by zero and stopped a fit)."""
+    from types import SimpleNamespace
+
+    from stumble.analysis import walk_on_steps
+
+    t = np.arange(0.0, 2.0, 0.005)
+    on = np.zeros((len(t), 2), bool)
+    on[(t >= 0.5) & (t < 0.7), 0] = True  # the recovery step at 0.5 s
+    on[(t >= 1.0) & (t < 1.3), :] = True  # both feet strike at 1.0 s
+    on[t >= 1.6, 1] = True
+    rec = SimpleNamespace(time_s=t, foot_on_floor=on, qpos=np.c_[1.2 * t, np.zeros_like(t)])
+    steps = walk_on_steps(rec, 0.5)
+    assert [round(d, 3) for d, _v in steps] == [0.5, 0.6]
+    assert all(abs(v - 1.2) < 1e-9 for _d, v in steps)

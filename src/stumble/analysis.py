@@ -445,8 +445,8 @@ def walk_on_steps(rec: Recording, landing_s: float | None) -> list[tuple[float, 
     if landing_s is None or not len(rec.time_s):
         return []
     ev = contact_events(rec.time_s, rec.foot_on_floor)
-    after = sorted(t for side in ev.values() for t in side["heel_strike_s"]
-                   if t > landing_s + 0.02)
+    after = sorted({t for side in ev.values() for t in side["heel_strike_s"]
+                    if t > landing_s + 0.02})  # both feet striking at one sample: one step
     strikes = [landing_s, *after]
     x = rec.qpos[:, 0]
     out = []
