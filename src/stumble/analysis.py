@@ -417,15 +417,6 @@ def walk_metrics(rec: Recording, model: mujoco.MjModel, reference: dict[str, np.
     }
 
 
-def steps_after(rec: Recording, landing_s: float | None) -> int | None:
-    """Heel strikes of either foot after the recovery step's (``landing_s``), as force
-    plates would see them (``analysis.contact_events``); None without a recovery step."""
-    if landing_s is None or not len(rec.time_s):
-        return None
-    ev = contact_events(rec.time_s, rec.foot_on_floor)
-    return sum(1 for side in ev.values() for t in side["heel_strike_s"] if t > landing_s + 0.02)
-
-
 # A steady gait after a trip (our rule; the issue asks for the number of steps until the
 # gait is steady and gives none): STEADY_RUN steps in a row, each lasting within
 # STEADY_TOLERANCE of the gait the person walks on in (the median of the run's last
@@ -441,7 +432,8 @@ STEADY_TAIL = 4
 
 def walk_on_steps(rec: Recording, landing_s: float | None) -> list[tuple[float, float]]:
     """The steps after the recovery step (``landing_s``): (duration s, pelvis speed m/s)
-    from each heel strike of either foot to the next (``contact_events``)."""
+    from each heel strike of either foot to the next, as force plates would see them
+    (``contact_events``); their number is ``steps_after_recovery_step``."""
     if landing_s is None or not len(rec.time_s):
         return []
     ev = contact_events(rec.time_s, rec.foot_on_floor)

@@ -21,7 +21,6 @@ from stumble.analysis import (
     TripTimer,
     pitch_angles_deg,
     rmse_deg,
-    steps_after,
     steps_to_steady,
     support_peak_moments,
     table2_from_coordinates,
@@ -383,8 +382,8 @@ def _summary(sc: Scenario, strategy: str, controller, rec: Recording, stop: Stop
             sim, rec.time_s, ref, np.asarray(reference["time_s"])).items()}
     diverged = rec.diverged
     fell = stop.fell_s is not None and not diverged
-    n_after = steps_after(rec, landing)
-    steps = walk_on_steps(rec, landing)
+    steps = walk_on_steps(rec, landing)  # one pass over the contacts for both figures
+    n_after = None if landing is None or not len(rec.time_s) else len(steps)
     recovered = stop.recovered_s is not None and not diverged
     if sc.recovery == "walk_on" and sc.controller not in MUSCLE_CONTROLLERS:
         # the walking on: at least WALK_ON_STEPS steps after the recovery step
