@@ -10,7 +10,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.ticker import MaxNLocator
+from matplotlib.ticker import FuncFormatter, MaxNLocator
 
 from stumble.body.muscles import MUSCLE_NAMES
 
@@ -87,6 +87,9 @@ def plot_objective(path: Path, history: list[dict], title: str) -> None:
     ax.semilogy(gen, [h["generation_median"] for h in history], "-", color="0.6", lw=0.8,
                 label="generation's median")
     ax.set_ylabel("objective J")
+    plain = FuncFormatter(lambda y, _pos: f"{y:g}")  # 675, not 6.75 × 10²
+    ax.yaxis.set_major_formatter(plain)
+    ax.yaxis.set_minor_formatter(plain)
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
     if any("trips_recovered" in h["terms"] for h in history):  # a trip stage: its trips
@@ -106,6 +109,9 @@ def plot_objective(path: Path, history: list[dict], title: str) -> None:
         ax2.set_ylabel("best walks (s)")
     ax2.set_xlabel("generation")
     ax2.xaxis.set_major_locator(MaxNLocator(integer=True))
+    if max(gen) - min(gen) < 5:  # a few generations: each one ticked, half a step aside
+        ax2.set_xticks(range(min(gen), max(gen) + 1))
+        ax2.set_xlim(min(gen) - 0.5, max(gen) + 0.5)
     ax2.grid(alpha=0.3)
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
