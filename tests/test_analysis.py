@@ -59,10 +59,12 @@ def test_a_touch_lasting_three_samples_is_a_landing():
 def test_steps_to_steady_counts_the_steps_until_two_in_a_row_walk_as_the_walk_on():
     """A recovery's walking on: the first of two steps in a row within 15 % of the gait's
     own step time (the median of its last four) and of the speed before the trip."""
-    from stumble.analysis import steps_to_steady, walk_on_step_s
+    from stumble.analysis import steps_to_steady, walk_on_speed, walk_on_step_s
 
     settled = [(0.40, 1.2)] * 4
-    assert walk_on_step_s(settled) == 0.40
+    assert walk_on_step_s(settled) == 0.40 and walk_on_speed(settled) == 1.2
+    assert walk_on_speed([(0.5, 2.0), (0.4, 1.0), (0.4, 1.1), (0.4, 1.3), (0.4, 1.2)]) \
+        == pytest.approx(1.15)  # the last four's median
     # long, fast steps first (elevating trips), then the gait settles
     assert steps_to_steady([(0.48, 1.40), (0.44, 1.42), (0.42, 1.30), *settled], 1.2) == 3
     assert steps_to_steady(settled, 1.2) == 1
@@ -88,6 +90,8 @@ def test_a_walk_on_recovery_reports_its_steps_and_when_its_gait_is_steady():
     assert all(0.2 < x["duration_s"] < 1.0 and 0.5 < x["speed_m_per_s"] < 2.0 for x in steps)
     assert 1 <= s["steps_to_steady_gait"] <= len(steps) - 1
     assert 0.3 < s["walk_on_step_s"] < 0.7
+    assert s["walk_on_speed_m_per_s"] == pytest.approx(
+        np.median([x["speed_m_per_s"] for x in steps[-4:]]), abs=1e-4)
 
 
 def test_walk_on_steps_counts_both_feet_striking_at_one_sample_as_one_step():

@@ -456,6 +456,14 @@ def walk_on_step_s(steps: list[tuple[float, float]], tail: int = STEADY_TAIL) ->
     return float(np.median([d for d, _v in steps[-tail:]]))
 
 
+def walk_on_speed(steps: list[tuple[float, float]], tail: int = STEADY_TAIL) -> float | None:
+    """The pelvis speed (m/s) of the gait walked on in: the median of the last ``tail``
+    steps' (``walk_on_steps``' figures), None with fewer."""
+    if len(steps) < tail:
+        return None
+    return float(np.median([v for _d, v in steps[-tail:]]))
+
+
 def steps_to_steady(steps: list[tuple[float, float]], speed_m_per_s: float,
                     tolerance: float = STEADY_TOLERANCE, run: int = STEADY_RUN,
                     tail: int = STEADY_TAIL) -> int | None:

@@ -26,6 +26,7 @@ from stumble.analysis import (
     table2_from_coordinates,
     trunk_tilt_deg,
     variant,
+    walk_on_speed,
     walk_on_step_s,
     walk_on_steps,
 )
@@ -425,6 +426,8 @@ def _summary(sc: Scenario, strategy: str, controller, rec: Recording, stop: Stop
         "walk_on_steps": [{"duration_s": round(d, 4), "speed_m_per_s": round(v, 4)}
                           for d, v in steps],
         "walk_on_step_s": (None if (w := walk_on_step_s(steps)) is None else round(w, 4)),
+        "walk_on_speed_m_per_s": (None if (u := walk_on_speed(steps)) is None
+                                  else round(u, 4)),
         "steps_to_steady_gait": steps_to_steady(steps, sc.speed_m_per_s),
     }
 
