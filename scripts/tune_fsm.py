@@ -43,7 +43,8 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-from stumble.control.fsm_params import GAINS, SPACE  # name: (path in FSMParams, lo, hi)
+# name: (path in FSMParams, lo, hi)
+from stumble.control.fsm_params import GAINS, SPACE, TUNABLE, WALK_ON
 
 # the targets that only the lowering strategy uses (--only lowering)
 LOWERING = ("low_sup_ankle", "low_rec_hip", "low_rec_knee", "low_rec_ankle", "swap_trip_hip",
@@ -55,6 +56,8 @@ GRID = [(f, v, mech) for mech in ("force", "obstacle") for f in (0.1, 0.3, 0.45,
 FULL_GRID = [(f, v, mech) for mech in ("force", "obstacle")
              for f in (0.05, 0.15, 0.25, 0.35, 0.45, 0.55, 0.65, 0.75) for v in (1.0, 1.2, 1.4)]
 # the lowering half of the issue's grid (auto chooses lowering above 0.5 of swing)
+# the walk on's own parameters and the reaching leg's (--only walk_on)
+WALK_ON_NAMES = (*WALK_ON, "reach_thigh_deg", "reach_sup_knee")
 LOWERING_GRID = [(f, v, mech) for mech in ("force", "obstacle") for f in (0.55, 0.65, 0.75)
                  for v in (1.0, 1.2, 1.4)]
 # the issue's six bodies (height m, mass kg, sex) at 1.2 m/s, swing 0.05-0.75, both
@@ -128,6 +131,7 @@ def out_record(best: tuple, generation: int, argv: list[str]) -> dict:
     ``settings``, ``fsm_params.load_params``) with its score and the command."""
     return {"recovered": best[1][0], "of": len(GRID), "grid_recovered": best[1][2],
             "survived_s": round(best[1][1], 3), "generation": generation,
+            "gait_bonus": round(best[1][3], 3),
             "command": " ".join(["python scripts/tune_fsm.py", *argv]),
             "params": best[0], "settings": settings()}
 
@@ -146,6 +150,8 @@ STRENGTH = "fixed"  # the servos' torque limits (Scenario.strength_model, --stre
 WALK_ON_S = None  # --walk-on S: recovered = still walking S s after the trip
 MAX_TILT = None  # --max-tilt DEG: a recovery counts only with the trunk within DEG
 GRID_FLOOR = None  # --grid-floor N: penalise grid recoveries (the first 48) below N
+GAIT_WEIGHT = 0.0  # --walk-on-gait W: a walk on like the walk before is worth 1 + W
+GAIT_SCALE = 0.4  # the gait_mismatch at which that bonus ends (e.g. 20 % off in each)
 FLOOR_N, FLOOR_PENALTY = len(FULL_GRID), 2.0
 
 
@@ -157,8 +163,27 @@ def counts(s: dict) -> bool:
     return MAX_TILT is None or (tilt is not None and tilt <= MAX_TILT)
 
 
-def trip_counts(x: dict, i: int) -> tuple[bool, float]:
-    """Whether ``GRID[i]`` recovers under ``x`` (``counts``), and the time it survived."""
+def gait_mismatch(s: dict) -> float:
+    """How far a walk on's gait is from the walk before the trip: |v/v₀ − 1| + |T/T₀ − 1|,
+    v and T the walk on's speed and step time (``walk_on_speed_m_per_s``,
+    ``walk_on_step_s``: its last four steps), v₀ the speed and T₀ half the stride before
+    the trip (``walking_stride_s``); 1 when any is missing."""
+    v, step_s = s.get("walk_on_speed_m_per_s"), s.get("walk_on_step_s")
+    stride = s.get("walking_stride_s")
+    if not (v and step_s and stride):
+        return 1.0
+    return abs(v / s["speed_m_per_s"] - 1.0) + abs(step_s / (stride / 2.0) - 1.0)
+
+
+def gait_bonus(s: dict) -> float:
+    """1 for a walk on at the speed and step time of the walk before the trip, falling
+    linearly to 0 at a ``gait_mismatch`` of ``GAIT_SCALE``."""
+    return max(0.0, 1.0 - gait_mismatch(s) / GAIT_SCALE)
+
+
+def trip_counts(x: dict, i: int) -> tuple[bool, float, float]:
+    """Whether ``GRID[i]`` recovers under ``x`` (``counts``), the time it survived and
+    its walk on's ``gait_bonus``."""
     from stumble.pipeline import simulate_trip
     from stumble.trip import Scenario
 
@@ -170,38 +195,40 @@ def trip_counts(x: dict, i: int) -> tuple[bool, float]:
     s = simulate_trip(Scenario(swing_fraction=f, speed_m_per_s=v, mechanism=mech,
                                strength_model=STRENGTH, **walk_on),
                       params=params_from(x)).summary
-    return counts(s), s["sim_time_s"] if not s["fell"] else (s["fall_time_s"] or 0.0)
+    return (counts(s), s["sim_time_s"] if not s["fell"] else (s["fall_time_s"] or 0.0),
+            gait_bonus(s))
 
 
 # --only lowering: the trips the searched targets act on (those the start sends to the
 # lowering strategy; no target of ``LOWERING`` is used by an elevating trip), and the
 # score of the others, run once with the start's values (``fixed_part``); None: all
 ACTIVE = None
-FIXED = (0, 0.0, 0)
+FIXED = (0, 0.0, 0, 0.0)
 
 
-def score_of(x: dict, indices) -> tuple[int, float, int]:
-    """(recoveries, total time survived, recoveries among the first 48) of GRID[indices]."""
-    rec, survived, rec_grid = 0, 0.0, 0
+def score_of(x: dict, indices) -> tuple[int, float, int, float]:
+    """(recoveries, total time survived, recoveries among the first 48, the recovered
+    trips' summed ``gait_bonus``) of GRID[indices]."""
+    rec, survived, rec_grid, gait = 0, 0.0, 0, 0.0
     for i in indices:
-        ok, t = trip_counts(x, i)
+        ok, t, m = trip_counts(x, i)
         rec += int(ok)
         rec_grid += int(ok and i < FLOOR_N)
         survived += t
-    return rec, survived, rec_grid
+        gait += m if ok else 0.0
+    return rec, survived, rec_grid, gait
 
 
-def evaluate(x: dict) -> tuple[int, float, int]:
-    """(recoveries, total time survived, recoveries among the first 48) over the grid:
-    with ``--only lowering`` its lowering trips run and the others' ``FIXED`` score is
-    added (the same figures as running them: they do not use the searched targets)."""
+def evaluate(x: dict) -> tuple[int, float, int, float]:
+    """``score_of`` over the grid: with ``--only lowering`` its lowering trips run and the
+    others' ``FIXED`` score is added (the same figures as running them: they do not use
+    the searched targets)."""
     if ACTIVE is None:
         return score_of(x, range(len(GRID)))
-    rec, survived, rec_grid = score_of(x, ACTIVE)
-    return rec + FIXED[0], survived + FIXED[1], rec_grid + FIXED[2]
+    return tuple(a + b for a, b in zip(score_of(x, ACTIVE), FIXED, strict=True))
 
 
-def fixed_part(base: dict, ex=None) -> tuple[list[int], tuple[int, float, int]]:
+def fixed_part(base: dict, ex=None) -> tuple[list[int], tuple[int, float, int, float]]:
     """--only lowering: the indices of the trips the start sends to the lowering strategy,
     and the score of the rest under the start's values (run once, in ``ex`` if given)."""
     p = params_from(base)
@@ -211,16 +238,17 @@ def fixed_part(base: dict, ex=None) -> tuple[list[int], tuple[int, float, int]]:
     parts = ([ex.submit(score_of, base, rest[:half]), ex.submit(score_of, base, rest[half:])]
              if ex else None)
     a, b = ([q.result() for q in parts] if parts else
-            (score_of(base, rest), (0, 0.0, 0)))
-    return active, (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+            (score_of(base, rest), (0, 0.0, 0, 0.0)))
+    return active, tuple(p + q for p, q in zip(a, b, strict=True))
 
 
 def penalised(score: tuple) -> tuple[float, float]:
-    """(recoveries less the grid floor's penalty, time survived): compared as a tuple,
-    and without ``--grid-floor`` the plain (recoveries, time survived)."""
-    rec, survived, rec_grid = score
+    """(recoveries less the grid floor's penalty plus ``GAIT_WEIGHT`` times the recovered
+    trips' summed ``gait_bonus``, time survived): compared as a tuple; without
+    ``--grid-floor`` and ``--walk-on-gait`` the plain (recoveries, time survived)."""
+    rec, survived, rec_grid, gait = score
     short = 0 if GRID_FLOOR is None else max(0, GRID_FLOOR - rec_grid)
-    return rec - FLOOR_PENALTY * short, survived
+    return rec - FLOOR_PENALTY * short + (GAIT_WEIGHT * gait if GAIT_WEIGHT else 0), survived
 
 
 def main() -> None:
@@ -231,8 +259,13 @@ def main() -> None:
     ap.add_argument("--grid", choices=("small", "full", "lowering", "full+bodies"),
                     default="small", help="full+bodies: the full grid and the six bodies' "
                     "96 trips at 1.2 m/s")
-    ap.add_argument("--only", choices=("all", "lowering"), default="all",
-                    help="search only the lowering strategy's targets (others stay default)")
+    ap.add_argument("--only", choices=("all", "lowering", "walk_on"), default="all",
+                    help="search only the lowering strategy's targets, or only the walk "
+                    "on's (WALK_ON and the reaching leg's; others stay as they start)")
+    ap.add_argument("--walk-on-gait", type=float, default=None, metavar="W",
+                    help="with --walk-on: each recovered trip adds W times its gait bonus, "
+                    "1 - m/0.4 (0 at least), m = |v/v0 - 1| + |T/T0 - 1| of the walk on's "
+                    "last steps against the walk before the trip")
     ap.add_argument("--around", metavar="FILE|JSON",
                     help="search locally: Gaussian steps (15 %% of each range) around these "
                     "values: a parameter file (as --out writes it; its settings too) "
@@ -283,6 +316,9 @@ def main() -> None:
         ap.error(str(e))
     if args.max_tilt is not None and not (np.isfinite(args.max_tilt) and args.max_tilt > 0):
         ap.error(f"--max-tilt must be a number of degrees > 0, got {args.max_tilt}")
+    if args.walk_on_gait is not None and (args.walk_on is None or not (
+            np.isfinite(args.walk_on_gait) and args.walk_on_gait > 0)):
+        ap.error("--walk-on-gait needs --walk-on S and a weight > 0")
     if args.grid_floor is not None:
         if args.grid not in ("full", "full+bodies"):
             ap.error("--grid-floor counts the full grid's 48 trips: give --grid full or "
@@ -290,13 +326,15 @@ def main() -> None:
         if not 0 <= args.grid_floor <= FLOOR_N:
             ap.error(f"--grid-floor must be 0-{FLOOR_N}, got {args.grid_floor}")
     global GRID, STRENGTH, WALK_ON_S, ATTITUDE_DAMPING, TRUNK_ATTITUDE, MAX_TILT, GRID_FLOOR
-    global ACTIVE, FIXED
+    global ACTIVE, FIXED, GAIT_WEIGHT
+    GAIT_WEIGHT = args.walk_on_gait or 0.0
     GRID = {"small": GRID, "full": FULL_GRID, "lowering": LOWERING_GRID,
             "full+bodies": FULL_GRID + BODY_GRID}[args.grid]
     ATTITUDE_DAMPING = attitude_damping
     TRUNK_ATTITUDE, MAX_TILT, GRID_FLOOR = trunk_attitude, args.max_tilt, args.grid_floor
     STRENGTH, WALK_ON_S = args.strength, args.walk_on
-    space = {k: v for k, v in SPACE.items() if args.only == "all" or k in LOWERING}
+    space = ({k: TUNABLE[k] for k in WALK_ON_NAMES} if args.only == "walk_on" else
+             {k: v for k, v in SPACE.items() if args.only == "all" or k in LOWERING})
     if args.gains:
         space.update(GAINS)
     rng = np.random.default_rng(args.seed)
@@ -350,17 +388,23 @@ def main() -> None:
 def _init_args() -> tuple:
     """The module's settings, for ``_worker_init`` in a worker process."""
     return (STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING, TRUNK_ATTITUDE, MAX_TILT, ACTIVE,
-            FIXED)
+            FIXED, GAIT_WEIGHT)
 
 
 def _worker_init(strength: str, grid: list, walk_on_s: float | None,
                  attitude_damping: str = "joint", trunk_attitude: float = 0.0,
                  max_tilt: float | None = None, active=None,
-                 fixed: tuple = (0, 0.0, 0)) -> None:
+                 fixed: tuple = (0, 0.0, 0, 0.0), gait_weight: float = 0.0) -> None:
     global STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING, TRUNK_ATTITUDE, MAX_TILT
-    global ACTIVE, FIXED
+    global ACTIVE, FIXED, GAIT_WEIGHT
     STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING = strength, grid, walk_on_s, attitude_damping
     TRUNK_ATTITUDE, MAX_TILT, ACTIVE, FIXED = trunk_attitude, max_tilt, active, fixed
+    GAIT_WEIGHT = gait_weight
+
+
+def _gait(score: tuple) -> str:
+    """The recovered trips' summed gait bonus, for the log (with --walk-on-gait)."""
+    return f", gait {score[3]:.1f}" if GAIT_WEIGHT else ""
 
 
 def _cma(args, base: dict, space: dict) -> None:
@@ -385,7 +429,7 @@ def _cma(args, base: dict, space: dict) -> None:
         first = evaluate(base) if ex is None else ex.submit(evaluate, base).result()
         best = (base, first)
         print(f"start recovered {first[0]}/{len(GRID)} survived {first[1]:.1f} s "
-              f"grid {first[2]}", flush=True)
+              f"grid {first[2]}{_gait(first)}", flush=True)
         for g in range(args.generations):
             us = [opt.ask() for _ in range(opt.population_size)]
             xs = [point(u) for u in us]
@@ -396,8 +440,9 @@ def _cma(args, base: dict, space: dict) -> None:
                 if penalised(sc) > penalised(best[1]):
                     best = (x, sc)
             top = scores[pens.index(max(pens))]
-            print(f"gen {g:2d} best of gen {top[0]}/{len(GRID)} (grid {top[2]}) overall "
-                  f"{best[1][0]} (grid {best[1][2]}) ({time.time() - t0:.0f} s)", flush=True)
+            print(f"gen {g:2d} best of gen {top[0]}/{len(GRID)} (grid {top[2]}{_gait(top)}) "
+                  f"overall {best[1][0]} (grid {best[1][2]}{_gait(best[1])}) "
+                  f"({time.time() - t0:.0f} s)", flush=True)
             if args.out:
                 with open(args.out, "w") as fh:
                     json.dump(out_record(best, g, __import__("sys").argv[1:]), fh, indent=1)

@@ -1,5 +1,8 @@
 """The SCA 2009 state-machine controllers: strategy rule, latencies, transitions, falls."""
 
+import json
+import re
+
 import numpy as np
 import pytest
 
@@ -171,11 +174,12 @@ def test_tunable_values_and_the_human_strength_set():
         GAINS,
         HUMAN_STRENGTH_FILE,
         SPACE,
+        WALK_ON,
         human_strength_params,
     )
 
     p = FSMParams()
-    assert set(p.values()) == set(SPACE) | set(GAINS) and len(SPACE) == 27
+    assert set(p.values()) == set(SPACE) | set(GAINS) | set(WALK_ON) and len(SPACE) == 27
     assert p.with_values(p.values()) == p
     q = p.with_values({"kp_knee": 123.0, "ssat_swing_s": 0.3})
     assert q.kp_passive["knee"] == 123.0 and q.ssat_swing_s == 0.3
@@ -270,7 +274,7 @@ def test_tune_fsm_out_carries_its_settings_to_around_and_load_params(tmp_path, m
     tune = _tune_fsm()
     monkeypatch.setattr(tune, "TRUNK_ATTITUDE", 0.4)
     monkeypatch.setattr(tune, "ATTITUDE_DAMPING", "pelvis")
-    best = ({"kp_knee": 250.0, "elev_sup_ankle": -30.0}, (40, 100.0, 40))
+    best = ({"kp_knee": 250.0, "elev_sup_ankle": -30.0}, (40, 100.0, 40, 0.0))
     out = tmp_path / "best.json"
     out.write_text(json.dumps(tune.out_record(best, 3, ["--trunk-attitude", "0.4"]), indent=1))
     # the search's file is a parameter file: the values and the trunk attitude it ran with
@@ -391,3 +395,84 @@ def test_tune_fsm_only_lowering_runs_the_other_trips_once_with_the_same_score(mo
     monkeypatch.setattr(tune, "FIXED", fixed)
     assert [tune.evaluate(x) for x in (start, cand)] == whole
     assert whole[0] != whole[1]  # the candidate changes the lowering trip
+
+
+def test_tune_fsm_gait_mismatch_compares_the_walk_on_with_the_walk_before(monkeypatch):
+    """--walk-on-gait: |v/v0 - 1| + |T/T0 - 1| of the walk on against the walk before the
+    trip (T0 half its stride), 1 without a walk on; a recovered trip adds W times its
+    bonus, 1 - mismatch/0.4 (0 at least)."""
+    tune = _tune_fsm()
+    s = {"speed_m_per_s": 1.0, "walking_stride_s": 1.2, "walk_on_speed_m_per_s": 1.2,
+         "walk_on_step_s": 0.45}
+    assert tune.gait_mismatch(s) == pytest.approx(0.2 + 0.25)
+    assert tune.gait_mismatch({**s, "walk_on_step_s": None}) == 1.0
+    assert tune.gait_bonus({**s, "walk_on_speed_m_per_s": 1.1, "walk_on_step_s": 0.6}) \
+        == pytest.approx(1 - 0.1 / 0.4)
+    assert tune.gait_bonus(s) == 0.0  # 0.45 off: no bonus
+    monkeypatch.setattr(tune, "GAIT_WEIGHT", 2.0)
+    monkeypatch.setattr(tune, "GRID_FLOOR", None)
+    assert tune.penalised((40, 100.0, 40, 12.5)) == pytest.approx((65.0, 100.0))
+    monkeypatch.setattr(tune, "GAIT_WEIGHT", 0.0)
+    assert tune.penalised((40, 100.0, 40, 12.0)) == (40, 100.0)
+
+
+def test_walk_on_with_double_support_takes_longer_steps():
+    """``walk_on_push_s`` (ours): after each walk-on landing the trailing leg pushes off
+    before it swings. An early-swing force trip at 1.2 m/s walks on in steps of about
+    0.40 s without it and of about 0.5 s with it (the walk before: 0.58 s)."""
+    sc = Scenario(swing_fraction=0.25, speed_m_per_s=1.2, mechanism="force",
+                  recovery="walk_on", duration_after_trip_s=6.0)
+    base = simulate_trip(sc).summary
+    p = FSMParams().with_values({"walk_on_push_s": 0.06, "push_sup_ankle": -5.0,
+                                 "reach_thigh_deg": 5.0})
+    push = simulate_trip(sc, params=p).summary
+    assert base["recovered"] and push["recovered"]
+    assert "step_push" not in {st["name"] for st in base["states"]}
+    assert "step_push" in {st["name"] for st in push["states"]}
+    assert base["walk_on_step_s"] < 0.42 < 0.47 < push["walk_on_step_s"]
+    assert push["walk_on_step_s"] < base["walking_stride_s"] / 2
+
+
+def test_walk_on_speed_gain_steers_the_walk_on_toward_the_speed_before_the_trip():
+    """``walk_on_speed_gain_rad_s_per_m`` (ours): a trip at 1.0 m/s walks on at about
+    1.19 m/s without it, and slower, nearer 1.0, with 0.1 rad·s/m."""
+    sc = Scenario(swing_fraction=0.25, speed_m_per_s=1.0, mechanism="obstacle",
+                  recovery="walk_on", duration_after_trip_s=6.0)
+    base = simulate_trip(sc).summary
+    slow = simulate_trip(sc, params=FSMParams().with_values(
+        {"walk_on_speed_gain": 0.1})).summary
+    assert base["recovered"] and slow["recovered"]
+    assert base["walk_on_speed_m_per_s"] > 1.17
+    assert 1.0 < slow["walk_on_speed_m_per_s"] < base["walk_on_speed_m_per_s"] - 0.03
+
+
+def test_the_upright_set_walks_on_with_the_trunk_within_26_degrees():
+    """``--params upright`` (issue 11): a lowering obstacle trip at 0.65 of swing,
+    1.2 m/s, walks on 6 s with the defaults with the trunk beyond 26° at recovery-foot
+    contact (people: within about 23-26°, van den Bogert et al. 2002), and with the
+    upright set within it, in longer steps."""
+    from pathlib import Path
+
+    from stumble.control.fsm_params import UPRIGHT_FILE, load_params
+
+    up = load_params("upright")
+    assert up.trunk_attitude == 0.3 and up.walk_on_push_s > 0.0
+    # the search that found it starts from a file of the repository, with its settings
+    first, second = json.loads(UPRIGHT_FILE.read_text())["fit"]["commands"]
+    assert "--around A.json" in second and "--out A.json" in first
+    assert "--grid full+bodies" in second
+    cmd = first
+    start = re.search(r"--around (\S+)", cmd).group(1)
+    values, settings = _tune_fsm().read_around(
+        str(Path(__file__).resolve().parents[1] / start))
+    assert settings == {"trunk_attitude": 0.3, "attitude_damping": "joint"}
+    assert set(values) >= {"walk_on_push_s", "swing_sup_hip", "low_rec_hip"}
+    assert "--only walk_on" in cmd and "--max-tilt 26" in cmd
+    sc = Scenario(swing_fraction=0.65, speed_m_per_s=1.2, mechanism="obstacle",
+                  recovery="walk_on", duration_after_trip_s=6.0)
+    base = simulate_trip(sc).summary
+    upright = simulate_trip(sc, params=up).summary
+    assert base["recovered"] and base["trunk_tilt_at_recovery_contact_deg"] > 26.0
+    assert upright["recovered"] and upright["strategy"] == "lowering"
+    assert upright["trunk_tilt_at_recovery_contact_deg"] <= 26.0
+    assert upright["walk_on_step_s"] > base["walk_on_step_s"] + 0.03

@@ -140,8 +140,41 @@ def test_validate_prints_the_table_and_writes_json(tmp_path, fake, capsys, monke
     # the fake: every 1.4 m/s trip falls (16 of 48); the older also every late one below it
     assert falls["stumble"] == {"young": 16, "older": 28} and falls["agreement"] == "yes"
     assert "not recovered: young 16/48 (fell 16), older 28/48" in falls["stumble_text"]
+    # the young's grid, walking on (issue 11: at least 46 of 48)
+    young = by[("walking on after the 48-trip grid (6 s, young)", "fsm")]
+    assert young["stumble"] == 32 and young["stumble_text"] == "32/48"
+    assert young["agreement"] == "no" and young["published"] == 46
     # the runs are a study: there, with their rows
     assert (out / "results.parquet").exists()
+    assert report["fsm_params"] is None  # the defaults
+
+
+def test_validate_runs_the_state_machines_with_a_parameter_set(tmp_path, fake, capsys,
+                                                               monkeypatch):
+    """``--params NAME``: every state-machine trip runs with the set, recorded in
+    validation.json; a bad set is one line and exit 2, before anything runs."""
+    monkeypatch.setitem(sys.modules, "stumble.control.reflex.identify", None)
+    seen = []
+
+    def trip(sc, params=None, **kw):
+        seen.append((sc.controller, params))
+        return fake_trip(sc, **kw)
+
+    monkeypatch.setattr(pipeline, "simulate_trip", trip)
+    out = tmp_path / "v"
+    assert main(["validate", "--out", str(out), "--workers", "1", "--quiet",
+                 "--params", "upright"]) == 0
+    report = json.loads((out / "validation.json").read_text())
+    assert report["fsm_params"]["path"] == "upright"
+    assert report["fsm_params"]["settings"]["trunk_attitude"] == 0.3
+    fsm = [p for c, p in seen if c == "fsm"]
+    assert fsm and all(p is not None and p.trunk_attitude == 0.3 for p in fsm)
+    capsys.readouterr()
+    assert main(["validate", "--out", str(tmp_path / "w"), "--params",
+                 str(tmp_path / "none.json")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "none.json" in err
+    assert not (tmp_path / "w" / "validation.json").exists()
 
 
 def test_identification_rows_from_fit_summary(monkeypatch):

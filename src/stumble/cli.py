@@ -129,7 +129,8 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--params", type=Path, metavar="FILE",
                    help="gh2010 controller: a gh2010.json, or walk: the shipped walking fit "
                    "(default: the shipped trip fit); fsm: a JSON of tuned targets and gains "
-                   "(scripts/tune_fsm.py --out) or a shipped set by name: anderson2007")
+                   "(scripts/tune_fsm.py --out) or a shipped set by name: anderson2007, "
+                   "upright")
     t.add_argument("--network", type=Path, metavar="FILE",
                    help="reflex controller: a network.npz from `stumble reflex fit`, or "
                    "closed-loop: the shipped closed-loop refinement (default: the shipped "

@@ -137,6 +137,7 @@ OLDER_LOWERING = (0.55, 0.75)  # our window trips nearest 60-80 %
 OLDER_GRID = tuple((mech, s, v) for mech in ("force", "obstacle") for s in WINDOW_SWINGS
                    for v in (1.0, 1.2, 1.4))
 OLDER_GRID_WALK_ON_S = 6.0
+GRID_WALK_ON_TARGET = 46  # issue 11 (ours): the young walk on after 46 of the 48 trips
 # Murai & Yamane 2011 §V.A: identification from walking, average error 2.0 %, maximum 36 %
 IDENTIFICATION = (("average", "avg_error", 0.020), ("maximum", "max_error", 0.36))
 
@@ -232,6 +233,13 @@ def strength_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
     lost = {pop: sum(not r.get("recovered") for r in rows) for pop, rows in g_ran.items()}
     fell = {pop: sum(bool(r.get("fell")) for r in rows) for pop, rows in g_ran.items()}
     n = {pop: len(rows) for pop, rows in g_ran.items()}
+    k = sum(bool(r.get("recovered")) for r in g_ran["young"])
+    out.append(_row(f"walking on after the {len(OLDER_GRID)}-trip grid "
+                    f"({OLDER_GRID_WALK_ON_S:g} s, young)", "stumble", ctrl,
+                    GRID_WALK_ON_TARGET, f"≥ {GRID_WALK_ON_TARGET} (our criterion)", k,
+                    f"{k}/{n['young']}" if n["young"] else "not available",
+                    ("yes" if k >= GRID_WALK_ON_TARGET else "no") if n["young"] else "n/a",
+                    [r["key"] for r in grid["young"]]))
     out.append(_row(f"older adults fall more often than young ({len(OLDER_GRID)}-trip grid, "
                     f"walking on {OLDER_GRID_WALK_ON_S:g} s)", "Pijnappels et al. 2005 (EBR)",
                     ctrl, "older > young", "older > young",
@@ -457,14 +465,16 @@ def identification_rows() -> list[dict]:
 
 
 def run_validation(out: Path, workers: int | None = None, progress: bool = True,
-                   controllers=CONTROLLERS) -> list[dict]:
-    """Run the fixed study in ``out`` (what is missing), compare, write validation.json."""
+                   controllers=CONTROLLERS, params=None) -> list[dict]:
+    """Run the fixed study in ``out`` (what is missing), compare, write validation.json.
+    ``params``: the state machines' parameter set (``fsm_params.read_params``; None:
+    the defaults), recorded in validation.json; a directory holds one set's runs."""
     from stumble.study.runner import run_study
 
     cases = validation_scenarios(controllers)
     meta = {"validation": {case: scenario_fields(sc) for case, sc in cases}}
     res = run_study([sc for _, sc in cases], out, workers=workers, progress=progress,
-                    metadata=meta)
+                    metadata=meta, params=params)
     by_key = {r["key"]: r for r in res.rows}
     by_case = {case: by_key[run_key(sc)] for case, sc in cases}
     swing = normal_swing_s()
@@ -496,6 +506,7 @@ def run_validation(out: Path, workers: int | None = None, progress: bool = True,
             "walking": f"{WALK_S:g} s walked, every joint RMSE ≤ {WALK_RMSE_DEG:g}°; stance "
                        f"fraction within {STANCE_RANGE[0]}-{STANCE_RANGE[1]}",
         },
+        "fsm_params": None if params is None else params.record(),
         "normal_swing_s": {str(k): v for k, v in swing.items()},
         "rows": rows,
     }
@@ -533,7 +544,8 @@ def add_validate_parser(sub) -> None:
         "by older adults; a 20 s walk of each reflex controller) and print one table: "
         "figure | source | "
         "published value | stumble | agreement. Writes DIR/validation.json and the "
-        "study's DIR/results.parquet. Exit status 0 whatever agrees.")
+        "study's DIR/results.parquet. Exit status 0 whatever agrees. --params runs the "
+        "state machines with a parameter set.")
     from stumble.cli import out_dir_arg
 
     p.add_argument("--out", type=out_dir_arg, default=Path("validation"), metavar="DIR",
@@ -543,6 +555,10 @@ def add_validate_parser(sub) -> None:
     p.add_argument("--workers", type=workers_arg, metavar="N",
                    help="local worker processes (default: all cores)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--params", metavar="FILE|NAME",
+                   help="the state machines' targets and gains: a JSON file as "
+                   "scripts/tune_fsm.py --out writes it, or a shipped set (anderson2007, "
+                   "upright); a directory holds the runs of one set")
 
 
 def run_validate_cli(args) -> int:
@@ -550,7 +566,13 @@ def run_validate_cli(args) -> int:
     from stumble.study.runner import StudyInterrupted
 
     try:
-        rows = run_validation(args.out, workers=args.workers, progress=not args.quiet)
+        params = None
+        if args.params is not None:
+            from stumble.control.fsm_params import read_params
+
+            params = read_params(args.params)
+        rows = run_validation(args.out, workers=args.workers, progress=not args.quiet,
+                              params=params)
     except StudyInterrupted as e:
         print(f"stumble: {e}", file=sys.stderr)
         return 130

@@ -6,7 +6,8 @@ stays down and the COM starts to fall. Lowering: Passive Reaction → Leg Swap �
 Clearance (legs swap roles) → the same ending. After Single Support After Trip the
 person walks on (ours; SCA 2009 ends at the recovery step): ``step_reach`` places the
 swing foot with SIMBICON's balance feedback (Yin et al. 2007), and at its touch-down the
-legs swap for ``step_swing``, and so on.
+legs swap for ``step_swing``, and so on; with ``walk_on_push_s`` a double support,
+``step_push``, comes first, in which the trailing leg pushes off.
 
 Every state sets, per joint, a PD target and gain (``stumble.control.pd``). The change
 from Passive Reaction into the reaction states reaches each joint after that joint's
@@ -71,6 +72,7 @@ class TripFSM:
         self.strategy = strategy
         self.tripped = tripped_side
         self.kc = self.p.kc(speed_m_per_s)
+        self.speed = speed_m_per_s  # the walk before the trip, m/s
         self.log: list[tuple[str, float]] = []
         self._state = "walking"
 
@@ -293,6 +295,10 @@ class TripFSM:
             # the tripped leg's toe is past the obstacle: its swing goes on as in walking
             self._apply_state_targets("single_support_after_trip", d)
             self._crossed = True
+        elif st == "step_push" and (t - self.t_state >= self.p.walk_on_push_s
+                                    or not on[sup]):
+            self._switch("step_swing", t, d, targets=self._swing_table())
+            self._set_kp(f"hip_flexion_{rec}", self.p.kp_ssat_support_hip)
         elif st in ("single_support_after_trip", "step_swing") and (
                 self._ahead(ctx, sup, rec, -0.05) or t - self.t_state > self.p.ssat_swing_s):
             self._switch("step_reach", t, d, cancel=False)
@@ -303,12 +309,21 @@ class TripFSM:
             # walk goes on after the recovery, SIMBICON-style, Yin et al. 2007)
             self.roles = {**self.roles, "rec": sup, "sup": rec}
             self.left_floor = {"r": False, "l": False}
-            self._switch("step_swing", t, d, targets="single_support_after_trip")
+            if self.p.walk_on_push_s > 0.0:  # double support: the trailing leg pushes
+                self._switch("step_push", t, d)
+            else:
+                self._switch("step_swing", t, d, targets=self._swing_table())
             self._set_kp(f"hip_flexion_{sup}", self.p.kp_ssat_support_hip)
             if not self._arms_walking:
                 for name in self.p.arms_deg["walking"]:
                     self._command("arms.walking", name, d)
                 self._arms_walking = True
+
+    def _swing_table(self) -> str:
+        """The walk-on swing's targets: ``step_swing`` when given, else Single Support
+        After Trip's (the recovery step's swing)."""
+        return "step_swing" if "step_swing" in self.p.targets_deg else \
+            "single_support_after_trip"
 
     def _table(self, state: str) -> str:
         """The targets of a state: ``<state>_lowering`` when the lowering strategy has its
@@ -434,6 +449,8 @@ class TripFSM:
         base = p.reach_thigh_deg if self._state == "step_reach" else p.land_thigh_deg
         thigh = (np.radians(base) + p.balance_cd_rad_per_m * dx
                  + p.balance_cv_rad_s_per_m * s.com_vel[0])
+        if self._state == "step_reach":  # walking on, toward the speed before the trip
+            thigh += p.walk_on_speed_gain_rad_s_per_m * (s.com_vel[0] - self.speed)
         target[i] = thigh - tilt
 
     def _place_foot_laterally(self, ctx: Context, target: np.ndarray, lst: float) -> None:

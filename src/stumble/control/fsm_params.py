@@ -70,6 +70,15 @@ KC_SPEEDS = (1.0, 1.4)  # k_c ramps linearly between these speeds (our reading o
 
 def _targets() -> dict[str, dict[str, float | str]]:
     """Target angles per state (degrees, our convention), see the module docstring."""
+    t = _state_targets()
+    # the walk on's swing (ours) starts as the recovery step's, with its own values so
+    # that a search (WALK_ON) may change the one without the other
+    t["step_swing"] = dict(t["single_support_after_trip"])
+    return t
+
+
+def _state_targets() -> dict[str, dict[str, float | str]]:
+    """The targets of the states of SCA 2009 and of ours (``_targets``)."""
     return {
         "passive_reaction": {
             # SCA 2009 §4.3: try to maintain walking; swing knee free (no torque, Perry
@@ -187,6 +196,14 @@ def _targets() -> dict[str, dict[str, float | str]]:
             "sup.hip_flexion": 54.2833383224508, "sup.knee_angle": -114.92914976535079,
             "sup.ankle_angle": 14.837084858419807,
         },
+        "step_push": {
+            # ours, used when walk_on_push_s > 0: after a walk-on landing both feet are
+            # down for that long and the trailing leg pushes off (people's double
+            # support, about 0.1 s a step at 1.2 m/s, Perry 1992), then it swings
+            "rec.hip_flexion": "attitude", "rec.hip_adduction": "attitude",
+            "rec.knee_angle": -5.0, "rec.ankle_angle": "hold",
+            "sup.hip_flexion": "hold", "sup.knee_angle": -20.0, "sup.ankle_angle": -15.0,
+        },
         "step_reach": {
             # ours: the swing leg reaches forward for the next step (SCA 2009 stops at
             # Single Support After Trip, "empirically set so that balance is recovered");
@@ -265,6 +282,20 @@ GAINS = {
     "recovery_gain_factor": (("recovery_gain_factor",), 1.0, 2.5),
     "kp_ssat_support_hip": (("kp_ssat_support_hip",), 400.0, 3000.0),
 }
+
+# The walk on's gait (issue 11, "settles into a steady gait toward the speed they had
+# before the trip"; ours, all off or equal to the recovery step's by default):
+# scripts/tune_fsm.py --walk-on-gait W searches these.
+WALK_ON = {
+    "walk_on_push_s": (("walk_on_push_s",), 0.0, 0.2),
+    "push_sup_ankle": (("targets_deg", "step_push", "sup.ankle_angle"), -30.0, 15.0),
+    "push_sup_knee": (("targets_deg", "step_push", "sup.knee_angle"), -45.0, -3.0),
+    "swing_sup_hip": (("targets_deg", "step_swing", "sup.hip_flexion"), 20.0, 60.0),
+    "swing_sup_knee": (("targets_deg", "step_swing", "sup.knee_angle"), -100.0, -40.0),
+    "swing_sup_ankle": (("targets_deg", "step_swing", "sup.ankle_angle"), -5.0, 20.0),
+    "walk_on_speed_gain": (("walk_on_speed_gain_rad_s_per_m",), 0.0, 0.5),
+}
+TUNABLE = {**SPACE, **GAINS, **WALK_ON}  # every name a parameter file may set
 
 # How the values marked "tuned" were found: CMA-ES (the cmaes package, seeded) over the
 # 24 targets and 6 gains of SPACE and GAINS, from the earlier tuned values (random and
@@ -360,6 +391,15 @@ class FSMParams:
     land_thigh_deg: float = -1.7510830016397998  # θ_0, Fall and Flight (tuned)
     balance_cd_rad_per_m: float = 0.694323281325778  # tuned
     balance_cv_rad_s_per_m: float = 0.22172295391208885  # tuned
+    # Walking on (step_reach) toward the speed before the trip (ours): the reaching thigh
+    # also leans forward by k_s·(v − v_trip), v the COM's forward speed and v_trip the
+    # speed walked before the trip, so a faster gait places its foot further ahead and
+    # brakes (a speed error beside SIMBICON's speed term, Yin et al. 2007). 0: off.
+    walk_on_speed_gain_rad_s_per_m: float = 0.0
+    # Walking on with double support (ours): after each walk-on landing the trailing leg
+    # pushes off for this long (targets step_push) before it swings. 0: off, the swing
+    # starts at the landing (SIMBICON's gait, Yin et al. 2007).
+    walk_on_push_s: float = 0.0
     balance_cd_lat_rad_per_m: float = 0.5
     balance_cv_lat_rad_s_per_m: float = 0.3
     # The recovery leg extends for touch-down (rectus femoris; Fall) only once its toe is
@@ -374,20 +414,20 @@ class FSMParams:
         return (self.latency_s[key] + self.activation_to_torque_s) * self.delay_scale
 
     def values(self) -> dict[str, float]:
-        """The tunable values (``SPACE`` and ``GAINS``) by name."""
+        """The tunable values (``TUNABLE``: ``SPACE``, ``GAINS``, ``WALK_ON``) by name."""
         out = {}
-        for name, (path, _lo, _hi) in {**SPACE, **GAINS}.items():
+        for name, (path, _lo, _hi) in TUNABLE.items():
             out[name] = (self.targets_deg[path[1]][path[2]] if path[0] == "targets_deg"
                          else self.kp_passive[path[1]] if path[0] == "kp_passive"
                          else getattr(self, path[0]))
         return out
 
     def with_values(self, values: dict[str, float]) -> FSMParams:
-        """A copy with tunable values (``SPACE``/``GAINS`` names) set; KeyError names an
+        """A copy with tunable values (``TUNABLE`` names) set; KeyError names an
         unknown one."""
         p = copy.deepcopy(self)
         for name, value in values.items():
-            path = {**SPACE, **GAINS}[name][0]
+            path = TUNABLE[name][0]
             if path[0] == "targets_deg":
                 p.targets_deg[path[1]][path[2]] = value
             elif path[0] == "kp_passive":
@@ -403,6 +443,8 @@ class FSMParams:
         ell = height_m / 1.75
         return replace(self, balance_cd_rad_per_m=self.balance_cd_rad_per_m / ell,
                        balance_cv_rad_s_per_m=self.balance_cv_rad_s_per_m / ell ** 0.5,
+                       walk_on_speed_gain_rad_s_per_m=(self.walk_on_speed_gain_rad_s_per_m
+                                                       / ell ** 0.5),
                        balance_cd_lat_rad_per_m=self.balance_cd_lat_rad_per_m / ell,
                        balance_cv_lat_rad_s_per_m=self.balance_cv_lat_rad_s_per_m / ell ** 0.5)
 
@@ -433,7 +475,13 @@ def human_strength_params() -> FSMParams:
     return FSMParams().with_values(json.loads(HUMAN_STRENGTH_FILE.read_text())["params"])
 
 
-SHIPPED = {"anderson2007": HUMAN_STRENGTH_FILE}  # named parameter sets (load_params)
+# Walking on upright (issue 11): the trunk limit of 26° at recovery-foot contact
+# (trunk_attitude 0.3 in its settings) and the walk on's own gait (WALK_ON), searched
+# under --recovery walk_on; the command that found it and its figures are its "fit".
+UPRIGHT_FILE = Path(__file__).parent / "data" / "fsm_upright.json"
+
+SHIPPED = {"anderson2007": HUMAN_STRENGTH_FILE,  # named parameter sets (load_params)
+           "upright": UPRIGHT_FILE}
 # The settings a parameter file may carry beside its tunable values (its top-level
 # "settings" object): FSMParams fields that no search varies but that a set was found
 # with (scripts/tune_fsm.py writes its --trunk-attitude and --attitude-damping there).
@@ -500,7 +548,7 @@ def read_params(path_or_name) -> ParamsFile:
                          f"\"params\" ({type(e).__name__})") from None
     if not isinstance(values, dict):
         raise InputError(f"{path_or_name}: \"params\" is not an object of named values")
-    space = {**SPACE, **GAINS}
+    space = TUNABLE
     for name, value in values.items():
         if name not in space:
             raise InputError(f"{path_or_name}: unknown parameter {name!r}")
