@@ -55,9 +55,9 @@ GRID = [(f, v, mech) for mech in ("force", "obstacle") for f in (0.1, 0.3, 0.45,
 # the issue's grid: swing 0.05-0.75, 1.0-1.4 m/s, both mechanisms (--grid full)
 FULL_GRID = [(f, v, mech) for mech in ("force", "obstacle")
              for f in (0.05, 0.15, 0.25, 0.35, 0.45, 0.55, 0.65, 0.75) for v in (1.0, 1.2, 1.4)]
-# the lowering half of the issue's grid (auto chooses lowering above 0.5 of swing)
 # the walk on's own parameters and the reaching leg's (--only walk_on)
 WALK_ON_NAMES = (*WALK_ON, "reach_thigh_deg", "reach_sup_knee")
+# the lowering half of the issue's grid (auto chooses lowering above 0.5 of swing)
 LOWERING_GRID = [(f, v, mech) for mech in ("force", "obstacle") for f in (0.55, 0.65, 0.75)
                  for v in (1.0, 1.2, 1.4)]
 # the issue's six bodies (height m, mass kg, sex) at 1.2 m/s, swing 0.05-0.75, both
@@ -248,7 +248,7 @@ def penalised(score: tuple) -> tuple[float, float]:
     ``--grid-floor`` and ``--walk-on-gait`` the plain (recoveries, time survived)."""
     rec, survived, rec_grid, gait = score
     short = 0 if GRID_FLOOR is None else max(0, GRID_FLOOR - rec_grid)
-    return rec - FLOOR_PENALTY * short + (GAIT_WEIGHT * gait if GAIT_WEIGHT else 0), survived
+    return rec - FLOOR_PENALTY * short + GAIT_WEIGHT * gait, survived
 
 
 def main() -> None:

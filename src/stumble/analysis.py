@@ -448,20 +448,23 @@ def walk_on_steps(rec: Recording, landing_s: float | None) -> list[tuple[float, 
     return out
 
 
+def _tail_median(steps: list[tuple[float, float]], column: int, tail: int) -> float | None:
+    """The median of one column of the last ``tail`` steps, None with fewer."""
+    if len(steps) < tail:
+        return None
+    return float(np.median([step[column] for step in steps[-tail:]]))
+
+
 def walk_on_step_s(steps: list[tuple[float, float]], tail: int = STEADY_TAIL) -> float | None:
     """The step time (s) of the gait walked on in: the median of the last ``tail`` steps
     (``walk_on_steps``' figures), None with fewer."""
-    if len(steps) < tail:
-        return None
-    return float(np.median([d for d, _v in steps[-tail:]]))
+    return _tail_median(steps, 0, tail)
 
 
 def walk_on_speed(steps: list[tuple[float, float]], tail: int = STEADY_TAIL) -> float | None:
     """The pelvis speed (m/s) of the gait walked on in: the median of the last ``tail``
     steps' (``walk_on_steps``' figures), None with fewer."""
-    if len(steps) < tail:
-        return None
-    return float(np.median([v for _d, v in steps[-tail:]]))
+    return _tail_median(steps, 1, tail)
 
 
 def steps_to_steady(steps: list[tuple[float, float]], speed_m_per_s: float,
