@@ -131,7 +131,7 @@ def out_record(best: tuple, generation: int, argv: list[str]) -> dict:
     ``settings``, ``fsm_params.load_params``) with its score and the command."""
     return {"recovered": best[1][0], "of": len(GRID), "grid_recovered": best[1][2],
             "survived_s": round(best[1][1], 3), "generation": generation,
-            "gait_bonus": round(best[1][3], 3),
+            "gait_bonus": round(best[1][3], 3), "flight_score": best[1][4],
             "command": " ".join(["python scripts/tune_fsm.py", *argv]),
             "params": best[0], "settings": settings()}
 
@@ -153,6 +153,12 @@ GRID_FLOOR = None  # --grid-floor N: penalise grid recoveries (the first 48) bel
 GAIT_WEIGHT = 0.0  # --walk-on-gait W: a walk on like the walk before is worth 1 + W
 GAIT_SCALE = 0.4  # the gait_mismatch at which that bonus ends (e.g. 20 % off in each)
 FLOOR_N, FLOOR_PENALTY = len(FULL_GRID), 2.0
+FLIGHT_WEIGHT = 0.0  # --flight W: a recovery with a flight where people fly is worth 1 + W
+# where people fly (seed 000 Table 1: flight phases at fast walking, 1.44 m/s, double
+# support slower; issue 11: at 1.4 m/s flight, at 1.0 m/s double support) and the
+# strategies' windows (SCA 2009 §3: elevating early in swing, lowering late)
+FLIGHT_SPEED, DS_SPEED = 1.4, 1.0  # m/s
+ELEVATING_WINDOW, LOWERING_WINDOW = (0.05, 0.3), (0.55, 0.75)  # swing fraction
 
 
 def counts(s: dict) -> bool:
@@ -181,9 +187,23 @@ def gait_bonus(s: dict) -> float:
     return max(0.0, 1.0 - gait_mismatch(s) / GAIT_SCALE)
 
 
-def trip_counts(x: dict, i: int) -> tuple[bool, float, float]:
-    """Whether ``GRID[i]`` recovers under ``x`` (``counts``), the time it survived and
-    its walk on's ``gait_bonus``."""
+def flight_score(s: dict) -> int:
+    """+1 for a flight phase where people take one (``FLIGHT_SPEED`` or faster, in its
+    strategy's window), −1 for one at ``DS_SPEED`` or slower (people: double support),
+    else 0."""
+    if s.get("variant") != "flight":
+        return 0
+    v, f = s["speed_m_per_s"], s["swing_fraction"]
+    if v <= DS_SPEED + 1e-9:
+        return -1
+    window = {"elevating": ELEVATING_WINDOW, "lowering": LOWERING_WINDOW}.get(
+        s.get("strategy"), (1.0, 0.0))
+    return int(v >= FLIGHT_SPEED - 1e-9 and window[0] - 1e-9 <= f <= window[1] + 1e-9)
+
+
+def trip_counts(x: dict, i: int) -> tuple[bool, float, float, int]:
+    """Whether ``GRID[i]`` recovers under ``x`` (``counts``), the time it survived, its
+    walk on's ``gait_bonus`` and its ``flight_score``."""
     from stumble.pipeline import simulate_trip
     from stumble.trip import Scenario
 
@@ -196,30 +216,31 @@ def trip_counts(x: dict, i: int) -> tuple[bool, float, float]:
                                strength_model=STRENGTH, **walk_on),
                       params=params_from(x)).summary
     return (counts(s), s["sim_time_s"] if not s["fell"] else (s["fall_time_s"] or 0.0),
-            gait_bonus(s))
+            gait_bonus(s), flight_score(s))
 
 
 # --only lowering: the trips the searched targets act on (those the start sends to the
 # lowering strategy; no target of ``LOWERING`` is used by an elevating trip), and the
 # score of the others, run once with the start's values (``fixed_part``); None: all
 ACTIVE = None
-FIXED = (0, 0.0, 0, 0.0)
+FIXED = (0, 0.0, 0, 0.0, 0)
 
 
-def score_of(x: dict, indices) -> tuple[int, float, int, float]:
+def score_of(x: dict, indices) -> tuple[int, float, int, float, int]:
     """(recoveries, total time survived, recoveries among the first 48, the recovered
-    trips' summed ``gait_bonus``) of GRID[indices]."""
-    rec, survived, rec_grid, gait = 0, 0.0, 0, 0.0
+    trips' summed ``gait_bonus`` and ``flight_score``) of GRID[indices]."""
+    rec, survived, rec_grid, gait, flight = 0, 0.0, 0, 0.0, 0
     for i in indices:
-        ok, t, m = trip_counts(x, i)
+        ok, t, m, fl = trip_counts(x, i)
         rec += int(ok)
         rec_grid += int(ok and i < FLOOR_N)
         survived += t
         gait += m if ok else 0.0
-    return rec, survived, rec_grid, gait
+        flight += fl if ok else 0
+    return rec, survived, rec_grid, gait, flight
 
 
-def evaluate(x: dict) -> tuple[int, float, int, float]:
+def evaluate(x: dict) -> tuple[int, float, int, float, int]:
     """``score_of`` over the grid: with ``--only lowering`` its lowering trips run and the
     others' ``FIXED`` score is added (the same figures as running them: they do not use
     the searched targets)."""
@@ -228,7 +249,7 @@ def evaluate(x: dict) -> tuple[int, float, int, float]:
     return tuple(a + b for a, b in zip(score_of(x, ACTIVE), FIXED, strict=True))
 
 
-def fixed_part(base: dict, ex=None) -> tuple[list[int], tuple[int, float, int, float]]:
+def fixed_part(base: dict, ex=None) -> tuple[list[int], tuple[int, float, int, float, int]]:
     """--only lowering: the indices of the trips the start sends to the lowering strategy,
     and the score of the rest under the start's values (run once, in ``ex`` if given)."""
     p = params_from(base)
@@ -238,17 +259,18 @@ def fixed_part(base: dict, ex=None) -> tuple[list[int], tuple[int, float, int, f
     parts = ([ex.submit(score_of, base, rest[:half]), ex.submit(score_of, base, rest[half:])]
              if ex else None)
     a, b = ([q.result() for q in parts] if parts else
-            (score_of(base, rest), (0, 0.0, 0, 0.0)))
+            (score_of(base, rest), (0, 0.0, 0, 0.0, 0)))
     return active, tuple(p + q for p, q in zip(a, b, strict=True))
 
 
 def penalised(score: tuple) -> tuple[float, float]:
     """(recoveries less the grid floor's penalty plus ``GAIT_WEIGHT`` times the recovered
-    trips' summed ``gait_bonus``, time survived): compared as a tuple; without
-    ``--grid-floor`` and ``--walk-on-gait`` the plain (recoveries, time survived)."""
-    rec, survived, rec_grid, gait = score
+    trips' summed ``gait_bonus`` and ``FLIGHT_WEIGHT`` times their ``flight_score``, time
+    survived): compared as a tuple; without ``--grid-floor``, ``--walk-on-gait`` and
+    ``--flight`` the plain (recoveries, time survived)."""
+    rec, survived, rec_grid, gait, flight = score
     short = 0 if GRID_FLOOR is None else max(0, GRID_FLOOR - rec_grid)
-    return rec - FLOOR_PENALTY * short + GAIT_WEIGHT * gait, survived
+    return rec - FLOOR_PENALTY * short + GAIT_WEIGHT * gait + FLIGHT_WEIGHT * flight, survived
 
 
 def main() -> None:
@@ -266,6 +288,10 @@ def main() -> None:
                     help="with --walk-on: each recovered trip adds W times its gait bonus, "
                     "1 - m/0.4 (0 at least), m = |v/v0 - 1| + |T/T0 - 1| of the walk on's "
                     "last steps against the walk before the trip")
+    ap.add_argument("--flight", type=float, default=None, metavar="W",
+                    help="each recovered trip with a flight phase adds W where people take "
+                    "one (1.4 m/s, elevating at 0.05-0.3 of swing, lowering at 0.55-0.75; "
+                    "seed 000 Table 1) and loses W at 1.0 m/s (people: double support)")
     ap.add_argument("--around", metavar="FILE|JSON",
                     help="search locally: Gaussian steps (15 %% of each range) around these "
                     "values: a parameter file (as --out writes it; its settings too) "
@@ -319,6 +345,8 @@ def main() -> None:
     if args.walk_on_gait is not None and (args.walk_on is None or not (
             np.isfinite(args.walk_on_gait) and args.walk_on_gait > 0)):
         ap.error("--walk-on-gait needs --walk-on S and a weight > 0")
+    if args.flight is not None and not (np.isfinite(args.flight) and args.flight > 0):
+        ap.error(f"--flight must be a weight > 0, got {args.flight}")
     if args.grid_floor is not None:
         if args.grid not in ("full", "full+bodies"):
             ap.error("--grid-floor counts the full grid's 48 trips: give --grid full or "
@@ -326,8 +354,8 @@ def main() -> None:
         if not 0 <= args.grid_floor <= FLOOR_N:
             ap.error(f"--grid-floor must be 0-{FLOOR_N}, got {args.grid_floor}")
     global GRID, STRENGTH, WALK_ON_S, ATTITUDE_DAMPING, TRUNK_ATTITUDE, MAX_TILT, GRID_FLOOR
-    global ACTIVE, FIXED, GAIT_WEIGHT
-    GAIT_WEIGHT = args.walk_on_gait or 0.0
+    global ACTIVE, FIXED, GAIT_WEIGHT, FLIGHT_WEIGHT
+    GAIT_WEIGHT, FLIGHT_WEIGHT = args.walk_on_gait or 0.0, args.flight or 0.0
     GRID = {"small": GRID, "full": FULL_GRID, "lowering": LOWERING_GRID,
             "full+bodies": FULL_GRID + BODY_GRID}[args.grid]
     ATTITUDE_DAMPING = attitude_damping
@@ -388,23 +416,26 @@ def main() -> None:
 def _init_args() -> tuple:
     """The module's settings, for ``_worker_init`` in a worker process."""
     return (STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING, TRUNK_ATTITUDE, MAX_TILT, ACTIVE,
-            FIXED, GAIT_WEIGHT)
+            FIXED, GAIT_WEIGHT, FLIGHT_WEIGHT)
 
 
 def _worker_init(strength: str, grid: list, walk_on_s: float | None,
                  attitude_damping: str = "joint", trunk_attitude: float = 0.0,
                  max_tilt: float | None = None, active=None,
-                 fixed: tuple = (0, 0.0, 0, 0.0), gait_weight: float = 0.0) -> None:
+                 fixed: tuple = (0, 0.0, 0, 0.0, 0), gait_weight: float = 0.0,
+                 flight_weight: float = 0.0) -> None:
     global STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING, TRUNK_ATTITUDE, MAX_TILT
-    global ACTIVE, FIXED, GAIT_WEIGHT
+    global ACTIVE, FIXED, GAIT_WEIGHT, FLIGHT_WEIGHT
     STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING = strength, grid, walk_on_s, attitude_damping
     TRUNK_ATTITUDE, MAX_TILT, ACTIVE, FIXED = trunk_attitude, max_tilt, active, fixed
-    GAIT_WEIGHT = gait_weight
+    GAIT_WEIGHT, FLIGHT_WEIGHT = gait_weight, flight_weight
 
 
 def _gait(score: tuple) -> str:
-    """The recovered trips' summed gait bonus, for the log (with --walk-on-gait)."""
-    return f", gait {score[3]:.1f}" if GAIT_WEIGHT else ""
+    """The recovered trips' summed gait bonus and flight score, for the log (with
+    --walk-on-gait, --flight)."""
+    return ((f", gait {score[3]:.1f}" if GAIT_WEIGHT else "")
+            + (f", flight {score[4]:+d}" if FLIGHT_WEIGHT else ""))
 
 
 def _cma(args, base: dict, space: dict) -> None:

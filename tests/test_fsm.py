@@ -274,7 +274,7 @@ def test_tune_fsm_out_carries_its_settings_to_around_and_load_params(tmp_path, m
     tune = _tune_fsm()
     monkeypatch.setattr(tune, "TRUNK_ATTITUDE", 0.4)
     monkeypatch.setattr(tune, "ATTITUDE_DAMPING", "pelvis")
-    best = ({"kp_knee": 250.0, "elev_sup_ankle": -30.0}, (40, 100.0, 40, 0.0))
+    best = ({"kp_knee": 250.0, "elev_sup_ankle": -30.0}, (40, 100.0, 40, 0.0, 0))
     out = tmp_path / "best.json"
     out.write_text(json.dumps(tune.out_record(best, 3, ["--trunk-attitude", "0.4"]), indent=1))
     # the search's file is a parameter file: the values and the trunk attitude it ran with
@@ -411,9 +411,29 @@ def test_tune_fsm_gait_mismatch_compares_the_walk_on_with_the_walk_before(monkey
     assert tune.gait_bonus(s) == 0.0  # 0.45 off: no bonus
     monkeypatch.setattr(tune, "GAIT_WEIGHT", 2.0)
     monkeypatch.setattr(tune, "GRID_FLOOR", None)
-    assert tune.penalised((40, 100.0, 40, 12.5)) == pytest.approx((65.0, 100.0))
+    assert tune.penalised((40, 100.0, 40, 12.5, 0)) == pytest.approx((65.0, 100.0))
     monkeypatch.setattr(tune, "GAIT_WEIGHT", 0.0)
-    assert tune.penalised((40, 100.0, 40, 12.0)) == (40, 100.0)
+    assert tune.penalised((40, 100.0, 40, 12.0, 0)) == (40, 100.0)
+
+
+def test_tune_fsm_flight_score_rewards_flight_where_people_fly(monkeypatch):
+    """--flight: a flight phase scores +1 at 1.4 m/s in its strategy's window (elevating
+    0.05-0.3 of swing, lowering 0.55-0.75), -1 at 1.0 m/s, 0 elsewhere or without one;
+    a recovered trip adds W times it."""
+    tune = _tune_fsm()
+    s = {"variant": "flight", "speed_m_per_s": 1.4, "swing_fraction": 0.15,
+         "strategy": "elevating"}
+    assert tune.flight_score(s) == 1
+    assert tune.flight_score({**s, "variant": "double_support"}) == 0
+    assert tune.flight_score({**s, "swing_fraction": 0.45}) == 0  # outside the window
+    assert tune.flight_score({**s, "swing_fraction": 0.65, "strategy": "lowering"}) == 1
+    assert tune.flight_score({**s, "swing_fraction": 0.25, "strategy": "lowering"}) == 0
+    assert tune.flight_score({**s, "speed_m_per_s": 1.2}) == 0
+    assert tune.flight_score({**s, "speed_m_per_s": 1.0}) == -1
+    monkeypatch.setattr(tune, "GAIT_WEIGHT", 0.0)
+    monkeypatch.setattr(tune, "GRID_FLOOR", None)
+    monkeypatch.setattr(tune, "FLIGHT_WEIGHT", 0.5)
+    assert tune.penalised((40, 100.0, 40, 0.0, 4)) == pytest.approx((42.0, 100.0))
 
 
 def test_walk_on_with_double_support_takes_longer_steps():
@@ -444,6 +464,21 @@ def test_walk_on_speed_gain_steers_the_walk_on_toward_the_speed_before_the_trip(
     assert base["recovered"] and slow["recovered"]
     assert base["walk_on_speed_m_per_s"] > 1.17
     assert 1.0 < slow["walk_on_speed_m_per_s"] < base["walk_on_speed_m_per_s"] - 0.03
+
+
+def test_walk_on_speed_ramp_phases_the_speed_gain_in_over_the_steps():
+    """``walk_on_speed_ramp_steps`` (ours): with a ramp of 3 the first walk-on step runs
+    without the speed gain (the same step as with k_s 0, to the last digit) and the
+    later ones with it (a slower walk on than without it)."""
+    sc = Scenario(swing_fraction=0.25, speed_m_per_s=1.0, mechanism="force",
+                  recovery="walk_on", duration_after_trip_s=6.0)
+    runs = [simulate_trip(sc, params=FSMParams().with_values(v)).summary for v in (
+        {}, {"walk_on_speed_gain": 0.1}, {"walk_on_speed_gain": 0.1, "walk_on_speed_ramp": 3})]
+    base, gain, ramp = runs
+    assert all(s["recovered"] for s in runs)
+    assert ramp["walk_on_steps"][0] == base["walk_on_steps"][0] != gain["walk_on_steps"][0]
+    assert ramp["walk_on_steps"][1] != base["walk_on_steps"][1]
+    assert ramp["walk_on_speed_m_per_s"] < base["walk_on_speed_m_per_s"] - 0.03
 
 
 def test_the_upright_set_walks_on_with_the_trunk_within_26_degrees():

@@ -144,9 +144,41 @@ def test_validate_prints_the_table_and_writes_json(tmp_path, fake, capsys, monke
     young = by[("walking on after the 48-trip grid (6 s, young)", "fsm")]
     assert young["stumble"] == 32 and young["stumble_text"] == "32/48"
     assert young["agreement"] == "no" and young["published"] == 46
+    # flight (the fake falls at 1.4 m/s and never flies): no window trip to fly
+    fly = by[("flight at 1.4 m/s: recovered window trips flying (48-trip grid)", "fsm")]
+    assert fly["stumble"] == {"elevating": [0, 0], "lowering": [0, 0]}
+    assert fly["agreement"] == "no"
+    ds = by[("double support at 1.0 m/s: recovered trips flying (48-trip grid)", "fsm")]
+    assert ds["stumble"] == 0 and ds["stumble_text"] == "0/16" and ds["agreement"] == "yes"
     # the runs are a study: there, with their rows
     assert (out / "results.parquet").exists()
     assert report["fsm_params"] is None  # the defaults
+
+
+def test_flight_rows_count_the_recovered_window_trips_that_fly():
+    """At 1.4 m/s at least half of the recovered trips of each window fly (elevating
+    0.05-0.3 of swing, lowering 0.55-0.75); at 1.0 m/s none (SCA 2009 Table 1)."""
+    by_case = {}
+    for m, s, v in validate.OLDER_GRID:
+        elevating = s <= 0.5
+        fly = v == 1.4 and (s in (0.05, 0.15) or (s == 0.65 and m == "force"))
+        by_case[f"fsm/grid/young/{m}/{s}/{v}"] = {
+            "key": f"{m}{s}{v}", "speed_m_per_s": v, "swing_fraction": s,
+            "strategy": "elevating" if elevating else "lowering",
+            "variant": "flight" if fly or (v == 1.0 and s == 0.75) else "double_support",
+            "recovered": not (v == 1.4 and s == 0.75)}
+    fly, ds = validate.flight_rows("fsm", by_case)
+    # elevating window 0.05, 0.15, 0.25 x 2 mechanisms: 4 of 6 fly; lowering 0.55, 0.65
+    # recover (0.75 falls): 1 of 4 flies
+    assert fly["stumble"] == {"elevating": [4, 6], "lowering": [1, 4]}
+    assert fly["agreement"] == "no" and fly["stumble_text"] == "elevating 4/6, lowering 1/4"
+    assert ds["stumble"] == 2 and ds["agreement"] == "no"  # the two at 0.75 of swing
+    by_case["fsm/grid/young/obstacle/0.65/1.4"]["variant"] = "flight"
+    for m in ("force", "obstacle"):
+        by_case[f"fsm/grid/young/{m}/0.75/1.0"]["variant"] = "double_support"
+    fly, ds = validate.flight_rows("fsm", by_case)
+    assert fly["stumble"]["lowering"] == [2, 4] and fly["agreement"] == "yes"
+    assert ds["stumble"] == 0 and ds["agreement"] == "yes"
 
 
 def test_validate_runs_the_state_machines_with_a_parameter_set(tmp_path, fake, capsys,

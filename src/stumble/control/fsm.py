@@ -118,6 +118,7 @@ class TripFSM:
         self.t_state = 0.0
         self.left_floor = {"r": False, "l": False}
         self._arms_walking = False
+        self._walk_on_landings = 0  # walk-on landings so far (the speed gain's ramp)
         self._extended = False
         if self.strategy == "lowering":
             self.t_extend = float("inf")
@@ -309,6 +310,7 @@ class TripFSM:
             # walk goes on after the recovery, SIMBICON-style, Yin et al. 2007)
             self.roles = {**self.roles, "rec": sup, "sup": rec}
             self.left_floor = {"r": False, "l": False}
+            self._walk_on_landings += 1
             if self.p.walk_on_push_s > 0.0:  # double support: the trailing leg pushes
                 self._switch("step_push", t, d)
             else:
@@ -450,7 +452,9 @@ class TripFSM:
         thigh = (np.radians(base) + p.balance_cd_rad_per_m * dx
                  + p.balance_cv_rad_s_per_m * s.com_vel[0])
         if self._state == "step_reach":  # walking on, toward the speed before the trip
-            thigh += p.walk_on_speed_gain_rad_s_per_m * (s.com_vel[0] - self.speed)
+            n, ramp = self._walk_on_landings, p.walk_on_speed_ramp_steps
+            w = min(1.0, n / ramp) if ramp > 0.0 else 1.0
+            thigh += w * p.walk_on_speed_gain_rad_s_per_m * (s.com_vel[0] - self.speed)
         target[i] = thigh - tilt
 
     def _place_foot_laterally(self, ctx: Context, target: np.ndarray, lst: float) -> None:

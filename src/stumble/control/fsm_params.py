@@ -294,6 +294,7 @@ WALK_ON = {
     "swing_sup_knee": (("targets_deg", "step_swing", "sup.knee_angle"), -100.0, -40.0),
     "swing_sup_ankle": (("targets_deg", "step_swing", "sup.ankle_angle"), -5.0, 20.0),
     "walk_on_speed_gain": (("walk_on_speed_gain_rad_s_per_m",), 0.0, 0.5),
+    "walk_on_speed_ramp": (("walk_on_speed_ramp_steps",), 0.0, 6.0),
 }
 TUNABLE = {**SPACE, **GAINS, **WALK_ON}  # every name a parameter file may set
 
@@ -396,6 +397,10 @@ class FSMParams:
     # speed walked before the trip, so a faster gait places its foot further ahead and
     # brakes (a speed error beside SIMBICON's speed term, Yin et al. 2007). 0: off.
     walk_on_speed_gain_rad_s_per_m: float = 0.0
+    # ... phased in over this many walk-on landings (ours): the gain is k_s·min(1, n/N)
+    # after n landings (0 for the first walk-on step), so the first steps regain balance
+    # and the later ones the speed. 0: the whole gain from the first step.
+    walk_on_speed_ramp_steps: float = 0.0
     # Walking on with double support (ours): after each walk-on landing the trailing leg
     # pushes off for this long (targets step_push) before it swings. 0: off, the swing
     # starts at the landing (SIMBICON's gait, Yin et al. 2007).
