@@ -419,7 +419,11 @@ def duration_rows(ctrl: str, by_case: dict[str, dict],
                             f"no recovery step ({_outcome_word(r)})", "no", [r["key"]]))
             continue
         text = f"{_s(value)} ({variant}, {_outcome_word(r)})"
-        ok = duration_agrees(value, c.mocap_s, c.paper_sim_s)
+        # a flight's duration is not a double support's: the variant must be the figure's
+        ok = (r.get("variant") == c.variant
+              and duration_agrees(value, c.mocap_s, c.paper_sim_s))
+        if r.get("variant") != c.variant:
+            text += f"; the figure is {c.variant.replace('_', ' ')}'s"
         out.append(_row(figure, c.source, ctrl, pub, pub_text, value, text,
                         "yes" if ok else "no", [r["key"]]))
         if i == 0 and normal_swing.get(c.speed_m_per_s):
