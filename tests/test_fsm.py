@@ -164,6 +164,8 @@ def test_gains_and_balance_feedback_scale_with_the_body():
     assert big.model.actuator_gainprm[hip, 0] == pytest.approx(1000.0)
     p = FSMParams().scaled_to(1.90)
     assert p.balance_cd_rad_per_m == pytest.approx(FSMParams().balance_cd_rad_per_m * 1.75 / 1.90)
+    # speeds scale as sqrt(g h): the walk on's own steady speed too
+    assert p.walk_on_speed_ref_m_per_s == pytest.approx(1.17 * (1.90 / 1.75) ** 0.5)
     assert FSMParams().scaled_to(1.75) == FSMParams()
 
 
@@ -479,6 +481,23 @@ def test_walk_on_speed_ramp_phases_the_speed_gain_in_over_the_steps():
     assert ramp["walk_on_steps"][0] == base["walk_on_steps"][0] != gain["walk_on_steps"][0]
     assert ramp["walk_on_steps"][1] != base["walk_on_steps"][1]
     assert ramp["walk_on_speed_m_per_s"] < base["walk_on_speed_m_per_s"] - 0.03
+
+
+def test_walk_on_speed_feedforward_walks_on_at_the_speed_before_the_trip():
+    """``walk_on_speed_feedforward`` (ours): the upright set walks on at 1.13 m/s after a
+    trip at 1.0 m/s and at 1.20 after one at 1.4; with the feedforward (f = 1, ramp of
+    3 steps) at 0.99 and 1.31, near the speed before the trip."""
+    from stumble.control.fsm_params import UPRIGHT_FILE, load_params
+
+    up = load_params(UPRIGHT_FILE)
+    ff = up.with_values({"walk_on_speed_feedforward": 1.0, "walk_on_speed_ramp": 3.0})
+    for v in (1.0, 1.4):
+        sc = Scenario(swing_fraction=0.65, speed_m_per_s=v, mechanism="force",
+                      recovery="walk_on", duration_after_trip_s=6.0)
+        before, after = (simulate_trip(sc, params=p).summary for p in (up, ff))
+        assert before["recovered"] and after["recovered"]
+        assert abs(after["walk_on_speed_m_per_s"] - v) < 0.1
+        assert abs(before["walk_on_speed_m_per_s"] - v) > 0.13
 
 
 def test_the_upright_set_walks_on_with_the_trunk_within_26_degrees():

@@ -295,6 +295,8 @@ WALK_ON = {
     "swing_sup_ankle": (("targets_deg", "step_swing", "sup.ankle_angle"), -5.0, 20.0),
     "walk_on_speed_gain": (("walk_on_speed_gain_rad_s_per_m",), 0.0, 0.5),
     "walk_on_speed_ramp": (("walk_on_speed_ramp_steps",), 0.0, 6.0),
+    "walk_on_speed_feedforward": (("walk_on_speed_feedforward",), 0.0, 1.5),
+    "walk_on_speed_ref": (("walk_on_speed_ref_m_per_s",), 0.9, 1.5),
 }
 TUNABLE = {**SPACE, **GAINS, **WALK_ON}  # every name a parameter file may set
 
@@ -401,6 +403,14 @@ class FSMParams:
     # after n landings (0 for the first walk-on step), so the first steps regain balance
     # and the later ones the speed. 0: the whole gain from the first step.
     walk_on_speed_ramp_steps: float = 0.0
+    # Walking on at the speed before the trip by feedforward (ours): SIMBICON's speed
+    # term c_v·v becomes c_v·(v − f·(v_trip − v_ref)), so the walk on's own steady speed
+    # v_ref (where it settles whatever the speed before: 1.15-1.19 m/s for the upright
+    # set, README "Walking on") moves toward v_trip by the fraction f without a larger
+    # feedback gain (in SIMBICON's steady gait c_v·v is what holds the thigh's angle, so
+    # f = 1 moves the steady speed all the way); phased in as k_s is. f = 0: off.
+    walk_on_speed_feedforward: float = 0.0
+    walk_on_speed_ref_m_per_s: float = 1.17
     # Walking on with double support (ours): after each walk-on landing the trailing leg
     # pushes off for this long (targets step_push) before it swings. 0: off, the swing
     # starts at the landing (SIMBICON's gait, Yin et al. 2007).
@@ -450,6 +460,7 @@ class FSMParams:
                        balance_cv_rad_s_per_m=self.balance_cv_rad_s_per_m / ell ** 0.5,
                        walk_on_speed_gain_rad_s_per_m=(self.walk_on_speed_gain_rad_s_per_m
                                                        / ell ** 0.5),
+                       walk_on_speed_ref_m_per_s=self.walk_on_speed_ref_m_per_s * ell ** 0.5,
                        balance_cd_lat_rad_per_m=self.balance_cd_lat_rad_per_m / ell,
                        balance_cv_lat_rad_s_per_m=self.balance_cv_lat_rad_s_per_m / ell ** 0.5)
 
