@@ -10,7 +10,7 @@ Run:  python scripts/tune_fsm.py [--candidates N] [--workers N] [--seed S]
       [--grid small|full|lowering|full+bodies] [--only all|lowering] [--around JSON]
       [--method random|cma] [--generations G] [--popsize P] [--out FILE]
       [--strength anderson2007|fixed] [--trunk-attitude K] [--max-tilt DEG]
-      [--grid-floor N]
+      [--grid-floor N] [--walk-on S] [--walk-on-gait W] [--flight W]
 ``--method cma``: CMA-ES (the ``cmaes`` package, seeded) over the targets scaled to
 their ranges, from the defaults, maximising recoveries + the fraction of the grid's
 time survived; every generation's best is written to ``--out`` as it goes.

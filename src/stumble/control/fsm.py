@@ -301,7 +301,8 @@ class TripFSM:
             self._switch("step_swing", t, d, targets=self._swing_table())
             self._set_kp(f"hip_flexion_{rec}", self.p.kp_ssat_support_hip)
         elif st in ("single_support_after_trip", "step_swing") and (
-                self._ahead(ctx, sup, rec, -0.05) or t - self.t_state > self.p.ssat_swing_s):
+                self._ahead(ctx, sup, rec, -0.05) or t - self.t_state > self.p.ssat_swing_s
+        ) and (st != "step_swing" or t - self.t_state >= self.p.walk_on_swing_min_s):
             self._switch("step_reach", t, d, cancel=False)
             self._set_kp(f"hip_flexion_{rec}", self.p.kp_ssat_support_hip)
         elif (st == "step_reach" and on[sup] and self.left_floor[sup]

@@ -297,6 +297,7 @@ WALK_ON = {
     "walk_on_speed_ramp": (("walk_on_speed_ramp_steps",), 0.0, 6.0),
     "walk_on_speed_feedforward": (("walk_on_speed_feedforward",), 0.0, 1.5),
     "walk_on_speed_ref": (("walk_on_speed_ref_m_per_s",), 0.9, 1.5),
+    "walk_on_swing_min_s": (("walk_on_swing_min_s",), 0.0, 0.45),
 }
 TUNABLE = {**SPACE, **GAINS, **WALK_ON}  # every name a parameter file may set
 
@@ -415,6 +416,10 @@ class FSMParams:
     # pushes off for this long (targets step_push) before it swings. 0: off, the swing
     # starts at the landing (SIMBICON's gait, Yin et al. 2007).
     walk_on_push_s: float = 0.0
+    # The walk on's swing lasts at least this long before the leg reaches (ours): a
+    # slower cadence, as people's steps (0.53-0.65 s at 1.4-1.0 m/s in our walk). 0: the
+    # leg reaches once its foot passes the stance foot, as in the recovery step.
+    walk_on_swing_min_s: float = 0.0
     balance_cd_lat_rad_per_m: float = 0.5
     balance_cv_lat_rad_s_per_m: float = 0.3
     # The recovery leg extends for touch-down (rectus femoris; Fall) only once its toe is
