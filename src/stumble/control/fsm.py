@@ -118,7 +118,7 @@ class TripFSM:
         self.t_state = 0.0
         self.left_floor = {"r": False, "l": False}
         self._arms_walking = False
-        self._walk_on_landings = 0  # walk-on landings so far (the speed gain's ramp)
+        self._walk_on_landings = 0  # walk-on landings so far (the speed terms' ramp)
         self._extended = False
         if self.strategy == "lowering":
             self.t_extend = float("inf")
