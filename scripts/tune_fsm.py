@@ -154,11 +154,6 @@ GAIT_WEIGHT = 0.0  # --walk-on-gait W: a walk on like the walk before is worth 1
 GAIT_SCALE = 0.4  # the gait_mismatch at which that bonus ends (e.g. 20 % off in each)
 FLOOR_N, FLOOR_PENALTY = len(FULL_GRID), 2.0
 FLIGHT_WEIGHT = 0.0  # --flight W: a recovery with a flight where people fly is worth 1 + W
-# where people fly (seed 000 Table 1: flight phases at fast walking, 1.44 m/s, double
-# support slower; issue 11: at 1.4 m/s flight, at 1.0 m/s double support) and the
-# strategies' windows (SCA 2009 §3: elevating early in swing, lowering late)
-FLIGHT_SPEED, DS_SPEED = 1.4, 1.0  # m/s
-ELEVATING_WINDOW, LOWERING_WINDOW = (0.05, 0.3), (0.55, 0.75)  # swing fraction
 
 
 def counts(s: dict) -> bool:
@@ -188,17 +183,15 @@ def gait_bonus(s: dict) -> float:
 
 
 def flight_score(s: dict) -> int:
-    """+1 for a flight phase where people take one (``FLIGHT_SPEED`` or faster, in its
-    strategy's window), −1 for one at ``DS_SPEED`` or slower (people: double support),
-    else 0."""
+    """+1 for a flight phase where people take one, −1 for one where they keep double
+    support, else 0 (``stumble.validate.people_fly``: SCA 2009 Table 1, the windows and
+    speeds of ``stumble validate``'s flight rows)."""
+    from stumble.validate import people_fly
+
     if s.get("variant") != "flight":
         return 0
-    v, f = s["speed_m_per_s"], s["swing_fraction"]
-    if v <= DS_SPEED + 1e-9:
-        return -1
-    window = {"elevating": ELEVATING_WINDOW, "lowering": LOWERING_WINDOW}.get(
-        s.get("strategy"), (1.0, 0.0))
-    return int(v >= FLIGHT_SPEED - 1e-9 and window[0] - 1e-9 <= f <= window[1] + 1e-9)
+    fly = people_fly(s["speed_m_per_s"], s.get("strategy"), s["swing_fraction"])
+    return 0 if fly is None else 1 if fly else -1
 
 
 def trip_counts(x: dict, i: int) -> tuple[bool, float, float, int]:

@@ -260,6 +260,19 @@ def strength_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
     return out
 
 
+def people_fly(speed_m_per_s: float, strategy: str | None,
+               swing_fraction: float) -> bool | None:
+    """Whether people tripped so take a flight phase (SCA 2009 Table 1): True at
+    ``FLIGHT_SPEED_M_PER_S`` or faster in the strategy's ``FLIGHT_WINDOWS``, False (double
+    support) at ``DS_SPEED_M_PER_S`` or slower, None elsewhere."""
+    if speed_m_per_s <= DS_SPEED_M_PER_S + 1e-9:
+        return False
+    if speed_m_per_s < FLIGHT_SPEED_M_PER_S - 1e-9:
+        return None
+    return any(strategy == name and lo - 1e-9 <= swing_fraction <= hi + 1e-9
+               for name, lo, hi in FLIGHT_WINDOWS) or None
+
+
 def flight_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
     """Flight against double support over the young's grid (walking on): the share of
     recovered window trips at 1.4 m/s with a flight phase, and flights at 1.0 m/s."""
@@ -268,9 +281,9 @@ def flight_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
     keys = [r["key"] for r in rows]
     fast = [r for r in rec if abs(r["speed_m_per_s"] - FLIGHT_SPEED_M_PER_S) < 1e-9]
     counts, shares, ok = [], {}, True
-    for strategy, lo, hi in FLIGHT_WINDOWS:
-        win = [r for r in fast if r.get("strategy") == strategy
-               and lo - 1e-9 <= r["swing_fraction"] <= hi + 1e-9]
+    for strategy, _lo, _hi in FLIGHT_WINDOWS:
+        win = [r for r in fast if r.get("strategy") == strategy and people_fly(
+            r["speed_m_per_s"], strategy, r["swing_fraction"])]
         k = sum(r.get("variant") == "flight" for r in win)
         counts.append(f"{strategy} {k}/{len(win)}")
         shares[strategy] = [k, len(win)]
