@@ -1,9 +1,12 @@
 """Throughput of a small study with 1 and with 2 workers: trips per second, parallel efficiency.
 
 Run:  python benchmarks/bench_study.py [--swing SPEC] [--speed SPEC] [--workers 1,2]
+      [--recovery walk_on|step]
 
 The study (default: force trips at 8 instants from 0.05 to 0.75 of swing, at 1.0 and
-1.3 m/s, 16 trips) runs end to end as ``stumble study`` runs it, into a fresh directory
+1.3 m/s, 16 trips; ``--recovery`` the scenarios' rule: walk_on, the default, runs 6 s
+after each trip, step stops 1 s after the recovery step, as every trip did before
+2026-12-03) runs end to end as ``stumble study`` runs it, into a fresh directory
 each time: with 1 worker in this process, with N > 1 in a process pool; the best of
 ``--repeats`` runs counts. Every run starts with an empty in-memory walk cache, so each
 worker loads its own walks as in a real study, from the on-disk cache
@@ -32,9 +35,11 @@ def main() -> None:
     ap.add_argument("--speed", default="1.0,1.3")
     ap.add_argument("--workers", default="1,2", help="comma-separated worker counts")
     ap.add_argument("--repeats", type=int, default=2, help="best of this many (default 2)")
+    ap.add_argument("--recovery", choices=("walk_on", "step"), default="walk_on")
     args = ap.parse_args()
     scenarios = Grid({"swing": parse_values("swing", args.swing),
-                      "speed": parse_values("speed", args.speed)}).scenarios()
+                      "speed": parse_values("speed", args.speed),
+                      "recovery": [args.recovery]}).scenarios()
     counts = [int(w) for w in args.workers.split(",")]
     print(f"{len(scenarios)} trips; {os.cpu_count()} cores; load average before "
           f"{os.getloadavg()[0]:.2f}")

@@ -1,7 +1,7 @@
 """Speed of state-machine trips against a bare loop that replays their controls (same process).
 
 Run:  python benchmarks/bench_trip.py [--contact lumped|points|penalty|soft] [--repeats N]
-      [--timestep S] [--duration S] [--cases all|one]
+      [--timestep S] [--duration S] [--cases all|one] [--recovery walk_on|step]
 
 For each case (an elevating and a lowering trip, force and obstacle, at 1.2 m/s, the
 scenario's default duration unless ``--duration``), it runs the whole ``simulate_trip``
@@ -45,6 +45,9 @@ def main() -> None:
     ap.add_argument("--strength", choices=("fixed", "anderson2007"), default="fixed",
                     help="the servos' torque limits (Scenario.strength_model)")
     ap.add_argument("--cases", choices=("all", "one"), default="all")
+    ap.add_argument("--recovery", choices=("walk_on", "step"), default="walk_on",
+                    help="Scenario.recovery: walk_on (the default, 6 s after the trip) or "
+                    "step (the run stops 1 s after the recovery step)")
     args = ap.parse_args()
     print(f"load average before {os.getloadavg()[0]:.2f}; contact {args.contact}")
     print(f"{'case':24s} {'sim s':>6s} {'loop s':>7s} {'replay s':>8s} {'ratio':>6s} "
@@ -56,7 +59,7 @@ def main() -> None:
         given = {k: v for k, v in (("timestep_s", args.timestep),
                                    ("duration_after_trip_s", args.duration)) if v is not None}
         sc = Scenario(swing_fraction=f, mechanism=mech, speed_m_per_s=args.speed,
-                      strength_model=args.strength,
+                      strength_model=args.strength, recovery=args.recovery,
                       contact=args.contact, **given)
         t = time_against_replay(sc, args.repeats)
         s = t.result.summary

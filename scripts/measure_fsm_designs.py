@@ -70,7 +70,8 @@ def summarise(res: dict) -> str:
 
 def main(name: str, out: str) -> None:
     t0, p = time.time(), design(name)
-    res = {"design": name, "window": trips(WINDOW, p), "grid_step": trips(GRID, p),
+    res = {"design": name, "window": trips(WINDOW, p, recovery="step"),
+           "grid_step": trips(GRID, p, recovery="step"),
            "grid_walk": trips(GRID, p, recovery="walk_on", duration_after_trip_s=6.0)}
     res["wall_s"] = round(time.time() - t0, 1)
     with open(out, "w") as fh:

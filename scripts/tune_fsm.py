@@ -201,7 +201,7 @@ def trip_counts(x: dict, i: int) -> tuple[bool, float, float, int]:
     from stumble.trip import Scenario
 
     f, v, mech, *body = GRID[i]
-    walk_on = ({} if WALK_ON_S is None else
+    walk_on = ({"recovery": "step"} if WALK_ON_S is None else
                {"recovery": "walk_on", "duration_after_trip_s": WALK_ON_S})
     if body:  # (height m, mass kg, sex): a grid point of another body
         walk_on.update(height_m=body[0], mass_kg=body[1], sex=body[2])

@@ -165,5 +165,5 @@ def test_a_reference_without_usable_columns_or_overlap_is_an_error(tmp_path):
     before = Motion(np.array([-2.0, -1.0]), {"knee_angle_r": np.zeros(2)}, True, "early.mot")
     with pytest.raises(InputError, match=r"^early\.mot: its time \(-2\.00 to -1\.00 s from its "
                                          r"trip\) does not overlap the simulated trip "
-                                         r"\(0 to 3 s\)"):
+                                         r"\(0 to 6 s\)"):
         align_reference(before, sc, how="time")

@@ -130,7 +130,7 @@ def test_lowering_tripped_leg_crosses_the_obstacle_then_swings_as_in_walking():
     (0.55 of swing, 1.0 m/s: with the walking targets alone the swing caught the box and
     the body fell 1.1 s after the trip)."""
     r = simulate_trip(Scenario(swing_fraction=0.55, speed_m_per_s=1.0, mechanism="obstacle",
-                               duration_after_trip_s=2.0))
+                               duration_after_trip_s=2.0, recovery="step"), params=FSMParams())
     s, rec = r.summary, r.recording
     assert s["strategy"] == "lowering" and s["recovered"] and not s["fell"]
     ssat = [k for k, st in enumerate(rec.state) if st == "single_support_after_trip"]
@@ -330,8 +330,8 @@ def test_pelvis_attitude_damped_by_its_own_rate_keeps_the_trunk_up():
 
     from stumble.errors import InputError
 
-    sc = Scenario(swing_fraction=0.05, speed_m_per_s=1.2, mechanism="force")
-    joint = simulate_trip(sc).summary
+    sc = Scenario(swing_fraction=0.05, speed_m_per_s=1.2, mechanism="force", recovery="step")
+    joint = simulate_trip(sc, params=FSMParams()).summary
     pelvis = simulate_trip(sc, params=replace(FSMParams(), attitude_damping="pelvis")).summary
     assert joint["recovered"] and pelvis["recovered"]
     assert pelvis["trunk_tilt_at_recovery_contact_deg"] < 16.0
@@ -348,8 +348,8 @@ def test_trunk_attitude_keeps_the_trunk_within_peoples_tilt_at_recovery_contact(
     are those of the default's."""
     from dataclasses import replace
 
-    sc = Scenario(swing_fraction=0.55, speed_m_per_s=1.1, mechanism="obstacle")
-    base = simulate_trip(sc)
+    sc = Scenario(swing_fraction=0.55, speed_m_per_s=1.1, mechanism="obstacle", recovery="step")
+    base = simulate_trip(sc, params=FSMParams())
     trunk = simulate_trip(sc, params=replace(FSMParams(), trunk_attitude=0.3))
     b, t = base.summary, trunk.summary
     assert b["recovered"] and t["recovered"]
@@ -444,7 +444,7 @@ def test_walk_on_with_double_support_takes_longer_steps():
     0.40 s without it and of about 0.5 s with it (the walk before: 0.58 s)."""
     sc = Scenario(swing_fraction=0.25, speed_m_per_s=1.2, mechanism="force",
                   recovery="walk_on", duration_after_trip_s=6.0)
-    base = simulate_trip(sc).summary
+    base = simulate_trip(sc, params=FSMParams()).summary
     p = FSMParams().with_values({"walk_on_push_s": 0.06, "push_sup_ankle": -5.0,
                                  "reach_thigh_deg": 5.0})
     push = simulate_trip(sc, params=p).summary
@@ -460,7 +460,7 @@ def test_walk_on_speed_gain_steers_the_walk_on_toward_the_speed_before_the_trip(
     1.19 m/s without it, and slower, nearer 1.0, with 0.1 rad·s/m."""
     sc = Scenario(swing_fraction=0.25, speed_m_per_s=1.0, mechanism="obstacle",
                   recovery="walk_on", duration_after_trip_s=6.0)
-    base = simulate_trip(sc).summary
+    base = simulate_trip(sc, params=FSMParams()).summary
     slow = simulate_trip(sc, params=FSMParams().with_values(
         {"walk_on_speed_gain": 0.1})).summary
     assert base["recovered"] and slow["recovered"]
@@ -519,15 +519,17 @@ def test_walk_on_swing_min_slows_the_walk_on_cadence():
 
 
 def test_the_upright_set_walks_on_with_the_trunk_within_26_degrees():
-    """``--params upright`` (issue 11): a lowering obstacle trip at 0.65 of swing,
-    1.2 m/s, walks on 6 s with the defaults with the trunk beyond 26° at recovery-foot
-    contact (people: within about 23-26°, van den Bogert et al. 2002), and with the
-    upright set within it, in longer steps (0.43 s against 0.41)."""
+    """The upright set, the default since 2026-12-03 (issue 11): a lowering obstacle
+    trip at 0.65 of swing, 1.2 m/s, walks on 6 s with the earlier default (``--params
+    step``) with the trunk beyond 26° at recovery-foot contact (people: within about
+    23-26°, van den Bogert et al. 2002), and with the upright set within it, in longer
+    steps (0.43 s against 0.41)."""
     from pathlib import Path
 
-    from stumble.control.fsm_params import UPRIGHT_FILE, load_params
+    from stumble.control.fsm_params import UPRIGHT_FILE, default_params, load_params
 
     up = load_params("upright")
+    assert default_params() == up and load_params("step") == FSMParams()
     assert up.trunk_attitude == 0.3 and up.walk_on_push_s > 0.0
     # the search that found it starts from a file of the repository, with its settings
     first, second, third = json.loads(UPRIGHT_FILE.read_text())["fit"]["commands"]
@@ -543,8 +545,8 @@ def test_the_upright_set_walks_on_with_the_trunk_within_26_degrees():
     assert values["walk_on_speed_feedforward"] == 1.0  # the third's start
     sc = Scenario(swing_fraction=0.65, speed_m_per_s=1.2, mechanism="obstacle",
                   recovery="walk_on", duration_after_trip_s=6.0)
-    base = simulate_trip(sc).summary
-    upright = simulate_trip(sc, params=up).summary
+    base = simulate_trip(sc, params=load_params("step")).summary
+    upright = simulate_trip(sc).summary  # the default set
     assert base["recovered"] and base["trunk_tilt_at_recovery_contact_deg"] > 26.0
     assert upright["recovered"] and upright["strategy"] == "lowering"
     assert upright["trunk_tilt_at_recovery_contact_deg"] <= 26.0

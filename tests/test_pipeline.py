@@ -95,6 +95,23 @@ def test_cli_trip_writes_the_named_files(tmp_path, capsys):
     assert max(rmse.values()) < 0.05
 
 
+def test_cli_trip_walks_on_six_seconds_by_default_and_step_gives_the_earlier_defaults(
+        tmp_path):
+    """Issue 11's defaults: the upright set, recovered meaning still walking 6 s after the
+    trip with at least 4 steps after the recovery step; ``--params step --recovery
+    step`` stops 1 s after the recovery step, as every trip did before."""
+    assert main(["trip", "--swing", "0.2", "--out", str(tmp_path / "a"), "--no-video"]) == 0
+    s = json.loads((tmp_path / "a" / "summary.json").read_text())
+    assert s["recovery"] == "walk_on" and s["recovered"] and not s["fell"]
+    assert s["sim_time_s"] > 5.9 and s["steps_after_recovery_step"] >= 4
+    assert s["trunk_tilt_at_recovery_contact_deg"] <= 26.0
+    assert main(["trip", "--swing", "0.2", "--out", str(tmp_path / "b"), "--no-video",
+                 "--params", "step", "--recovery", "step"]) == 0
+    b = json.loads((tmp_path / "b" / "summary.json").read_text())
+    assert b["recovery"] == "step" and b["recovered"]
+    assert b["sim_time_s"] < 3.0
+
+
 def test_cli_trip_reference_errors_are_one_line(tmp_path, capsys):
     ref = tmp_path / "arms.mot"
     ref.write_text("r\nendheader\ntime\tshoulder_flexion_r\thip_adduction_r\n0\t1\t2\n"
@@ -110,7 +127,7 @@ def test_cli_trip_reference_errors_are_one_line(tmp_path, capsys):
     assert main([*argv, str(late)]) == 2
     assert capsys.readouterr().err == (
         "stumble: late.mot: its time (10.00 to 10.01 s from its trip) does not overlap the "
-        "simulated trip (0 to 3 s)\n")
+        "simulated trip (0 to 6 s)\n")
     assert not (tmp_path / "o").exists()  # refused before anything ran
 
 

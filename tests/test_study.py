@@ -489,13 +489,13 @@ def test_real_trips_with_params_differ_and_match_on_one_or_two_workers(tmp_path,
             "--no-plots"]
     for name, extra in (("two", ["--workers", "2", "--params", str(p)]),
                         ("one", ["--workers", "1", "--params", str(p)]),
-                        ("default", ["--workers", "1"])):
+                        ("default", ["--workers", "1", "--params", "step"])):
         assert main(["study", "--out", str(tmp_path / name), *grid, *extra]) == 0
     two, one, default = (rows_of(tmp_path / n / "results.parquet")
                          for n in ("two", "one", "default"))
     assert strip(two) == strip(one)  # the parameters reach the worker processes
     assert [r["key"] for r in two] == [r["key"] for r in default]  # run keys: the scenario's
-    # the trunk held upright: far less tilt at recovery-foot contact than the defaults'
+    # the trunk held upright: far less tilt at recovery-foot contact than the step set's
     tilt = [(r["trunk_tilt_at_recovery_contact_deg"],
              d["trunk_tilt_at_recovery_contact_deg"]) for r, d in zip(two, default, strict=True)]
     assert tilt[0][0] < tilt[0][1] - 5.0, tilt  # elevating at 0.2 of swing: ~14 against ~24

@@ -99,6 +99,14 @@ def test_recovery_rule_walk_on_asks_for_walking_to_the_end():
 
     with pytest.raises(InputError, match="recovery rule 'stand'"):
         Scenario(recovery="stand").validated()
-    sc = Scenario(recovery="walk_on", duration_after_trip_s=6.0).validated()
-    assert _walk_on_s(sc, reflex=False) == pytest.approx(5.99)
-    assert _walk_on_s(Scenario().validated(), reflex=False) is None
+    sc = Scenario(recovery="walk_on", duration_after_trip_s=4.0).validated()
+    assert _walk_on_s(sc, reflex=False) == pytest.approx(3.99)
+    # the default (issue 11): walking on, 6 s after the trip
+    assert Scenario().validated().recovery == "walk_on"
+    assert Scenario().validated().duration_after_trip_s == 6.0
+    assert _walk_on_s(Scenario().validated(), reflex=False) == pytest.approx(5.99)
+    # the 1 s rule stops at the recovery step; the reflex controllers walk on 3 s
+    assert _walk_on_s(Scenario(recovery="step").validated(), reflex=False) is None
+    assert Scenario(recovery="step").validated().duration_after_trip_s == 3.0
+    assert Scenario(controller="gh2010", mechanism="obstacle").validated(
+        ).duration_after_trip_s == 3.0

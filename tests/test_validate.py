@@ -156,7 +156,8 @@ def test_validate_prints_the_table_and_writes_json(tmp_path, fake, capsys, monke
     assert ds["stumble"] == 0 and ds["stumble_text"] == "0/16" and ds["agreement"] == "yes"
     # the runs are a study: there, with their rows
     assert (out / "results.parquet").exists()
-    assert report["fsm_params"] is None  # the defaults
+    # the default set, recorded as such
+    assert report["fsm_params"]["path"] == "upright" and report["fsm_params"]["default"]
 
 
 def test_flight_rows_count_the_recovered_window_trips_that_fly():

@@ -129,8 +129,9 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--params", type=Path, metavar="FILE",
                    help="gh2010 controller: a gh2010.json, or walk: the shipped walking fit "
                    "(default: the shipped trip fit); fsm: a JSON of tuned targets and gains "
-                   "(scripts/tune_fsm.py --out) or a shipped set by name: anderson2007, "
-                   "upright")
+                   "(scripts/tune_fsm.py --out) or a shipped set by name: upright (the "
+                   "default), step (tuned for --recovery step) or anderson2007 (the "
+                   "default with --strength anderson2007)")
     t.add_argument("--network", type=Path, metavar="FILE",
                    help="reflex controller: a network.npz from `stumble reflex fit`, or "
                    "closed-loop: the shipped closed-loop refinement (default: the shipped "
@@ -148,10 +149,11 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--strength", choices=("fixed", "anderson2007"), default="fixed",
                    help="servo torque limits (fsm): fixed (default) or anderson2007, human "
                    "strength by joint angle and velocity (Anderson et al. 2007)")
-    t.add_argument("--recovery", choices=("step", "walk_on"), default="step",
-                   help="what recovered means (fsm): step, 1 s after the recovery step "
-                   "upright over the feet (default); walk_on, still walking upright at "
-                   "the end of --duration (as the reflex controllers)")
+    t.add_argument("--recovery", choices=("step", "walk_on"), default="walk_on",
+                   help="what recovered means (fsm): walk_on, still walking upright at "
+                   "the end of --duration, 4 steps or more after the recovery step "
+                   "(default); step, 1 s after the recovery step upright over the feet, "
+                   "where the run stops")
     t.add_argument("--population", choices=("young", "older"), default="young",
                    help="young (default) or older adults (fsm): strength, response "
                    "latencies, torque development and walking speed of healthy older "
@@ -171,8 +173,9 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--seed", type=seed_arg, default=0,
                    help="0 (default): the recorded walk as it is; another seed perturbs the "
                    "initial joint angles (SD 0.5 deg) and velocities; deterministic")
-    t.add_argument("--duration", type=float, default=3.0, metavar="S",
-                   help="seconds of physics after the trip at most (default 3)")
+    t.add_argument("--duration", type=float, default=None, metavar="S",
+                   help="seconds of physics after the trip at most (default 6 for fsm "
+                   "walking on, else 3)")
     t.add_argument("--start", choices=("playback", "own"), default=None,
                    help="playback: the recorded walk up to the trip instant, the controller "
                    "from there (the seeds'; default fsm, reflex); own: the controller walks "
@@ -583,6 +586,9 @@ def cmd_trip(args) -> int:
                else "fell" if s["fell"] else "did not recover within the time")
     strategy = s["strategy"] or "no"
     variant = f" ({s['variant']})" if s["variant"] else ""  # none if no recovery step
+    if s.get("recovery") == "walk_on" and s["controller"] == "fsm" and s.get(
+            "steps_after_recovery_step") is not None:  # what walking on came to
+        outcome += f" ({s['steps_after_recovery_step']} steps after the recovery step)"
     print(f"{strategy} strategy{variant}: {outcome}; simulated "
           f"{s['sim_time_s']:.2f} s in {s['wall_time_s']:.2f} s; wrote {', '.join(written)} "
           f"to {out}")

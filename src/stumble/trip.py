@@ -117,6 +117,12 @@ POPULATIONS = {
 }
 STRENGTH_MODELS = ("anderson2007", "fixed")  # stumble.body.strength
 RECOVERY_RULES = ("step", "walk_on")  # Scenario.recovery
+# physics after the trip when the scenario names none (Scenario.duration_after_trip_s):
+# the state machines walking on, 6 s (issue 11: walking on until the time budget ends,
+# default 6 s after the trip); otherwise 3 s (the reflex controllers' "still walking 3 s
+# after the trip", issue 9; the 1 s rule stops 1 s after the recovery step anyway)
+WALK_ON_DURATION_S = 6.0
+DURATION_S = 3.0
 
 
 GH2010_MAX_STEP_S = 0.001  # the GH2010 gains were fitted at 1 ms (its 5 ms hip delay)
@@ -178,7 +184,9 @@ class Scenario:
     mass_kg: float = 70.0
     sex: str = "male"
     contact: str = "lumped"
-    duration_after_trip_s: float = 3.0
+    # seconds of physics after the trip at most; None: WALK_ON_DURATION_S for the state
+    # machines walking on, DURATION_S otherwise (``resolved``)
+    duration_after_trip_s: float | None = None
     delay_scale: float = 1.0  # multiplies every response latency
     strength_scale: float = 1.0  # multiplies every servo torque limit and muscle F_max
     # servo torque limits: fixed (build.TORQUE_LIMIT_NM × build.body_scale, the default
@@ -186,19 +194,25 @@ class Scenario:
     # and ankle by angle and velocity, stumble.body.strength; README "Human strength")
     strength_model: str = "fixed"
     population: str = "young"  # POPULATIONS: young or older
-    # what "recovered" means for the state machines: step (1 s after the recovery step
-    # the trunk is upright and the COM over the feet; the default) or walk_on (still
-    # walking upright at the end of duration_after_trip_s, as the reflex controllers)
-    recovery: str = "step"
+    # what "recovered" means for the state machines: walk_on (the default since
+    # 2026-12-03, issue 11: still walking upright at the end of duration_after_trip_s,
+    # at least 4 steps after the recovery step, as the reflex controllers walk on) or
+    # step (1 s after the recovery step the trunk is upright and the COM over the feet,
+    # the run stopping there: the default before)
+    recovery: str = "walk_on"
     timestep_s: float | None = None  # physics step; None: the controller's (DEFAULT_TIMESTEP_S)
     start: str | None = None  # playback or own (module docstring); None: DEFAULT_START
     walk_in_s: float = WALK_IN_S  # own start: walked before the trip's swing (s)
     force: TripForce = field(default_factory=TripForce)
 
     def resolved(self) -> Scenario:
-        """The scenario with the controller's default time step and start if it names
-        none."""
+        """The scenario with the controller's default time step, start and duration if
+        it names none."""
         sc = self
+        if sc.duration_after_trip_s is None:
+            walk_on = sc.controller == "fsm" and sc.recovery == "walk_on"
+            sc = replace(sc, duration_after_trip_s=WALK_ON_DURATION_S if walk_on
+                         else DURATION_S)
         if sc.timestep_s is None:
             sc = replace(sc, timestep_s=DEFAULT_TIMESTEP_S.get(sc.controller, 0.001))
         if sc.start is None:
@@ -208,7 +222,7 @@ class Scenario:
     def validated(self) -> Scenario:
         """The scenario with its defaults resolved (``resolved``), or InputError naming the
         first bad field."""
-        if self.timestep_s is None or self.start is None:
+        if self.timestep_s is None or self.start is None or self.duration_after_trip_s is None:
             return self.resolved().validated()
         lo, hi = SWING_RANGE
         if not np.isfinite(self.swing_fraction) or not lo <= self.swing_fraction <= hi:

@@ -520,7 +520,8 @@ def run_validation(out: Path, workers: int | None = None, progress: bool = True,
                    controllers=CONTROLLERS, params=None) -> list[dict]:
     """Run the fixed study in ``out`` (what is missing), compare, write validation.json.
     ``params``: the state machines' parameter set (``fsm_params.read_params``; None:
-    the defaults), recorded in validation.json; a directory holds one set's runs."""
+    the default set), recorded in validation.json; a directory holds one set's runs."""
+    from stumble.control.fsm_params import DEFAULT_SET, read_params
     from stumble.study.runner import run_study
 
     cases = validation_scenarios(controllers)
@@ -559,7 +560,10 @@ def run_validation(out: Path, workers: int | None = None, progress: bool = True,
             "walking": f"{WALK_S:g} s walked, every joint RMSE ≤ {WALK_RMSE_DEG:g}°; stance "
                        f"fraction within {STANCE_RANGE[0]}-{STANCE_RANGE[1]}",
         },
-        "fsm_params": None if params is None else params.record(),
+        # the set the state machines ran with: the given one, or the default set
+        # (``fsm_params.DEFAULT_SET``), marked as such
+        "fsm_params": params.record() if params is not None else {
+            **read_params(DEFAULT_SET).record(), "default": True},
         "normal_swing_s": {str(k): v for k, v in swing.items()},
         "rows": rows,
     }
@@ -610,8 +614,8 @@ def add_validate_parser(sub) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--params", metavar="FILE|NAME",
                    help="the state machines' targets and gains: a JSON file as "
-                   "scripts/tune_fsm.py --out writes it, or a shipped set (anderson2007, "
-                   "upright); a directory holds the runs of one set")
+                   "scripts/tune_fsm.py --out writes it, or a shipped set (upright, the "
+                   "default; step; anderson2007); a directory holds the runs of one set")
 
 
 def run_validate_cli(args) -> int:

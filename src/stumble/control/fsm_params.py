@@ -19,6 +19,7 @@ is beside it. Everything here can be overridden (``FSMParams(**changes)``).
 from __future__ import annotations
 
 import copy
+import functools
 import hashlib
 import json
 import math
@@ -502,8 +503,16 @@ def human_strength_params() -> FSMParams:
 # under --recovery walk_on; the command that found it and its figures are its "fit".
 UPRIGHT_FILE = Path(__file__).parent / "data" / "fsm_upright.json"
 
+# The targets and gains tuned under the 1 s rule (``Scenario.recovery`` step): the
+# class defaults of FSMParams, the default set until 2026-12-03 (an empty file: it
+# changes nothing).
+STEP_FILE = Path(__file__).parent / "data" / "fsm_step.json"
+
 SHIPPED = {"anderson2007": HUMAN_STRENGTH_FILE,  # named parameter sets (load_params)
-           "upright": UPRIGHT_FILE}
+           "upright": UPRIGHT_FILE, "step": STEP_FILE}
+# The set a trip runs with when none is named (issue 11: recovered means walking on,
+# and the upright set walks on after 46 of the 48 grid trips with the trunk within 26°)
+DEFAULT_SET = "upright"
 # The settings a parameter file may carry beside its tunable values (its top-level
 # "settings" object): FSMParams fields that no search varies but that a set was found
 # with (scripts/tune_fsm.py writes its --trunk-attitude and --attitude-damping there).
@@ -585,6 +594,13 @@ def read_params(path_or_name) -> ParamsFile:
                for name, value in settings.items()}
     p = replace(FSMParams().with_values(values), **checked)
     return ParamsFile(str(path_or_name), path, hashlib.sha256(data).hexdigest(), p)
+
+
+@functools.cache
+def default_params() -> FSMParams:
+    """The state machines' parameters when none are given: the shipped ``DEFAULT_SET``
+    (``upright``) on fixed torque limits."""
+    return load_params(DEFAULT_SET)
 
 
 def load_params(path_or_name) -> FSMParams:

@@ -248,7 +248,7 @@ def align_reference(motion: Motion, scenario, how: str = "swing",
     elif how != "time":
         raise InputError(f"unknown reference alignment {how!r} (swing or time)")
     t = motion.time_s - shift
-    end = scenario.duration_after_trip_s if duration_s is None else duration_s
+    end = scenario.resolved().duration_after_trip_s if duration_s is None else duration_s
     if min(t[-1], end) <= max(t[0], 0.0):
         raise InputError(f"{src}: its time ({t[0]:.2f} to {t[-1]:.2f} s from its trip) does "
                          f"not overlap the simulated trip (0 to {end:g} s)")

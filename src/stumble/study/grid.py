@@ -64,11 +64,13 @@ AXES: dict[str, Axis] = {a.name: a for a in (
          "servo torque limits (fsm) or muscle F_max (reflex, gh2010) multiplied by this"),
     Axis("strength", "strength_model", str, "servo torque limits: fixed (default) or "
          "anderson2007 (human strength by joint angle and velocity)"),
-    Axis("recovery", "recovery", str, "what recovered means (fsm): step (1 s after the "
-         "recovery step, default) or walk_on (still walking at the end of --duration)"),
+    Axis("recovery", "recovery", str, "what recovered means (fsm): walk_on (still "
+         "walking at the end of --duration, default) or step (1 s after the recovery "
+         "step)"),
     Axis("population", "population", str, "young (default) or older (fsm): strength, "
          "response latencies, torque development"),
-    Axis("duration", "duration_after_trip_s", float, "seconds of physics after the trip at most"),
+    Axis("duration", "duration_after_trip_s", float, "seconds of physics after the trip "
+         "at most (default 6 for fsm walking on, else 3)"),
     Axis("start", "start", str, "playback (the recorded walk to the trip) or own (the reflex "
          "controller's own gait; default gh2010)"),
     Axis("walk_in", "walk_in_s", float, "start own: seconds walked before the trip's swing"),
