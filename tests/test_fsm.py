@@ -173,6 +173,7 @@ def test_tunable_values_and_the_human_strength_set():
     import json
 
     from stumble.control.fsm_params import (
+        FLIGHT,
         GAINS,
         HUMAN_STRENGTH_FILE,
         SPACE,
@@ -181,7 +182,8 @@ def test_tunable_values_and_the_human_strength_set():
     )
 
     p = FSMParams()
-    assert set(p.values()) == set(SPACE) | set(GAINS) | set(WALK_ON) and len(SPACE) == 27
+    assert set(p.values()) == set(SPACE) | set(GAINS) | set(WALK_ON) | set(FLIGHT)
+    assert len(SPACE) == 27
     assert p.with_values(p.values()) == p
     q = p.with_values({"kp_knee": 123.0, "ssat_swing_s": 0.3})
     assert q.kp_passive["knee"] == 123.0 and q.ssat_swing_s == 0.3
@@ -551,3 +553,64 @@ def test_the_upright_set_walks_on_with_the_trunk_within_26_degrees():
     assert upright["recovered"] and upright["strategy"] == "lowering"
     assert upright["trunk_tilt_at_recovery_contact_deg"] <= 26.0
     assert upright["walk_on_step_s"] > base["walk_on_step_s"] + 0.01
+
+
+def test_fast_push_flies_at_fast_walking_only():
+    """``elev_sup_ankle_fast_deg`` (ours, issue 11): the elevating support ankle pushes
+    further at fast walking, phased in as k_c is (0 at 1.0 m/s, all of it at 1.4). In the
+    default set (-5°) an elevating force trip at 0.25 of swing, 1.4 m/s, recovers with a
+    flight phase (SCA 2009 Table 1: flights at 1.44 m/s), where without the push it
+    keeps double support; the same trip at 1.0 m/s keeps double support."""
+    from stumble.control.fsm_params import default_params
+
+    p = default_params()
+    assert p.elev_sup_ankle_fast_deg == -5.0
+    base = p.targets_deg["clearance_elevating"]["sup.ankle_angle"]
+    for v, extra in ((0.9, 0.0), (1.0, 0.0), (1.2, -2.5), (1.4, -5.0), (1.6, -5.0)):
+        at = p.at_speed(v).targets_deg["clearance_elevating"]["sup.ankle_angle"]
+        assert at == pytest.approx(base + extra)
+    assert p.targets_deg["clearance_elevating"]["sup.ankle_angle"] == base  # a copy
+    off = p.with_values({"elev_sup_ankle_fast": 0.0})
+    assert off.at_speed(1.4) is off
+    sc = Scenario(swing_fraction=0.25, speed_m_per_s=1.4, mechanism="force")
+    fast = simulate_trip(sc).summary
+    still = simulate_trip(sc, params=off).summary
+    assert fast["recovered"] and fast["variant"] == "flight"
+    assert still["recovered"] and still["variant"] == "double_support"
+    slow = simulate_trip(sc.with_(speed_m_per_s=1.0)).summary
+    assert slow["recovered"] and slow["variant"] == "double_support"
+
+
+def test_scan_fsm_counts_walk_ons_and_flights_as_validate_does():
+    """scripts/scan_fsm.py's figures of one value: trips walked on (and within 26°),
+    the recovered window trips at 1.4 m/s that fly by strategy, flights at 1.0 m/s, the
+    elevating flights' median recovery step and the bodies walked on."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "scripts" / "scan_fsm.py"
+    spec = importlib.util.spec_from_file_location("scan_fsm", path)
+    scan = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(scan)
+
+    def row(f, v, strategy, variant, rec=True, tilt=20.0, step=0.6, body=()):
+        return {"swing": f, "speed": v, "mechanism": "force", "body": list(body),
+                "recovered": rec, "strategy": strategy, "variant": variant, "tilt": tilt,
+                "recovery_step_s": step}
+
+    rows = [row(0.15, 1.4, "elevating", "flight", step=0.58),
+            row(0.25, 1.4, "elevating", "flight", step=0.62),
+            row(0.05, 1.4, "elevating", "double_support"),
+            row(0.35, 1.4, "elevating", "flight", step=0.9),  # outside the window
+            row(0.65, 1.4, "lowering", "double_support"),
+            row(0.55, 1.4, "lowering", "flight", rec=False),  # fell: not counted
+            row(0.15, 1.0, "elevating", "flight", tilt=27.0),
+            row(0.15, 1.2, "elevating", "double_support", body=(1.5, 45.0, "female")),
+            row(0.25, 1.2, "elevating", "double_support", rec=False,
+                body=(1.5, 45.0, "female"))]
+    fig = scan.figures(-5.0, rows)
+    assert fig["grid_walked_on"] == 6 and fig["of"] == 7 and fig["grid_within_26"] == 5
+    assert fig["flight_1.4_elevating"] == [2, 3] and fig["flight_1.4_lowering"] == [0, 1]
+    assert fig["flight_1.0"] == [1, 1] and fig["largest_tilt_deg"] == 27.0
+    assert fig["elevating_flight_step_s"] == pytest.approx(0.6)  # 0.58, 0.62 (0.9 at 0.35)
+    assert fig["bodies_walked_on"] == 1 and fig["bodies_of"] == 2

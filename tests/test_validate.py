@@ -171,17 +171,24 @@ def test_flight_rows_count_the_recovered_window_trips_that_fly():
             "key": f"{m}{s}{v}", "speed_m_per_s": v, "swing_fraction": s,
             "strategy": "elevating" if elevating else "lowering",
             "variant": "flight" if fly or (v == 1.0 and s == 0.75) else "double_support",
-            "recovered": not (v == 1.4 and s == 0.75)}
-    fly, ds = validate.flight_rows("fsm", by_case)
+            "recovered": not (v == 1.4 and s == 0.75),
+            "durations_s.recovery_step": 0.5 + s if elevating else None}
+    fly, dur, ds = validate.flight_rows("fsm", by_case)
     # elevating window 0.05, 0.15, 0.25 x 2 mechanisms: 4 of 6 fly; lowering 0.55, 0.65
     # recover (0.75 falls): 1 of 4 flies
     assert fly["stumble"] == {"elevating": [4, 6], "lowering": [1, 4]}
     assert fly["agreement"] == "no" and fly["stumble_text"] == "elevating 4/6, lowering 1/4"
     assert ds["stumble"] == 2 and ds["agreement"] == "no"  # the two at 0.75 of swing
+    # the elevating flights' recovery step: 0.55 s (0.05 of swing) and 0.65 s (0.15), twice
+    # each: the median 0.60 s, as close to the motion capture's 0.59 s as can be
+    assert dur["stumble"] == pytest.approx(0.6) and dur["agreement"] == "yes"
+    assert dur["stumble_text"] == "0.60 s (of 4: 0.55 s-0.65 s)"
     by_case["fsm/grid/young/obstacle/0.65/1.4"]["variant"] = "flight"
     for m in ("force", "obstacle"):
         by_case[f"fsm/grid/young/{m}/0.75/1.0"]["variant"] = "double_support"
-    fly, ds = validate.flight_rows("fsm", by_case)
+        by_case[f"fsm/grid/young/{m}/0.15/1.4"]["durations_s.recovery_step"] = 0.8
+    fly, dur, ds = validate.flight_rows("fsm", by_case)
+    assert dur["stumble"] == pytest.approx(0.675) and dur["agreement"] == "no"  # 0.55, 0.8
     assert fly["stumble"]["lowering"] == [2, 4] and fly["agreement"] == "yes"
     assert ds["stumble"] == 0 and ds["agreement"] == "yes"
 

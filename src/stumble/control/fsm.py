@@ -65,7 +65,7 @@ class TripFSM:
 
     def __init__(self, strategy: str, tripped_side: str, speed_m_per_s: float,
                  params: FSMParams | None = None):
-        self.p = params or FSMParams()
+        self.p = (params or FSMParams()).at_speed(speed_m_per_s)
         if self.p.attitude_damping not in ATTITUDE_DAMPING:
             raise InputError(f"attitude damping {self.p.attitude_damping!r} is not one of "
                              f"{', '.join(ATTITUDE_DAMPING)}")

@@ -300,7 +300,13 @@ WALK_ON = {
     "walk_on_speed_ref": (("walk_on_speed_ref_m_per_s",), 0.9, 1.5),
     "walk_on_swing_min_s": (("walk_on_swing_min_s",), 0.0, 0.45),
 }
-TUNABLE = {**SPACE, **GAINS, **WALK_ON}  # every name a parameter file may set
+# Flight at fast walking (issue 11; ours, off by default): the elevating support ankle's
+# Clearance target plantarflexed further at fast walking, phased in with the walking
+# speed as k_c is (FSMParams.speed_weight). Set by a scan (scripts/scan_fsm.py).
+FLIGHT = {
+    "elev_sup_ankle_fast": (("elev_sup_ankle_fast_deg",), -30.0, 0.0),
+}
+TUNABLE = {**SPACE, **GAINS, **WALK_ON, **FLIGHT}  # every name a parameter file may set
 
 # How the values marked "tuned" were found: CMA-ES (the cmaes package, seeded) over the
 # 24 targets and 6 gains of SPACE and GAINS, from the earlier tuned values (random and
@@ -422,6 +428,14 @@ class FSMParams:
     # slower cadence, as people's steps (0.53-0.65 s at 1.4-1.0 m/s in our walk). 0: the
     # leg reaches once its foot passes the stance foot, as in the recovery step.
     walk_on_swing_min_s: float = 0.0
+    # Flight at fast walking (``FLIGHT``; ours, 0 off): the elevating support ankle's
+    # Clearance target (elev_sup_ankle) plantarflexes this much further (deg, negative)
+    # at the fast end of kc_speeds, phased in with the walking speed as k_c is. SCA 2009
+    # §5 gets its flights at about 1.4 m/s from k_c = 300 (eq. 4) on the same ankle; on
+    # our body and walk on that loses most recoveries (29 of 48 walk on with upright),
+    # so the push is raised through the target instead, where double support at 1.0 m/s
+    # is untouched (weight 0).
+    elev_sup_ankle_fast_deg: float = 0.0
     balance_cd_lat_rad_per_m: float = 0.5
     balance_cv_lat_rad_s_per_m: float = 0.3
     # The recovery leg extends for touch-down (rectus femoris; Fall) only once its toe is
@@ -436,7 +450,8 @@ class FSMParams:
         return (self.latency_s[key] + self.activation_to_torque_s) * self.delay_scale
 
     def values(self) -> dict[str, float]:
-        """The tunable values (``TUNABLE``: ``SPACE``, ``GAINS``, ``WALK_ON``) by name."""
+        """The tunable values by name (``TUNABLE``: ``SPACE``, ``GAINS``, ``WALK_ON``,
+        ``FLIGHT``)."""
         out = {}
         for name, (path, _lo, _hi) in TUNABLE.items():
             out[name] = (self.targets_deg[path[1]][path[2]] if path[0] == "targets_deg"
@@ -471,11 +486,27 @@ class FSMParams:
                        balance_cd_lat_rad_per_m=self.balance_cd_lat_rad_per_m / ell,
                        balance_cv_lat_rad_s_per_m=self.balance_cv_lat_rad_s_per_m / ell ** 0.5)
 
+    def speed_weight(self, speed_m_per_s: float) -> float:
+        """0 at or below the slow end of ``kc_speeds``, 1 at or above the fast end,
+        linear between (our reading of SCA 2009 §5's slow and fast walking)."""
+        lo, hi = self.kc_speeds
+        return min(max((speed_m_per_s - lo) / (hi - lo), 0.0), 1.0)
+
     def kc(self, speed_m_per_s: float) -> float:
         """Compensation coefficient at a walking speed (SCA 2009 §5, interpolated)."""
-        lo, hi = self.kc_speeds
-        w = min(max((speed_m_per_s - lo) / (hi - lo), 0.0), 1.0)
+        w = self.speed_weight(speed_m_per_s)
         return (1 - w) * self.kc_slow + w * self.kc_fast
+
+    def at_speed(self, speed_m_per_s: float) -> FSMParams:
+        """These parameters for a trip at ``speed_m_per_s``: the elevating support
+        ankle's Clearance target with ``elev_sup_ankle_fast_deg`` phased in (itself when
+        that is 0)."""
+        if not self.elev_sup_ankle_fast_deg:
+            return self
+        p = copy.deepcopy(self)
+        p.targets_deg["clearance_elevating"]["sup.ankle_angle"] += (
+            self.speed_weight(speed_m_per_s) * self.elev_sup_ankle_fast_deg)
+        return p
 
     def strategy_for(self, swing_fraction: float) -> str:
         """``auto``: elevating below 0.3 of swing, lowering above 0.5; in between, elevating
@@ -596,10 +627,14 @@ def read_params(path_or_name) -> ParamsFile:
     return ParamsFile(str(path_or_name), path, hashlib.sha256(data).hexdigest(), p)
 
 
-@functools.cache
 def default_params() -> FSMParams:
     """The state machines' parameters when none are given: the shipped ``DEFAULT_SET``
-    (``upright``) on fixed torque limits."""
+    (``upright``) on fixed torque limits (a copy: the file is read once)."""
+    return copy.deepcopy(_default_params())
+
+
+@functools.cache
+def _default_params() -> FSMParams:
     return load_params(DEFAULT_SET)
 
 

@@ -1,0 +1,129 @@
+"""Scan one state-machine parameter over values on issue 11's grid (reproducible, 2 cores).
+
+For a parameter set (a shipped name or a file, ``stumble trip --params``) and one
+tunable name (``fsm_params.TUNABLE``), each value runs the 48-trip grid (force and
+obstacle, swing 0.05-0.75, 1.0/1.2/1.4 m/s) walking on 6 s after the trip (the default
+``recovered``), and prints:
+
+- the trips walked on, and of them those with the trunk within 26° at recovery-foot
+  contact (van den Bogert et al. 2002);
+- flight against double support as ``stumble validate`` counts it
+  (``stumble.validate.people_fly``): the recovered window trips at 1.4 m/s that fly, by
+  strategy, and the recovered trips at 1.0 m/s that fly (people: none);
+- the median recovery step of those elevating window flights (toe-off to heel contact;
+  SCA 2009 §5.1: 0.59 s in the motion capture, 0.65 s in the paper's simulation);
+- with ``--bodies``, the six bodies' 96 trips at 1.2 m/s (issue 11: at least 90 %).
+
+Each value's figures are appended to ``--out`` (JSON lines) as soon as they are measured.
+Deterministic: the same set, name and values give the same figures.
+
+Run:  python scripts/scan_fsm.py --params upright --name elev_sup_ankle_fast
+      --values=-3,-5,-6,-8 [--bodies] [--workers 2] [--out scan.jsonl]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+from stumble.control.fsm_params import TUNABLE, load_params
+from stumble.errors import InputError
+from stumble.pipeline import simulate_trip
+from stumble.trip import Scenario
+from stumble.validate import TRUNK_TILT_MAX_DEG, people_fly
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from tune_fsm import BODY_GRID, FULL_GRID  # the searches' own grids
+
+WALK_ON_S = 6.0
+_JOB: dict = {}
+
+
+def _init(params: str, name: str) -> None:
+    _JOB.update(params=params, name=name)
+
+
+def _trip(job: tuple) -> dict:
+    """One trip of the grid with the set and the value (``job``: value, grid point)."""
+    value, (f, v, mech, *body) = job
+    p = load_params(_JOB["params"]).with_values({_JOB["name"]: value})
+    kw = {} if not body else {"height_m": body[0], "mass_kg": body[1], "sex": body[2]}
+    s = simulate_trip(Scenario(swing_fraction=f, speed_m_per_s=v, mechanism=mech,
+                               recovery="walk_on", duration_after_trip_s=WALK_ON_S, **kw),
+                      params=p).summary
+    return {"value": value, "swing": f, "speed": v, "mechanism": mech, "body": body,
+            "recovered": bool(s["recovered"]), "strategy": s["strategy"],
+            "variant": s["variant"], "tilt": s["trunk_tilt_at_recovery_contact_deg"],
+            "recovery_step_s": s["durations_s"]["recovery_step"]}
+
+
+def figures(value: float, rows: list[dict]) -> dict:
+    """The scan's figures for one value from its trips."""
+    grid = [r for r in rows if not r["body"]]
+    rec = [r for r in grid if r["recovered"]]
+    within = [r for r in rec if r["tilt"] is not None and r["tilt"] <= TRUNK_TILT_MAX_DEG]
+    out = {"value": value, "grid_walked_on": len(rec), "grid_within_26": len(within),
+           "of": len(grid), "largest_tilt_deg": max((r["tilt"] or 0.0 for r in rec),
+                                                    default=None)}
+    for strategy in ("elevating", "lowering"):
+        win = [r for r in rec if r["strategy"] == strategy
+               and people_fly(r["speed"], strategy, r["swing"])]
+        out[f"flight_1.4_{strategy}"] = [sum(r["variant"] == "flight" for r in win), len(win)]
+    slow = [r for r in rec if people_fly(r["speed"], r["strategy"], r["swing"]) is False]
+    out["flight_1.0"] = [sum(r["variant"] == "flight" for r in slow), len(slow)]
+    steps = [r["recovery_step_s"] for r in rec if r["variant"] == "flight"
+             and r["strategy"] == "elevating" and r["recovery_step_s"] is not None
+             and people_fly(r["speed"], "elevating", r["swing"])]  # validate's window
+    out["elevating_flight_step_s"] = (round(statistics.median(steps), 3) if steps else None)
+    bodies = [r for r in rows if r["body"]]
+    if bodies:
+        out["bodies_walked_on"] = sum(r["recovered"] for r in bodies)
+        out["bodies_of"] = len(bodies)
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--params", default="upright", help="a shipped set or a file")
+    ap.add_argument("--name", required=True, help="a tunable name (fsm_params.TUNABLE)")
+    ap.add_argument("--values", required=True, help="comma-separated values")
+    ap.add_argument("--bodies", action="store_true", help="also the six bodies' 96 trips")
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--out", default=None, help="append each value's figures (JSON lines)")
+    args = ap.parse_args()
+    try:
+        if args.name not in TUNABLE:
+            raise InputError(f"--name {args.name!r} is not a tunable name")
+        try:
+            values = [float(x) for x in args.values.split(",")]
+        except ValueError:
+            raise InputError(f"--values {args.values!r} is not a comma-separated list of "
+                             "numbers") from None
+        lo, hi = TUNABLE[args.name][1:]
+        bad = [x for x in values if not lo <= x <= hi]
+        if bad:
+            raise InputError(f"--values {bad[0]:g} is outside {args.name}'s {lo:g}-{hi:g}")
+        load_params(args.params)
+    except InputError as e:
+        sys.exit(f"scan_fsm: {e}")
+    grid = FULL_GRID + (BODY_GRID if args.bodies else [])
+    with ProcessPoolExecutor(args.workers, initializer=_init,
+                             initargs=(args.params, args.name)) as ex:
+        for value in values:
+            t0 = time.perf_counter()
+            rows = list(ex.map(_trip, [(value, g) for g in grid], chunksize=2))
+            fig = {"params": args.params, "name": args.name, **figures(value, rows),
+                   "wall_s": round(time.perf_counter() - t0, 1)}
+            print(json.dumps(fig), flush=True)
+            if args.out:
+                with open(args.out, "a") as fh:
+                    fh.write(json.dumps(fig) + "\n")
+
+
+if __name__ == "__main__":
+    main()
