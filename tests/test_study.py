@@ -533,11 +533,14 @@ def test_params_go_to_every_run_and_are_recorded(tmp_path, monkeypatch, capsys):
     assert rec["settings"] == {"trunk_attitude": 1.0, "attitude_damping": "joint"}
     table = pq.read_table(tmp_path / "a" / "results.parquet").to_pydict()
     assert table["params_sha256"] == [rec["sha256"]] * 2  # every row names its parameters
-    # without --params: no parameters passed, nothing recorded (as before --params existed)
+    # without --params: no parameters passed, nothing recorded as given (as before
+    # --params existed), and the sets the trips run by default named
     got.clear()
     assert main([*argv, "--out", str(tmp_path / "b")]) == 0
     assert got == [None, None]
-    assert "params" not in json.loads((tmp_path / "b" / "study.json").read_text())
+    meta = json.loads((tmp_path / "b" / "study.json").read_text())
+    assert "params" not in meta
+    assert meta["fsm_default_params"] == {"fixed": "upright", "anderson2007": "anderson2007"}
     assert "params_sha256" not in pq.read_table(tmp_path / "b" / "results.parquet").schema.names
     # a shipped set by name
     assert main([*argv, "--out", str(tmp_path / "c"), "--params", "anderson2007"]) == 0
