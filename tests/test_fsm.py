@@ -206,7 +206,11 @@ def test_load_params_names_bad_files_and_values(tmp_path):
     from stumble.control.fsm_params import human_strength_params, load_params
     from stumble.errors import InputError
 
-    assert load_params("anderson2007") == human_strength_params()
+    assert load_params("anderson2007") == human_strength_params() == human_strength_params(
+        "step")
+    # walking on (the default rule), the set searched walking on, with its settings
+    on = human_strength_params("walk_on")
+    assert on == load_params("anderson2007_walk_on") and on.trunk_attitude == 0.3
     good = tmp_path / "p.json"
     good.write_text(json.dumps({"params": {"kp_knee": 250.0}}))
     assert load_params(good).kp_passive["knee"] == 250.0
@@ -614,3 +618,25 @@ def test_scan_fsm_counts_walk_ons_and_flights_as_validate_does():
     assert fig["flight_1.0"] == [1, 1] and fig["largest_tilt_deg"] == 27.0
     assert fig["elevating_flight_step_s"] == pytest.approx(0.6)  # 0.58, 0.62 (0.9 at 0.35)
     assert fig["bodies_walked_on"] == 1 and fig["bodies_of"] == 2
+
+
+def test_human_strength_runs_the_set_tuned_for_the_recovery_rule(monkeypatch):
+    """``--strength anderson2007`` without ``--params``: the set searched walking on
+    under the default rule, the 1 s rule's set under ``--recovery step``."""
+    import stumble.pipeline as pipeline
+
+    seen = []
+
+    class Stop(Exception):
+        pass
+
+    def fake(recovery="step"):
+        seen.append(recovery)
+        raise Stop
+
+    monkeypatch.setattr(pipeline, "human_strength_params", fake)
+    for rule in (None, "step"):
+        kw = {} if rule is None else {"recovery": rule}
+        with pytest.raises(Stop):
+            simulate_trip(Scenario(strength_model="anderson2007", **kw))
+    assert seen == ["walk_on", "step"]

@@ -540,7 +540,9 @@ def test_params_go_to_every_run_and_are_recorded(tmp_path, monkeypatch, capsys):
     assert got == [None, None]
     meta = json.loads((tmp_path / "b" / "study.json").read_text())
     assert "params" not in meta
-    assert meta["fsm_default_params"] == {"fixed": "upright", "anderson2007": "anderson2007"}
+    assert meta["fsm_default_params"] == {
+        "fixed walk_on": "upright", "fixed step": "upright",
+        "anderson2007 walk_on": "anderson2007_walk_on", "anderson2007 step": "anderson2007"}
     assert "params_sha256" not in pq.read_table(tmp_path / "b" / "results.parquet").schema.names
     # a shipped set by name
     assert main([*argv, "--out", str(tmp_path / "c"), "--params", "anderson2007"]) == 0

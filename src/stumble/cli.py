@@ -130,8 +130,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="gh2010 controller: a gh2010.json, or walk: the shipped walking fit "
                    "(default: the shipped trip fit); fsm: a JSON of tuned targets and gains "
                    "(scripts/tune_fsm.py --out) or a shipped set by name: upright (the "
-                   "default), step (tuned for --recovery step) or anderson2007 (the "
-                   "default with --strength anderson2007)")
+                   "default), step (tuned for --recovery step), anderson2007_walk_on "
+                   "and anderson2007 (the defaults with --strength anderson2007, walking "
+                   "on and with --recovery step)")
     t.add_argument("--network", type=Path, metavar="FILE",
                    help="reflex controller: a network.npz from `stumble reflex fit`, or "
                    "closed-loop: the shipped closed-loop refinement (default: the shipped "

@@ -166,7 +166,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     reflex = sc.controller in MUSCLE_CONTROLLERS
     # the state machines on human strength run with the targets and gains tuned for it;
     # otherwise the shipped default set (``fsm_params.DEFAULT_SET``, upright)
-    p = params or (human_strength_params() if sc.strength_model == "anderson2007"
+    p = params or (human_strength_params(sc.recovery) if sc.strength_model == "anderson2007"
                    else default_params())
     strategy = None
     if not reflex:

@@ -636,7 +636,8 @@ def add_validate_parser(sub) -> None:
     p.add_argument("--params", metavar="FILE|NAME",
                    help="the state machines' targets and gains: a JSON file as "
                    "scripts/tune_fsm.py --out writes it, or a shipped set (upright, the "
-                   "default; step; anderson2007); a directory holds the runs of one set")
+                   "default; step; anderson2007_walk_on; anderson2007); a directory holds "
+                   "the runs of one set")
 
 
 def run_validate_cli(args) -> int:

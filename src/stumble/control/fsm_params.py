@@ -519,13 +519,20 @@ class FSMParams:
 
 
 # The targets and gains tuned on human strength (``--strength anderson2007``), with the
-# command that found them (CMA-ES, seeded; ``fit`` in the file).
+# command that found them (CMA-ES, seeded; ``fit`` in the file): under the 1 s rule
+# (``Scenario.recovery`` step), and walking on 6 s with the trunk within 26° (walk_on,
+# the default rule; searched from the upright set, two stages)
 HUMAN_STRENGTH_FILE = Path(__file__).parent / "data" / "fsm_anderson2007.json"
+HUMAN_STRENGTH_WALK_ON_FILE = Path(__file__).parent / "data" / "fsm_anderson2007_walk_on.json"
 
 
-def human_strength_params() -> FSMParams:
-    """The state machines' parameters for human strength: the defaults with the values
-    ``scripts/tune_fsm.py --strength anderson2007`` found (``HUMAN_STRENGTH_FILE``)."""
+def human_strength_params(recovery: str = "step") -> FSMParams:
+    """The state machines' parameters for human strength and a recovery rule: under
+    ``step`` the defaults with the values ``scripts/tune_fsm.py --strength anderson2007``
+    found (``HUMAN_STRENGTH_FILE``); under ``walk_on`` the set searched walking on
+    (``HUMAN_STRENGTH_WALK_ON_FILE``, with its settings)."""
+    if recovery == "walk_on":
+        return load_params("anderson2007_walk_on")
     return FSMParams().with_values(json.loads(HUMAN_STRENGTH_FILE.read_text())["params"])
 
 
@@ -540,10 +547,15 @@ UPRIGHT_FILE = Path(__file__).parent / "data" / "fsm_upright.json"
 STEP_FILE = Path(__file__).parent / "data" / "fsm_step.json"
 
 SHIPPED = {"anderson2007": HUMAN_STRENGTH_FILE,  # named parameter sets (load_params)
+           "anderson2007_walk_on": HUMAN_STRENGTH_WALK_ON_FILE,
            "upright": UPRIGHT_FILE, "step": STEP_FILE}
 # The set a trip runs with when none is named (issue 11: recovered means walking on,
 # and the upright set walks on after 46 of the 48 grid trips with the trunk within 26°)
 DEFAULT_SET = "upright"
+# the set a trip runs with when none is named, by (strength model, recovery rule)
+DEFAULT_SETS = {("fixed", "walk_on"): DEFAULT_SET, ("fixed", "step"): DEFAULT_SET,
+                ("anderson2007", "walk_on"): "anderson2007_walk_on",
+                ("anderson2007", "step"): "anderson2007"}
 # The settings a parameter file may carry beside its tunable values (its top-level
 # "settings" object): FSMParams fields that no search varies but that a set was found
 # with (scripts/tune_fsm.py writes its --trunk-attitude and --attitude-damping there).

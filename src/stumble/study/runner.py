@@ -640,10 +640,11 @@ def run_study(scenarios: Grid | Iterable[Scenario], out: Path, workers: int | No
             if params is not None:
                 metadata = {**(metadata or {}), "params": params.record()}
             else:  # the state machines' sets this version runs when none is given
-                from stumble.control.fsm_params import DEFAULT_SET
+                from stumble.control.fsm_params import DEFAULT_SETS
 
                 metadata = {**(metadata or {}), "fsm_default_params": {
-                    "fixed": DEFAULT_SET, "anderson2007": "anderson2007"}}
+                    f"{strength} {rule}": name for (strength, rule), name
+                    in DEFAULT_SETS.items()}}
             _write_study_json(out, n_runs, metadata)
             stored_any = contains(store.done, keys)
             finished = contains(store.done_ok, keys) if retry_errors else stored_any
