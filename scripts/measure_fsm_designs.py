@@ -1,9 +1,10 @@
 """Measure a state-machine design for issue 11 (one process, one core).
 
-A design is ``baseline`` or a JSON object of FSMParams fields (``kp_support_hip`` sets
-``kp_passive["support_hip"]``). Runs validate's eight window trips (obstacle, 0.05-0.75
-of swing, 1.1 m/s) and the 48-trip grid (force and obstacle, 0.05-0.75 of swing,
-1.0/1.2/1.4 m/s) under the 1 s rule and walking on 6 s, as ``stumble study`` does, and
+A design is ``baseline`` (FSMParams' own values, the ``step`` set) or a JSON object of
+FSMParams fields on them (``kp_support_hip`` sets ``kp_passive["support_hip"]``). Runs
+validate's eight window trips (obstacle, 0.05-0.75 of swing, 1.1 m/s; under the 1 s
+rule, as validate ran them before 2026-12-03) and the 48-trip grid (force and obstacle,
+0.05-0.75 of swing, 1.0/1.2/1.4 m/s) under the 1 s rule and walking on 6 s, and
 prints the recoveries, the support limb's median peak moments in the first 300 ms and
 the largest trunk tilt at recovery-foot contact over the recoveries.
 

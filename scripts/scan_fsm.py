@@ -18,7 +18,8 @@ Each value's figures are appended to ``--out`` (JSON lines) as soon as they are 
 Deterministic: the same set, name and values give the same figures.
 
 Run:  python scripts/scan_fsm.py --params upright --name elev_sup_ankle_fast
-      --values=-3,-5,-6,-8 [--bodies] [--workers 2] [--out scan.jsonl]
+      --values=-3,-5,-6,-8 [--bodies] [--strength fixed|anderson2007] [--workers 2]
+      [--out scan.jsonl]
 """
 
 from __future__ import annotations
@@ -44,8 +45,8 @@ WALK_ON_S = 6.0
 _JOB: dict = {}
 
 
-def _init(params: str, name: str) -> None:
-    _JOB.update(params=params, name=name)
+def _init(params: str, name: str, strength: str) -> None:
+    _JOB.update(params=params, name=name, strength=strength)
 
 
 def _trip(job: tuple) -> dict:
@@ -54,7 +55,8 @@ def _trip(job: tuple) -> dict:
     p = load_params(_JOB["params"]).with_values({_JOB["name"]: value})
     kw = {} if not body else {"height_m": body[0], "mass_kg": body[1], "sex": body[2]}
     s = simulate_trip(Scenario(swing_fraction=f, speed_m_per_s=v, mechanism=mech,
-                               recovery="walk_on", duration_after_trip_s=WALK_ON_S, **kw),
+                               recovery="walk_on", duration_after_trip_s=WALK_ON_S,
+                               strength_model=_JOB["strength"], **kw),
                       params=p).summary
     return {"value": value, "swing": f, "speed": v, "mechanism": mech, "body": body,
             "recovered": bool(s["recovered"]), "strategy": s["strategy"],
@@ -93,6 +95,9 @@ def main() -> None:
     ap.add_argument("--name", required=True, help="a tunable name (fsm_params.TUNABLE)")
     ap.add_argument("--values", required=True, help="comma-separated values")
     ap.add_argument("--bodies", action="store_true", help="also the six bodies' 96 trips")
+    ap.add_argument("--strength", choices=("fixed", "anderson2007"), default="fixed",
+                    help="the servos' torque limits (Scenario.strength_model; the sets "
+                    "tuned on human strength are anderson2007_walk_on and anderson2007)")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", default=None, help="append each value's figures (JSON lines)")
     args = ap.parse_args()
@@ -113,11 +118,12 @@ def main() -> None:
         sys.exit(f"scan_fsm: {e}")
     grid = FULL_GRID + (BODY_GRID if args.bodies else [])
     with ProcessPoolExecutor(args.workers, initializer=_init,
-                             initargs=(args.params, args.name)) as ex:
+                             initargs=(args.params, args.name, args.strength)) as ex:
         for value in values:
             t0 = time.perf_counter()
             rows = list(ex.map(_trip, [(value, g) for g in grid], chunksize=2))
-            fig = {"params": args.params, "name": args.name, **figures(value, rows),
+            fig = {"params": args.params, "strength": args.strength, "name": args.name,
+                   **figures(value, rows),
                    "wall_s": round(time.perf_counter() - t0, 1)}
             print(json.dumps(fig), flush=True)
             if args.out:

@@ -192,7 +192,7 @@ def test_tunable_values_and_the_human_strength_set():
         p.with_values({"no_such_target": 1.0})
     shipped = json.loads(HUMAN_STRENGTH_FILE.read_text())
     assert "--strength anderson2007" in shipped["fit"]["command"]
-    h = human_strength_params()
+    h = human_strength_params("step")
     # (a set tuned before a target was tunable keeps the default of that one)
     assert {k: h.values()[k] for k in shipped["params"]} == pytest.approx(shipped["params"])
     assert h != p
@@ -206,8 +206,7 @@ def test_load_params_names_bad_files_and_values(tmp_path):
     from stumble.control.fsm_params import human_strength_params, load_params
     from stumble.errors import InputError
 
-    assert load_params("anderson2007") == human_strength_params() == human_strength_params(
-        "step")
+    assert load_params("anderson2007") == human_strength_params("step")
     # walking on (the default rule), the set searched walking on, with its settings
     on = human_strength_params("walk_on")
     assert on == load_params("anderson2007_walk_on") and on.trunk_attitude == 0.3
@@ -620,23 +619,32 @@ def test_scan_fsm_counts_walk_ons_and_flights_as_validate_does():
     assert fig["bodies_walked_on"] == 1 and fig["bodies_of"] == 2
 
 
-def test_human_strength_runs_the_set_tuned_for_the_recovery_rule(monkeypatch):
-    """``--strength anderson2007`` without ``--params``: the set searched walking on
+def test_a_trip_runs_the_default_set_of_its_strength_and_rule(monkeypatch):
+    """Without ``params`` a trip runs ``fsm_params.DEFAULT_SETS``' set: upright on the
+    fixed limits under either rule; on human strength the set searched walking on
     under the default rule, the 1 s rule's set under ``--recovery step``."""
     import stumble.pipeline as pipeline
+    from stumble.control.fsm_params import default_params, human_strength_params, load_params
 
     seen = []
 
     class Stop(Exception):
         pass
 
-    def fake(recovery="step"):
-        seen.append(recovery)
+    def fake(strength_model="fixed", recovery="walk_on"):
+        seen.append((strength_model, recovery))
         raise Stop
 
-    monkeypatch.setattr(pipeline, "human_strength_params", fake)
-    for rule in (None, "step"):
-        kw = {} if rule is None else {"recovery": rule}
-        with pytest.raises(Stop):
-            simulate_trip(Scenario(strength_model="anderson2007", **kw))
-    assert seen == ["walk_on", "step"]
+    monkeypatch.setattr(pipeline, "default_params", fake)
+    for strength in ("fixed", "anderson2007"):
+        for rule in (None, "step"):
+            kw = {} if rule is None else {"recovery": rule}
+            with pytest.raises(Stop):
+                simulate_trip(Scenario(strength_model=strength, **kw))
+    assert seen == [("fixed", "walk_on"), ("fixed", "step"), ("anderson2007", "walk_on"),
+                    ("anderson2007", "step")]
+    up = load_params("upright")
+    assert default_params() == default_params("fixed", "step") == up
+    assert human_strength_params() == default_params("anderson2007", "walk_on") == \
+        load_params("anderson2007_walk_on")
+    assert default_params() is not default_params()  # each caller gets its own copy

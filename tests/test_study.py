@@ -540,9 +540,13 @@ def test_params_go_to_every_run_and_are_recorded(tmp_path, monkeypatch, capsys):
     assert got == [None, None]
     meta = json.loads((tmp_path / "b" / "study.json").read_text())
     assert "params" not in meta
-    assert meta["fsm_default_params"] == {
+    from stumble.control.fsm_params import read_params
+
+    assert {k: v["name"] for k, v in meta["fsm_default_params"].items()} == {
         "fixed walk_on": "upright", "fixed step": "upright",
         "anderson2007 walk_on": "anderson2007_walk_on", "anderson2007 step": "anderson2007"}
+    assert meta["fsm_default_params"]["fixed walk_on"]["sha256"] == read_params(
+        "upright").sha256
     assert "params_sha256" not in pq.read_table(tmp_path / "b" / "results.parquet").schema.names
     # a shipped set by name
     assert main([*argv, "--out", str(tmp_path / "c"), "--params", "anderson2007"]) == 0
@@ -564,6 +568,20 @@ def test_params_go_to_every_run_and_are_recorded(tmp_path, monkeypatch, capsys):
     same.write_bytes(p.read_bytes())
     assert main([*argv, "--out", str(tmp_path / "a"), "--params", str(same)]) == 0
     assert not got and "2 runs (0 run now, 2 before)" in capsys.readouterr().out
+    # runs made without --params by a version with other default sets (or none recorded,
+    # as before 2026-12-03) are not resumed: the defaults' runs must not mix either
+    assert main([*argv, "--out", str(tmp_path / "b")]) == 0  # the same defaults: resumed
+    assert not got
+    capsys.readouterr()
+    study = tmp_path / "b" / "study.json"
+    for change in ({"fsm_default_params": {"fixed walk_on": {"name": "upright",
+                                                             "sha256": "0" * 64}}},
+                   {"fsm_default_params": None}):
+        study.write_text(json.dumps({**json.loads(study.read_text()), **change}))
+        assert main([*argv, "--out", str(tmp_path / "b")]) == 2
+        err = capsys.readouterr().err
+        assert "other default state-machine parameters" in err and err.count("\n") == 1
+    assert not got
 
 
 def test_a_study_file_names_its_params_relative_to_itself(tmp_path, monkeypatch, capsys):

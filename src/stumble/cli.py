@@ -154,7 +154,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="what recovered means (fsm): walk_on, still walking upright at "
                    "the end of --duration, 4 steps or more after the recovery step "
                    "(default); step, 1 s after the recovery step upright over the feet, "
-                   "where the run stops")
+                   "where the run stops (with the same default set: --params step for the "
+                   "set tuned for it)")
     t.add_argument("--population", choices=("young", "older"), default="young",
                    help="young (default) or older adults (fsm): strength, response "
                    "latencies, torque development and walking speed of healthy older "

@@ -35,7 +35,7 @@ from stumble.body.contact import DEFAULT_MODE as DEFAULT_CONTACT
 from stumble.body.contact import PenaltyContact, rest_support_foot
 from stumble.body.muscles import DEFAULT_MUSCLE_SET
 from stumble.body.strength import Strength, age_fixed_limits
-from stumble.control.fsm_params import FSMParams, default_params, human_strength_params
+from stumble.control.fsm_params import FSMParams, default_params
 from stumble.control.make import (
     muscle_set_of,
     network_controller,
@@ -164,10 +164,9 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     """
     sc = scenario.validated()
     reflex = sc.controller in MUSCLE_CONTROLLERS
-    # the state machines on human strength run with the targets and gains tuned for it;
-    # otherwise the shipped default set (``fsm_params.DEFAULT_SET``, upright)
-    p = params or (human_strength_params(sc.recovery) if sc.strength_model == "anderson2007"
-                   else default_params())
+    # the shipped set for the strength model and the recovery rule when none is given
+    # (``fsm_params.DEFAULT_SETS``: upright on fixed limits, the sets tuned on human strength)
+    p = params or default_params(sc.strength_model, sc.recovery)
     strategy = None
     if not reflex:
         strategy = p.strategy_for(sc.swing_fraction) if sc.strategy == "auto" else sc.strategy

@@ -59,7 +59,10 @@ def attitude_of(xmat: np.ndarray) -> tuple[float, float]:
 
 
 class TripFSM:
-    """SCA 2009 trip controller for one scenario; ``strategy`` elevating or lowering."""
+    """SCA 2009 trip controller for one scenario; ``strategy`` elevating or lowering.
+
+    ``params`` None: FSMParams' own values (the ``step`` set); a trip without parameters
+    gets the shipped default set from ``control.make.trip_controller``."""
 
     name = "fsm"
 

@@ -526,14 +526,13 @@ HUMAN_STRENGTH_FILE = Path(__file__).parent / "data" / "fsm_anderson2007.json"
 HUMAN_STRENGTH_WALK_ON_FILE = Path(__file__).parent / "data" / "fsm_anderson2007_walk_on.json"
 
 
-def human_strength_params(recovery: str = "step") -> FSMParams:
-    """The state machines' parameters for human strength and a recovery rule: under
-    ``step`` the defaults with the values ``scripts/tune_fsm.py --strength anderson2007``
-    found (``HUMAN_STRENGTH_FILE``); under ``walk_on`` the set searched walking on
-    (``HUMAN_STRENGTH_WALK_ON_FILE``, with its settings)."""
-    if recovery == "walk_on":
-        return load_params("anderson2007_walk_on")
-    return FSMParams().with_values(json.loads(HUMAN_STRENGTH_FILE.read_text())["params"])
+def human_strength_params(recovery: str = "walk_on") -> FSMParams:
+    """The state machines' parameters for human strength and a recovery rule
+    (``default_params("anderson2007", recovery)``): walking on, the set searched walking
+    on (``HUMAN_STRENGTH_WALK_ON_FILE``, with its settings); under ``step`` the defaults
+    with the values ``scripts/tune_fsm.py --strength anderson2007`` found
+    (``HUMAN_STRENGTH_FILE``)."""
+    return default_params("anderson2007", recovery)
 
 
 # Walking on upright (issue 11): the trunk limit of 26° at recovery-foot contact
@@ -550,7 +549,7 @@ SHIPPED = {"anderson2007": HUMAN_STRENGTH_FILE,  # named parameter sets (load_pa
            "anderson2007_walk_on": HUMAN_STRENGTH_WALK_ON_FILE,
            "upright": UPRIGHT_FILE, "step": STEP_FILE}
 # The set a trip runs with when none is named (issue 11: recovered means walking on,
-# and the upright set walks on after 46 of the 48 grid trips with the trunk within 26°)
+# and the upright set walks on after 47 of the 48 grid trips with the trunk within 26°)
 DEFAULT_SET = "upright"
 # the set a trip runs with when none is named, by (strength model, recovery rule)
 DEFAULT_SETS = {("fixed", "walk_on"): DEFAULT_SET, ("fixed", "step"): DEFAULT_SET,
@@ -639,15 +638,16 @@ def read_params(path_or_name) -> ParamsFile:
     return ParamsFile(str(path_or_name), path, hashlib.sha256(data).hexdigest(), p)
 
 
-def default_params() -> FSMParams:
-    """The state machines' parameters when none are given: the shipped ``DEFAULT_SET``
-    (``upright``) on fixed torque limits (a copy: the file is read once)."""
-    return copy.deepcopy(_default_params())
+def default_params(strength_model: str = "fixed", recovery: str = "walk_on") -> FSMParams:
+    """The state machines' parameters when none are given, for a strength model and a
+    recovery rule (``DEFAULT_SETS``; ``upright`` on fixed torque limits); a copy: each
+    file is read once."""
+    return copy.deepcopy(_shipped(DEFAULT_SETS[(strength_model, recovery)]))
 
 
 @functools.cache
-def _default_params() -> FSMParams:
-    return load_params(DEFAULT_SET)
+def _shipped(name: str) -> FSMParams:
+    return load_params(name)
 
 
 def load_params(path_or_name) -> FSMParams:

@@ -24,14 +24,16 @@ def trip_controller(sc: Scenario, strategy: str | None, params: FSMParams | None
                     network, pb: Playback, t_trip: float, trunk_balance: bool = True,
                     gh2010=None):
     """The scenario's controller taking over from the walk ``pb`` at ``t_trip`` (s):
-    ``params`` the state machines' (default ``fsm_params.default_params()``), ``network`` seed 003's
+    ``params`` the state machines' (default ``fsm_params.default_params`` for the
+    scenario's strength model and recovery rule), ``network`` seed 003's
     (default the shipped one), ``gh2010`` Geyer & Herr's parameters (default shipped);
     the scenario's delay scale and population applied."""
     if sc.controller == "reflex":
         return network_controller(network, pb, t_trip, sc.delay_scale, trunk_balance)
     if sc.controller == "gh2010":
         return walk_controller("gh2010", pb, t_trip, gh2010, delay_scale=sc.delay_scale)
-    p = replace(params or default_params(), delay_scale=sc.delay_scale)
+    p = replace(params or default_params(sc.strength_model, sc.recovery),
+                delay_scale=sc.delay_scale)
     pop = POPULATIONS[sc.population]
     if pop.extra_latency_s:  # the population's slower responses (trip.POPULATIONS)
         p = replace(p, latency_s={k: v + pop.extra_latency_s.get(k, 0.0)

@@ -573,11 +573,14 @@ class _Scenarios:
         return self.grid.iter_scenarios() if self.grid is not None else iter(self.items)
 
     def scan(self) -> np.ndarray:
-        """Every scenario checked (InputError naming the first bad one); keys as uint64."""
+        """Every scenario checked (InputError naming the first bad one); keys as uint64.
+        Also notes whether any is a state-machine trip (``has_fsm``)."""
         keys = []
+        self.has_fsm = False
         for sc in self:
             check_scenario(sc)
             keys.append(int(run_key(sc), 16))
+            self.has_fsm = self.has_fsm or sc.controller == "fsm"
         return np.array(keys, dtype=np.uint64)
 
 
@@ -639,12 +642,10 @@ def run_study(scenarios: Grid | Iterable[Scenario], out: Path, workers: int | No
             _check_same_params(out, params, bool(len(store.done)))
             if params is not None:
                 metadata = {**(metadata or {}), "params": params.record()}
-            else:  # the state machines' sets this version runs when none is given
-                from stumble.control.fsm_params import DEFAULT_SETS
-
-                metadata = {**(metadata or {}), "fsm_default_params": {
-                    f"{strength} {rule}": name for (strength, rule), name
-                    in DEFAULT_SETS.items()}}
+            elif source.has_fsm:  # the sets this version's state machines run by default
+                defaults = default_params_record()
+                _check_same_defaults(out, defaults, bool(len(store.done)))
+                metadata = {**(metadata or {}), "fsm_default_params": defaults}
             _write_study_json(out, n_runs, metadata)
             stored_any = contains(store.done, keys)
             finished = contains(store.done_ok, keys) if retry_errors else stored_any
@@ -723,6 +724,33 @@ def _check_same_params(out: Path, params: ParamsFile | None, has_runs: bool) -> 
              else "no --params")
     raise StumbleError(f"{out} holds a study made {made}; it cannot be resumed with "
                        f"{asked}: give another --out")
+
+
+def default_params_record() -> dict:
+    """The state-machine parameter sets a trip runs with when none is given, by strength
+    model and recovery rule (``fsm_params.DEFAULT_SETS``): name and SHA-256 of each."""
+    from stumble.control.fsm_params import DEFAULT_SETS, read_params
+
+    return {f"{strength} {rule}": {"name": name, "sha256": read_params(name).sha256}
+            for (strength, rule), name in DEFAULT_SETS.items()}
+
+
+def _check_same_defaults(out: Path, defaults: dict, has_runs: bool) -> None:
+    """StumbleError when ``out`` holds state-machine runs made without ``--params`` by a
+    version whose default sets differ from ``defaults`` (or were not recorded): run keys
+    name scenarios, not parameters, so the runs must not mix."""
+    path = out / "study.json"
+    if not has_runs or not path.exists():
+        return
+    try:
+        before = json.loads(path.read_text()).get("fsm_default_params")
+    except (OSError, ValueError, AttributeError):
+        before = None
+    if before == defaults:
+        return
+    raise StumbleError(f"{out} holds runs made with other default state-machine "
+                       "parameters (an earlier version's); it cannot be resumed: give "
+                       "another --out")
 
 
 def _write_study_json(out: Path, runs: int, metadata: dict | None) -> None:
