@@ -120,3 +120,27 @@ def test_a_trip_stages_objective_plot_shows_its_trips_not_the_time_walked(tmp_pa
     for f in figs:
         close(f)
     assert (tmp_path / "trips.png").stat().st_size > 10_000
+
+
+def test_trip_plot_draws_the_foot_path_of_the_recovery_not_the_walk_on(tmp_path,
+                                                                       monkeypatch):
+    """trajectories.png: the foot path panel spans the first FOOT_PATH_S (1.5 s) after the
+    trip (SCA 2009 Fig. 10's recovery); the angle panels the whole run (6 s walking on
+    would flatten a whole-run path to a line)."""
+    import stumble.viz.trip_plots as tp
+    from stumble.body import build
+
+    model = build().model
+    t = np.arange(0.0, 6.0, 0.004)
+    qpos = np.repeat(model.qpos0[None], len(t), axis=0)
+    seen = []
+
+    def foot_path(m, q, side):
+        seen.append(len(q))
+        return np.zeros((len(q), 3))
+
+    monkeypatch.setattr(tp, "foot_com_path", foot_path)
+    out = tp.plot_trajectories(tmp_path / "t.png", model, t, qpos, "l", "elevating",
+                               [("passive_reaction", 0.0)])
+    assert tp.FOOT_PATH_S == 1.5 and seen == [int(np.sum(t <= 1.5))] and seen[0] < len(t)
+    assert mpimg.imread(out).shape[1] > 1000

@@ -28,16 +28,22 @@ def foot_com_path(model: mujoco.MjModel, qpos: np.ndarray, side: str) -> np.ndar
     return out
 
 
+FOOT_PATH_S = 1.5  # s after the trip: the foot path panel's span (the recovery)
+
+
 def plot_trajectories(path, model: mujoco.MjModel, time_s: np.ndarray, qpos: np.ndarray,
                       tripped: str, strategy: str, states: list[tuple[str, float]],
                       title: str = "") -> Path:
     """Leading foot COM path (x-z), pelvis, leading hip and knee pitch over time.
 
     The leading leg is the recovery leg. Time 0 and the dashed line mark the trip;
-    dotted lines mark the controller's state changes.
+    dotted lines mark the controller's state changes. The foot's path is drawn over the
+    first ``FOOT_PATH_S`` after the trip (the recovery, as SCA 2009 Fig. 10), not the
+    walk on that may follow: metres of it would flatten the step to a line.
     """
     lead = tripped if strategy == "elevating" else {"r": "l", "l": "r"}[tripped]
-    foot = foot_com_path(model, qpos, lead)
+    early = np.asarray(time_s) <= FOOT_PATH_S
+    foot = foot_com_path(model, qpos[early] if early.any() else qpos, lead)
     ang = pitch_angles_deg(model, qpos, tripped, strategy)
     fig = Figure(figsize=(13, 3.6))
     FigureCanvasAgg(fig)
@@ -47,7 +53,8 @@ def plot_trajectories(path, model: mujoco.MjModel, time_s: np.ndarray, qpos: np.
     ax.plot(0.0, foot[0, 2], "o", color="tab:red", label="trip")
     ax.set_xlabel("forward [m] (from the foot at the trip)")
     ax.set_ylabel("height [m]")
-    ax.set_title(f"leading ({'left' if lead == 'l' else 'right'}) foot COM")
+    ax.set_title(f"leading ({'left' if lead == 'l' else 'right'}) foot COM, "
+                 f"first {FOOT_PATH_S:g} s")
     ax.set_aspect("equal", adjustable="datalim")
     ax.legend(loc="best", fontsize=8)
     for ax, key, label in ((axes[1], "pelvis", "pelvis pitch (+ posterior)"),
