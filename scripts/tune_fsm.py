@@ -7,7 +7,7 @@ motion capture, within ranges grounded in the literature (the defaults' comments
 the number recovered (tie-break: the time survived). Seeded and deterministic.
 
 Run:  python scripts/tune_fsm.py [--candidates N] [--workers N] [--seed S]
-      [--grid small|full|lowering|full+bodies] [--only all|lowering] [--around JSON]
+      [--grid small|full|lowering|full+bodies] [--only all|lowering|lowering_fast] [--around JSON]
       [--method random|cma] [--generations G] [--popsize P] [--out FILE]
       [--strength anderson2007|fixed] [--trunk-attitude K] [--max-tilt DEG]
       [--grid-floor N] [--walk-on S] [--walk-on-gait W] [--flight W]
@@ -21,6 +21,8 @@ recovery-foot contact; ``--grid-floor N``: the objective loses 2 per trip of the
 trips the start sends to the elevating strategy do not use them, so they run once, with
 the start's values, and every candidate runs only the lowering trips (the score is the
 same as running all; ``tests/test_fsm.py``): 54 of the 144 ``full+bodies`` trips.
+``--only lowering_fast`` searches those and the lowering Fall's offsets at fast walking
+(``LOWERING_FAST``: ``FSMParams.low_fall_fast_deg``), on the same trips.
 Prints the best parameter set as JSON, to be carried into fsm_params.py by hand.
 
 The ``--out`` file is a state-machine parameter file (``stumble trip --params FILE``,
@@ -44,7 +46,7 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 # name: (path in FSMParams, lo, hi)
-from stumble.control.fsm_params import GAINS, SPACE, TUNABLE, WALK_ON
+from stumble.control.fsm_params import FLIGHT, GAINS, SPACE, TUNABLE, WALK_ON
 
 # the targets that only the lowering strategy uses (--only lowering)
 LOWERING = ("low_sup_ankle", "low_rec_hip", "low_rec_knee", "low_rec_ankle", "swap_trip_hip",
@@ -55,6 +57,9 @@ GRID = [(f, v, mech) for mech in ("force", "obstacle") for f in (0.1, 0.3, 0.45,
 # the issue's grid: swing 0.05-0.75, 1.0-1.4 m/s, both mechanisms (--grid full)
 FULL_GRID = [(f, v, mech) for mech in ("force", "obstacle")
              for f in (0.05, 0.15, 0.25, 0.35, 0.45, 0.55, 0.65, 0.75) for v in (1.0, 1.2, 1.4)]
+# the lowering Fall's offsets at fast walking (--only lowering_fast; FSMParams.
+# low_fall_fast_deg): used by lowering trips alone, as LOWERING
+LOWERING_FAST = tuple(k for k in FLIGHT if k.startswith("low_fall_"))
 # the walk on's own parameters and the reaching leg's (--only walk_on)
 WALK_ON_NAMES = (*WALK_ON, "reach_thigh_deg", "reach_sup_knee")
 # the lowering half of the issue's grid (auto chooses lowering above 0.5 of swing)
@@ -274,8 +279,11 @@ def main() -> None:
     ap.add_argument("--grid", choices=("small", "full", "lowering", "full+bodies"),
                     default="small", help="full+bodies: the full grid and the six bodies' "
                     "96 trips at 1.2 m/s")
-    ap.add_argument("--only", choices=("all", "lowering", "walk_on"), default="all",
-                    help="search only the lowering strategy's targets, or only the walk "
+    ap.add_argument("--only", choices=("all", "lowering", "lowering_fast", "walk_on"),
+                    default="all",
+                    help="search only the lowering strategy's targets, or those and its "
+                         "Fall's offsets at fast walking (lowering_fast: LOWERING_FAST), or "
+                         "only the walk "
                     "on's (WALK_ON and the reaching leg's; others stay as they start)")
     ap.add_argument("--walk-on-gait", type=float, default=None, metavar="W",
                     help="with --walk-on: each recovered trip adds W times its gait bonus, "
@@ -355,6 +363,8 @@ def main() -> None:
     TRUNK_ATTITUDE, MAX_TILT, GRID_FLOOR = trunk_attitude, args.max_tilt, args.grid_floor
     STRENGTH, WALK_ON_S = args.strength, args.walk_on
     space = ({k: TUNABLE[k] for k in WALK_ON_NAMES} if args.only == "walk_on" else
+             {k: TUNABLE[k] for k in (*LOWERING, *LOWERING_FAST)}
+             if args.only == "lowering_fast" else
              {k: v for k, v in SPACE.items() if args.only == "all" or k in LOWERING})
     if args.gains:
         space.update(GAINS)
@@ -364,7 +374,8 @@ def main() -> None:
     default = FSMParams()
     base = default.values()
     base.update(around)
-    if args.only == "lowering":  # the other trips do not use the searched targets: once
+    if args.only in ("lowering", "lowering_fast"):  # the other trips do not use the
+        # searched targets: they run once
         t0 = time.time()
         if args.workers > 1:
             with ProcessPoolExecutor(2, initializer=_worker_init,

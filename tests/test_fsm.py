@@ -648,3 +648,38 @@ def test_a_trip_runs_the_default_set_of_its_strength_and_rule(monkeypatch):
     assert human_strength_params() == default_params("anderson2007", "walk_on") == \
         load_params("anderson2007_walk_on")
     assert default_params() is not default_params()  # each caller gets its own copy
+
+
+def test_lowering_fall_offsets_at_fast_walking_push_into_flight():
+    """``low_fall_fast_deg`` (ours, issue 11; all 0 in the shipped sets): the lowering
+    Fall gets a table of its own, ``fall``'s targets moved by the offsets phased in with
+    the speed as k_c is (none at 1.0 m/s); the elevating Fall keeps ``fall``. A support
+    ankle pushing 35° further turns a lowering obstacle trip at 0.55 of swing, 1.4 m/s,
+    into a flight (it falls: no set that flies and recovers has been found, README
+    "Flight"), and leaves the same trip at 1.0 m/s as it was."""
+    from stumble.control.fsm_params import FLIGHT, LOW_FALL_FAST_TARGETS, default_params
+
+    p = default_params()
+    assert not any(p.low_fall_fast_deg.values())
+    assert {k for k in FLIGHT if k.startswith("low_fall_")} == {
+        f"low_fall_{k}_fast" for k in LOW_FALL_FAST_TARGETS}
+    push = p.with_values({"low_fall_sup_ankle_fast": -35.0, "low_fall_sup_knee_fast": -10.0})
+    assert push.low_fall_fast_deg["sup_ankle"] == -35.0 and not p.low_fall_fast_deg["sup_ankle"]
+    fall = p.targets_deg["fall"]
+    at = push.at_speed(1.2).targets_deg
+    assert at["fall_lowering"]["sup.ankle_angle"] == pytest.approx(fall["sup.ankle_angle"] - 17.5)
+    # the support knee has no Fall target: it starts from the lowering Clearance's
+    assert at["fall_lowering"]["sup.knee_angle"] == pytest.approx(
+        p.targets_deg["clearance_lowering"]["sup.knee_angle"] - 5.0)
+    assert at["fall"] == fall and "fall_lowering" not in push.targets_deg  # copies
+    assert push.at_speed(1.0).targets_deg["fall_lowering"]["sup.ankle_angle"] == (
+        fall["sup.ankle_angle"])
+    sc = Scenario(swing_fraction=0.55, speed_m_per_s=1.4, mechanism="obstacle",
+                  duration_after_trip_s=2.0)
+    flies = simulate_trip(sc, params=push).summary
+    keeps = simulate_trip(sc).summary
+    assert flies["strategy"] == keeps["strategy"] == "lowering"
+    assert flies["variant"] == "flight" and keeps["variant"] == "double_support"
+    slow = sc.with_(speed_m_per_s=1.0)
+    a, b = simulate_trip(slow, params=push).summary, simulate_trip(slow).summary
+    assert a["recovered"] == b["recovered"] and a["recovery_contact_s"] == b["recovery_contact_s"]

@@ -305,7 +305,18 @@ WALK_ON = {
 # speed as k_c is (FSMParams.speed_weight). Set by a scan (scripts/scan_fsm.py).
 FLIGHT = {
     "elev_sup_ankle_fast": (("elev_sup_ankle_fast_deg",), -30.0, 0.0),
+    # the lowering strategy's Fall (its own table, ``fall_lowering``, made from ``fall``
+    # by ``FSMParams.at_speed``): offsets (deg) at the fast end of kc_speeds
+    **{f"low_fall_{key}_fast": (("low_fall_fast_deg", key), lo, hi)
+       for key, (lo, hi) in {"sup_ankle": (-45.0, 0.0), "sup_knee": (-40.0, 0.0),
+                             "rec_knee": (-35.0, 0.0), "rec_ankle": (-20.0, 10.0)}.items()},
 }
+# which target of the lowering Fall each ``low_fall_fast_deg`` offset moves
+# (the recovery hip is not among them: in Fall it follows the foot placement,
+# ``land_thigh_deg``); a target ``fall`` leaves as it was starts from the lowering
+# Clearance's (the state before Fall)
+LOW_FALL_FAST_TARGETS = {"sup_ankle": "sup.ankle_angle", "sup_knee": "sup.knee_angle",
+                         "rec_knee": "rec.knee_angle", "rec_ankle": "rec.ankle_angle"}
 TUNABLE = {**SPACE, **GAINS, **WALK_ON, **FLIGHT}  # every name a parameter file may set
 
 # How the values marked "tuned" were found: CMA-ES (the cmaes package, seeded) over the
@@ -436,6 +447,16 @@ class FSMParams:
     # so the push is raised through the target instead, where double support at 1.0 m/s
     # is untouched (weight 0).
     elev_sup_ankle_fast_deg: float = 0.0
+    # Flight in the lowering strategy at fast walking (``FLIGHT``; ours, all 0 off): the
+    # lowering Fall's targets (``LOW_FALL_FAST_TARGETS``: the lowered, now support, leg's
+    # ankle and knee, the recovery leg's knee and ankle) move by these offsets (deg)
+    # at the fast end of kc_speeds, phased in with the walking speed as k_c is, in a
+    # table of the lowering's own (``fall_lowering``, from ``fall``). The support ankle
+    # pushes the body off the floor, and the recovery leg lands on a flexed knee, as in
+    # a running step (SCA 2009 §3.3: "a flight phase or double support phase might
+    # occur"; seed 000 Table 1: 3 of 7 lowering trips fly at 1.44 m/s).
+    low_fall_fast_deg: dict[str, float] = field(
+        default_factory=lambda: dict.fromkeys(LOW_FALL_FAST_TARGETS, 0.0))
     balance_cd_lat_rad_per_m: float = 0.5
     balance_cv_lat_rad_s_per_m: float = 0.3
     # The recovery leg extends for touch-down (rectus femoris; Fall) only once its toe is
@@ -455,7 +476,7 @@ class FSMParams:
         out = {}
         for name, (path, _lo, _hi) in TUNABLE.items():
             out[name] = (self.targets_deg[path[1]][path[2]] if path[0] == "targets_deg"
-                         else self.kp_passive[path[1]] if path[0] == "kp_passive"
+                         else getattr(self, path[0])[path[1]] if len(path) == 2
                          else getattr(self, path[0]))
         return out
 
@@ -467,8 +488,8 @@ class FSMParams:
             path = TUNABLE[name][0]
             if path[0] == "targets_deg":
                 p.targets_deg[path[1]][path[2]] = value
-            elif path[0] == "kp_passive":
-                p.kp_passive[path[1]] = value
+            elif len(path) == 2:  # kp_passive, low_fall_fast_deg
+                getattr(p, path[0])[path[1]] = value
             else:
                 setattr(p, path[0], value)
         return p
@@ -499,13 +520,25 @@ class FSMParams:
 
     def at_speed(self, speed_m_per_s: float) -> FSMParams:
         """These parameters for a trip at ``speed_m_per_s``: the elevating support
-        ankle's Clearance target with ``elev_sup_ankle_fast_deg`` phased in (itself when
-        that is 0)."""
-        if not self.elev_sup_ankle_fast_deg:
+        ankle's Clearance target with ``elev_sup_ankle_fast_deg`` phased in, and the
+        lowering Fall's own table with ``low_fall_fast_deg`` (itself when all are 0)."""
+        low = {k: v for k, v in self.low_fall_fast_deg.items() if v}
+        if not self.elev_sup_ankle_fast_deg and not low:
             return self
+        w = self.speed_weight(speed_m_per_s)
         p = copy.deepcopy(self)
         p.targets_deg["clearance_elevating"]["sup.ankle_angle"] += (
-            self.speed_weight(speed_m_per_s) * self.elev_sup_ankle_fast_deg)
+            w * self.elev_sup_ankle_fast_deg)
+        if low:
+            fall = p.targets_deg.setdefault("fall_lowering", dict(p.targets_deg["fall"]))
+            for key, offset in low.items():
+                target = LOW_FALL_FAST_TARGETS[key]
+                start = fall.get(target,
+                                 p.targets_deg["clearance_lowering"].get(target, "hold"))
+                if not isinstance(start, float | int):
+                    raise ValueError(f"fall target {target} is {start!r}, not an angle: "
+                                     f"low_fall_{key}_fast cannot move it")
+                fall[target] = start + w * offset
         return p
 
     def strategy_for(self, swing_fraction: float) -> str:
