@@ -82,6 +82,24 @@ def test_the_stance_weight_scales_the_stance_term_and_is_recorded_in_the_command
         fit_gh2010(stance_weight=-1.0)
 
 
+def test_the_track_weight_scales_the_tracking_term_and_is_recorded_in_the_command():
+    """``--track-weight W``: the tracking term times W (1 in every shipped fit)."""
+    from stumble.control.reflex.fit_walk import _fit_command, fit_gh2010
+
+    off = _summary(rmse=(9.0, 18.0, 11.0))
+    _, one = walk_cost(off, effort=0.0)
+    _, three = walk_cost(off, effort=0.0, track_weight=3.0)
+    rms = np.sqrt((81 + 324 + 121) / 3) / 10.0
+    assert one["track"] == pytest.approx(rms + (1 + 10 + 3) / 2.0)  # 8 deg hinge
+    assert three["track"] == pytest.approx(3.0 * one["track"])
+    walk = ((110, 15.0, ()),)
+    assert "--track-weight" not in _fit_command("gh2010", False, walk, None, 1)
+    assert "--track-weight 3 " in _fit_command("gh2010", False, walk, None, 1,
+                                                track_weight=3.0)
+    with pytest.raises(ValueError, match="track_weight"):
+        fit_gh2010(track_weight=float("nan"))
+
+
 def test_the_stride_time_term_charges_strides_outside_the_band():
     from stumble.control.reflex.fit_walk import _fit_command
 
@@ -380,7 +398,8 @@ def test_shipped_gh2010_fits_score_today_what_they_scored_in_their_fit(name):
                    bool(fit.get("stride_time", False)),
                    float(fit.get("stance_weight", 1.0)),
                    recovery_cost=float(fit.get("recovery_cost", 0.0)),
-                   placement=fit.get("placement", False))
+                   placement=fit.get("placement", False), pushes=bool(fit.get("pushes")),
+                   track_weight=float(fit.get("track_weight", 1.0)))
     cost, _terms = evaluate_walk(np.array([getattr(p, n) for n in space.names]))
     assert cost == pytest.approx(fit["cost"], rel=1e-6)
 
@@ -424,3 +443,50 @@ def test_swing_leg_placement_is_off_by_default_and_fitted_only_when_asked():
     on = simulate_walk("gh2010", 2.0, 1.2, params=dataclasses.replace(p, k_place=0.5)).summary
     assert off["walked_s"] == on["walked_s"] == 2.0
     assert on["distance_m"] != off["distance_m"]
+
+
+def test_pelvis_pushes_slow_the_walk_and_cost_the_candidates_that_fall_after_them():
+    """``--pushes`` (ours): a walk with backward pushes on the pelvis (``PUSHES``: 200 N for
+    0.2 s at 3 and 6.5 s) is a second walk of each candidate, its part not walked costing
+    as a fall. The shipped trip fit walks 10 s unpushed and after two 100 N pushes, and
+    falls within 3 s of a 300 N one; the push slows its centre of mass."""
+    from stumble.control.reflex.fit_walk import (
+        PUSH_WALK_S,
+        PUSHES,
+        _fit_command,
+        fit_gh2010,
+        push_term,
+    )
+    from stumble.control.reflex.gh2010 import shipped_params
+    from stumble.errors import InputError
+    from stumble.pipeline import PelvisPushes, simulate_walk
+
+    f = PelvisPushes(((1.0, 0.2, -100.0), (1.1, 0.5, 30.0)))
+    assert f(0.99)[0] == 0.0 and f(1.05)[0] == -100.0 and f(1.15)[0] == -70.0
+    assert f(1.5)[0] == 30.0 and f(1.6)[0] == 0.0 and f.t_trip_s == pytest.approx(1.6)
+    with pytest.raises(InputError, match="duration"):
+        PelvisPushes(((1.0, 0.0, -100.0),))
+    assert all(start + dur < PUSH_WALK_S and force < 0 for start, dur, force in PUSHES)
+    p = shipped_params()
+    mild = simulate_walk("gh2010", 10.0, 1.2, params=p,
+                         pushes=((3.0, 0.2, -100.0), (6.0, 0.2, -100.0))).summary
+    hard = simulate_walk("gh2010", 10.0, 1.2, params=p, pushes=((3.0, 0.2, -300.0),))
+    assert mild["walked_s"] == 10.0 and not mild["fell"]
+    assert hard.summary["fell"] and 3.0 < hard.summary["walked_s"] < 6.0
+    rec = hard.recording
+    before = rec.com_vel[(rec.time_s > 2.8) & (rec.time_s < 3.0), 0].mean()
+    after = rec.com_vel[(rec.time_s > 3.2) & (rec.time_s < 3.4), 0].mean()
+    assert after < before - 0.4  # 60 N·s on 70 kg: -0.86 m/s, less what the feet give back
+    assert np.abs(rec.trip_force[rec.time_s < 2.9]).max() == 0.0
+    assert push_term(None) == W_FALL and push_term(mild) == 0.0
+    assert push_term(hard.summary) == pytest.approx(
+        W_FALL * (1.0 - min(hard.summary["walked_s"] / PUSH_WALK_S,
+                            hard.summary["distance_m"] / PUSH_WALK_S)))
+    with pytest.raises(ValueError, match="touch_only"):
+        fit_gh2010(trips=True, touch_only=True, pushes=True)
+    assert "--pushes" in _fit_command("gh2010", False, ((1, 10.0, ()),), None, 0, pushes=True)
+    init_walk_eval("gh2010", 10.0, 1.2, {"wiring": "gh2010"}, pushes=True)
+    space = gh2010_space()
+    x = np.array([getattr(p, n) for n in space.names])
+    _cost, terms = evaluate_walk(x)
+    assert terms["fall"] == 0.0 and terms["push"] >= 0.0

@@ -513,6 +513,8 @@ def test_real_trips_with_params_differ_and_match_on_one_or_two_workers(tmp_path,
 def test_params_go_to_every_run_and_are_recorded(tmp_path, monkeypatch, capsys):
     import hashlib
 
+    from stumble.control.fsm_params import TUNABLE
+
     got = []
 
     def simulate_trip(sc, **kw):
@@ -529,7 +531,7 @@ def test_params_go_to_every_run_and_are_recorded(tmp_path, monkeypatch, capsys):
     assert rec["path"] == str(p) and rec["file"] == str(p.resolve())
     assert rec["sha256"] == hashlib.sha256(p.read_bytes()).hexdigest()
     # the values of SPACE, GAINS and WALK_ON
-    assert rec["values"]["elev_sup_ankle"] == -60.0 and len(rec["values"]) == 45
+    assert rec["values"]["elev_sup_ankle"] == -60.0 and len(rec["values"]) == len(TUNABLE) == 49
     assert rec["settings"] == {"trunk_attitude": 1.0, "attitude_damping": "joint"}
     table = pq.read_table(tmp_path / "a" / "results.parquet").to_pydict()
     assert table["params_sha256"] == [rec["sha256"]] * 2  # every row names its parameters

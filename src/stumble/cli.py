@@ -265,6 +265,14 @@ def _parser() -> argparse.ArgumentParser:
                    help="gh2010: fit the swing-leg placement too (our addition after Song & "
                    "Geyer 2015: the swing hip driven toward a leg angle set by the centre "
                    "of mass's place and speed; a walking law, not with --touch-only)")
+    f.add_argument("--track-weight", type=float, default=None, metavar="W",
+                   help="gh2010: the objective's tracking term's weight (default 1, every "
+                   "shipped fit's)")
+    f.add_argument("--pushes", action="store_true",
+                   help="gh2010: every candidate also walks 10 s with two backward pushes "
+                   "on the pelvis (200 N for 0.2 s at 3 and 6.5 s), the part not walked "
+                   "costing as a fall: a gait that gets its speed back (ours; not with "
+                   "--touch-only)")
     f.add_argument("--recovery-cost", type=float, default=None, metavar="W",
                    help="gh2010 --trips: each of the stage's trips not recovered costs W "
                    "more, on top of its time term (default 0: the time walked on alone, "
@@ -639,6 +647,7 @@ def cmd_reflex_fit_gh2010(args) -> int:
         TRIP_SETS,
         TRIP_STAGES,
         W_STANCE,
+        W_TRACK,
         fit_gh2010,
     )
     from stumble.outputs import prepare_dir, write_gh2010_fit
@@ -682,6 +691,9 @@ def cmd_reflex_fit_gh2010(args) -> int:
     strategy_cost = args.strategy_cost or 0.0
     if not (math.isfinite(args.foot_angle) and args.foot_angle >= 0):
         raise InputError(f"--foot-angle must be a number >= 0, got {args.foot_angle}")
+    track_weight = W_TRACK if args.track_weight is None else args.track_weight
+    if not (math.isfinite(track_weight) and track_weight >= 0):
+        raise InputError(f"--track-weight must be a number >= 0, got {args.track_weight}")
     stance_weight = W_STANCE if args.stance_weight is None else args.stance_weight
     if not (math.isfinite(stance_weight) and stance_weight >= 0):
         raise InputError(f"--stance-weight must be a number >= 0, got {args.stance_weight}")
@@ -689,6 +701,9 @@ def cmd_reflex_fit_gh2010(args) -> int:
         raise InputError(f"--strategy-cost must be a number >= 0, got {args.strategy_cost}")
     if args.placement and args.touch_only:
         raise InputError("--placement is a walking law: it refits the walk, so not with "
+                         "--touch-only")
+    if args.pushes and args.touch_only:
+        raise InputError("--pushes tests the walk: it refits the walk, so not with "
                          "--touch-only")
     recovery_cost = args.recovery_cost or 0.0
     if not (math.isfinite(recovery_cost) and recovery_cost >= 0):
@@ -707,7 +722,8 @@ def cmd_reflex_fit_gh2010(args) -> int:
                      crossing=args.crossing, foot_angle=args.foot_angle,
                      load_from=args.load_from, stride_time=args.stride_time,
                      stance_weight=stance_weight, touch_only=args.touch_only,
-                     recovery_cost=recovery_cost, placement=args.placement)
+                     recovery_cost=recovery_cost, placement=args.placement,
+                     pushes=args.pushes, track_weight=track_weight)
     bar.done()
     written, walk = write_gh2010_fit(out, res)
     s = walk.summary
@@ -725,13 +741,15 @@ def cmd_reflex(args) -> int:
         return cmd_reflex_fit_gh2010(args)
     if (args.trips or args.params is not None or args.trip_set or args.scr_phase
             or args.ta_bound != "wide" or args.strategy_cost is not None or args.crossing
-            or args.recovery_cost is not None or args.placement
+            or args.recovery_cost is not None or args.placement or args.pushes
             or args.foot_angle or args.load_from is not None or args.stride_time
-            or args.stance_weight is not None or args.touch_only):
+            or args.stance_weight is not None or args.touch_only
+            or args.track_weight is not None):
         raise InputError("--trips, --params, --trip-set, --scr-phase, --strategy-cost, "
                          "--recovery-cost, --crossing, --touch-only, --load-from, "
-                         "--foot-angle, --stride-time, --stance-weight, --placement and "
-                         "--ta-bound are for --controller gh2010")
+                         "--foot-angle, --stride-time, --stance-weight, --track-weight, "
+                         "--placement, "
+                         "--pushes and --ta-bound are for --controller gh2010")
     from stumble.control.reflex.identify import ITERATIONS, REFINE_ITERATIONS, fit
     from stumble.outputs import prepare_dir, write_fit
 

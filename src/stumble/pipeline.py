@@ -500,13 +500,32 @@ def reference_stride(pb: Playback) -> dict[str, np.ndarray]:
     return {n: c.mean(axis=0) for n, c in curves.items()}
 
 
+class PelvisPushes:
+    """Horizontal forces on the pelvis (N, + forward) over windows of the walk: ``pushes``
+    of (start s, duration s, force N), from the controller's start; the sum of those on
+    at ``t`` (a ``sim.run`` trip force, applied at the pelvis's centre of mass)."""
+
+    def __init__(self, pushes) -> None:
+        self.pushes = tuple((float(a), float(b), float(f)) for a, b, f in pushes)
+        for a, b, f in self.pushes:
+            if not (np.isfinite(a) and np.isfinite(b) and np.isfinite(f) and a >= 0 and b > 0):
+                raise InputError(f"a push ({a}, {b}, {f}) needs a start >= 0 s, a duration "
+                                 "> 0 s and a finite force (N)")
+        self.t_trip_s = max((a + b for a, b, _f in self.pushes), default=0.0)
+
+    def __call__(self, t: float) -> np.ndarray:
+        return np.array([sum(f for a, b, f in self.pushes if a <= t < a + b), 0.0, 0.0])
+
+
 def simulate_walk(controller: str = "gh2010", duration_s: float = 20.0,
                   speed_m_per_s: float | None = None, params=None, network=None,
                   delay_scale: float = 1.0, trunk_balance: bool = True,
-                  timestep_s: float = 0.001) -> WalkResult:
+                  timestep_s: float = 0.001, pushes=()) -> WalkResult:
     """Walk under a reflex controller (``gh2010`` or ``network``) from the played-back
     walk at right heel strike, for ``duration_s`` or until a fall; the summary gives time
-    walked, strides, speed, stance fraction and joint RMSE against the recorded stride."""
+    walked, strides, speed, stance fraction and joint RMSE against the recorded stride.
+    ``pushes``: (start s, duration s, force N) on the pelvis, + forward (``PelvisPushes``;
+    none by default)."""
     from stumble.analysis import WalkStop, walk_metrics
     from stumble.gait.reference import check_speed
 
@@ -525,7 +544,12 @@ def simulate_walk(controller: str = "gh2010", duration_s: float = 20.0,
     if controller == "network":
         network_steps_per_tick(ctrl.net, m)
     stop = WalkStop(FALL_PELVIS_FRACTION * _standing_pelvis(body))
-    rec = run(Context(m, d, body, Sensors(), t0=0.0), ctrl, duration_s, stop=stop)
+    force = {}
+    if pushes:
+        pelvis = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "pelvis")
+        force = {"trip_force": PelvisPushes(pushes), "force_body": pelvis,
+                 "force_point": lambda dd: dd.xipos[pelvis]}
+    rec = run(Context(m, d, body, Sensors(), t0=0.0), ctrl, duration_s, stop=stop, **force)
     ref = reference_stride(pb)
     summary = {"controller": controller, **walk_metrics(rec, m, ref, duration_s),
                "start_speed_m_per_s": speed, "delay_scale": delay_scale,

@@ -57,6 +57,14 @@ W_FOOT = 1.0  # the foot-angle term's weight by default (``--foot-angle``; a joi
 # played-back walk's strides at 1.0-1.3 m/s last 1.30-1.07 s (subject01, scaled with
 # speed); trip stages without it grew the strides to 1.5-1.6 s (README)
 W_STRIDE = 1.0
+# ``--pushes`` (ours; off in every shipped fit): each candidate also walks PUSH_WALK_S from
+# the same start with two backward pushes on the pelvis, PUSHES ((start s, duration s,
+# force N), + forward: 40 N·s each, about −0.57 m/s for 70 kg, a trip's speed loss in
+# part: a trip slows our walker from 1.05 to 0.1 m/s within 0.45 s), and that walk's
+# part not walked costs as a fall does (``W_FALL``): a gait that gets its speed back,
+# after Song & Geyer 2015, whose walker was optimised on rough ground
+PUSH_WALK_S = 10.0
+PUSHES = ((3.0, 0.2, -200.0), (6.5, 0.2, -200.0))
 STRIDE_BAND = (1.0, 1.3)  # s
 SPEED_BAND = (1.0, 1.3)  # m/s
 STANCE_BAND = (0.57, 0.68)
@@ -69,13 +77,15 @@ def _outside(v: float, band: tuple[float, float]) -> float:
 
 def walk_cost(summary: dict, effort: float, foot_angle: float = 0.0,
               stride_time: bool = False,
-              stance_weight: float = W_STANCE) -> tuple[float, dict]:
+              stance_weight: float = W_STANCE,
+              track_weight: float = W_TRACK) -> tuple[float, dict]:
     """The objective J of a walk's summary (``walk_metrics``) and its mean
     F_max-weighted squared activation; returns J and its terms; ``foot_angle``: the
     foot-angle term's weight (0: none; ``W_FOOT``, 1, a joint's; on the summary's
     ``foot_angle_rmse_deg``); ``stride_time``: with the stride-time term (``W_STRIDE``,
     ``STRIDE_BAND``; the summary's ``stride_s``); ``stance_weight``: the stance term's
-    weight (``W_STANCE``, 1, in every shipped fit)."""
+    weight (``W_STANCE``, 1, in every shipped fit); ``track_weight``: the tracking term's
+    (``W_TRACK``, 1, in every shipped fit)."""
     T = summary["duration_s"]
     walked = min(summary["walked_s"] / T,
                  max(summary.get("distance_m", T * SPEED_BAND[0]), 0.0) / (SPEED_BAND[0] * T))
@@ -85,7 +95,7 @@ def walk_cost(summary: dict, effort: float, foot_angle: float = 0.0,
     speed = _outside(summary["speed_m_per_s"], SPEED_BAND) / 0.1
     sf = summary["stance_fraction"]
     stance = 2.0 if sf is None else _outside(sf, STANCE_BAND) / 0.05
-    terms = {"fall": W_FALL * (1.0 - walked), "track": W_TRACK * track,
+    terms = {"fall": W_FALL * (1.0 - walked), "track": float(track_weight) * track,
              "effort": W_EFFORT * effort, "speed": W_SPEED * speed ** 2,
              "stance": float(stance_weight) * stance ** 2}
     if foot_angle:
@@ -99,6 +109,17 @@ def walk_cost(summary: dict, effort: float, foot_angle: float = 0.0,
     if summary.get("diverged"):
         terms["fall"] = W_FALL
     return float(sum(terms.values())), terms
+
+
+def push_term(summary: dict | None) -> float:
+    """``W_FALL`` times the part of the pushed walk (``PUSHES``) not walked, by time or by
+    way (as ``walk_cost``'s fall term); the whole of it without a summary (a walker that
+    fell unpushed)."""
+    if summary is None:
+        return W_FALL
+    done = min(summary["walked_s"] / PUSH_WALK_S,
+               summary["distance_m"] / (1.0 * PUSH_WALK_S))
+    return W_FALL * (1.0 - min(1.0, max(0.0, done)))
 
 
 def effort_of(result) -> float:
@@ -318,7 +339,8 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                    strategy_cost: float = 0.0, crossing: bool = False,
                    foot_angle: float = 0.0, stride_time: bool = False,
                    stance_weight: float = W_STANCE, touch_only: bool = False,
-                   recovery_cost: float = 0.0, placement: bool = False) -> None:
+                   recovery_cost: float = 0.0, placement: bool = False,
+                   pushes: bool = False, track_weight: float = W_TRACK) -> None:
     """Worker set-up: what ``evaluate_walk`` simulates: a walk, and the obstacle trips
     ``trips`` ((swing fraction, speed) pairs) the walker must walk on from; GH2010
     candidates in ``gh2010_space(stumble_reflex=...)``; ``strategy_cost``: what a trip in
@@ -328,7 +350,9 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
     stance term's weight (``walk_cost``); ``touch_only``: candidates of the touch's
     reflexes alone (``gh2010_space(touch_only=True)``); ``recovery_cost``: what a trip not
     recovered costs on top of its time term (``trip_terms``); ``placement``: candidates
-    with the swing-leg placement (``gh2010_space(placement=True)``)."""
+    with the swing-leg placement (``gh2010_space(placement=True)``); ``pushes``: each
+    candidate also walks ``PUSH_WALK_S`` with the pelvis pushes ``PUSHES`` (``push_term``);
+    ``track_weight``: the tracking term's weight (``walk_cost``)."""
     from stumble.pipeline import WalkInCache
 
     _EVAL.pop("walk", None)
@@ -339,7 +363,7 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                  strategy_cost=float(strategy_cost), crossing=crossing,
                  foot_angle=foot_angle, stride_time=stride_time,
                  stance_weight=float(stance_weight), recovery_cost=float(recovery_cost),
-                 placement=placement)
+                 placement=placement, pushes=pushes, track_weight=float(track_weight))
 
 
 def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
@@ -372,9 +396,18 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
         raise ValueError(kind)
     cost, terms = walk_cost(r.summary, effort_of(r), _EVAL.get("foot_angle", 0.0),
                             _EVAL.get("stride_time", False),
-                            _EVAL.get("stance_weight", W_STANCE))
+                            _EVAL.get("stance_weight", W_STANCE),
+                            _EVAL.get("track_weight", W_TRACK))
     terms["walked_s"] = r.summary["walked_s"]
     terms["speed_m_per_s"] = r.summary["speed_m_per_s"]
+    if _EVAL.get("pushes"):  # a walker that falls unpushed falls pushed: not run again
+        pushed = (None if terms["fall"] else
+                  simulate_walk(kind, PUSH_WALK_S, _EVAL["speed"],
+                                params=params if kind == "gh2010" else None,
+                                network=net if kind == "network" else None,
+                                pushes=PUSHES).summary)
+        terms["push"] = push_term(pushed)
+        cost += terms["push"]
     trips = _EVAL.get("trips") or ()
     w_strategy = _EVAL.get("strategy_cost", 0.0)
     if trips and terms["fall"] == 0.0:  # trips only once it walks: they cost 3 s each
@@ -525,7 +558,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                crossing: bool = False, foot_angle: float = 0.0,
                load_from: str | None = None, stride_time: bool = False,
                stance_weight: float = W_STANCE, touch_only: bool = False,
-               recovery_cost: float = 0.0, placement: bool = False) -> FitResult:
+               recovery_cost: float = 0.0, placement: bool = False,
+               pushes: bool = False, track_weight: float = W_TRACK) -> FitResult:
     """Optimise the GH2010 gains in closed loop: per stage (generations, walk s, obstacle
     trips), CMA-ES on ``walk_cost`` plus, for each trip, ``W_TRIP`` times the part of the
     3 s after it not walked on. ``wiring`` ``gh2010`` starts from the paper's values
@@ -556,7 +590,10 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     on top of its time term (``trip_terms``; 0, the default, leaves the objective as it
     was); ``placement``: the swing-leg placement (``gh2010.PLACE_FIELDS``) joins the fit, in
     every stage, its gain restarting at ``PLACE_START`` where ``start`` has it off (not
-    with ``touch_only``: it is a walking law). Writes
+    with ``touch_only``: it is a walking law); ``pushes``: every candidate also walks with
+    the pelvis pushes ``PUSHES`` (``push_term``), in every stage; ``track_weight``: the
+    tracking term's weight (``W_TRACK``; a trip stage weighs each lost trip as 20 to 40
+    degrees of joint RMSE beyond 8°, and trades the gait for trips). Writes
     ``gh2010.json`` to ``out`` (the best parameters and the fit's figures) when given."""
     if strategy_cost < 0 or not math.isfinite(strategy_cost):
         raise ValueError(f"strategy_cost must be a finite number >= 0, got {strategy_cost}")
@@ -570,12 +607,16 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
         raise ValueError("crossing is for the trip stage (trips=True)")
     if not (math.isfinite(stance_weight) and stance_weight >= 0):
         raise ValueError(f"stance_weight must be a finite number >= 0, got {stance_weight}")
+    if not (math.isfinite(track_weight) and track_weight >= 0):
+        raise ValueError(f"track_weight must be a finite number >= 0, got {track_weight}")
     if load_from is not None and not trips:
         raise ValueError("load_from is for the trip stage (trips=True)")
     if touch_only and not trips:
         raise ValueError("touch_only is for the trip stage (trips=True)")
     if placement and touch_only:
         raise ValueError("placement is a walking law: not with touch_only")
+    if pushes and touch_only:
+        raise ValueError("pushes test the walk: not with touch_only")
     from dataclasses import replace
 
     from stumble.control.reflex.gh2010 import (
@@ -621,7 +662,7 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                                 fixed if with_trips else {"wiring": wiring}, trips,
                                 with_trips, strategy_cost, crossing, foot_angle,
                                 stride_time, stance_weight, touch_only, recovery_cost,
-                                placement),
+                                placement, pushes, track_weight),
                       first_generation=total, stage="walk" if not trips else "walk+trips",
                       fixed=fixed)
         params = replace(params, **dict(zip(space.names, map(float, res.best_theta),
@@ -656,14 +697,16 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                     "load_from": params.load_from,
                     "stride_time": stride_time,
                     "stance_weight": stance_weight,
+                    "track_weight": track_weight,
                     "touch_only": touch_only,
                     "recovery_cost": recovery_cost,
                     "placement": placement,
+                    "pushes": [list(q) for q in PUSHES] if pushes else [],
                     "command": _fit_command(wiring, with_trips, stages, scr_phase, seed,
                                             ta_bound, strategy_cost, crossing,
                                             foot_angle, load_from, stride_time,
                                             stance_weight, touch_only, recovery_cost,
-                                            placement)}})
+                                            placement, pushes, track_weight)}})
     return res
 
 
@@ -672,7 +715,8 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
                  crossing: bool = False, foot_angle: float = 0.0,
                  load_from: str | None = None, stride_time: bool = False,
                  stance_weight: float = W_STANCE, touch_only: bool = False,
-                 recovery_cost: float = 0.0, placement: bool = False) -> str:
+                 recovery_cost: float = 0.0, placement: bool = False,
+                 pushes: bool = False, track_weight: float = W_TRACK) -> str:
     """The ``stumble reflex fit`` command of a GH2010 fit (``--params`` aside)."""
     opts = ["--trips"] if trips else []
     if ta_bound != "wide":
@@ -681,10 +725,14 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
         opts.append("--stride-time")
     if stance_weight != W_STANCE:
         opts.append(f"--stance-weight {stance_weight:g}")
+    if track_weight != W_TRACK:
+        opts.append(f"--track-weight {track_weight:g}")
     if foot_angle:
         opts.append("--foot-angle" if foot_angle == W_FOOT else f"--foot-angle {foot_angle:g}")
     if placement:
         opts.append("--placement")
+    if pushes:
+        opts.append("--pushes")
     if trips:
         named = [k for k, v in TRIP_SETS.items() if all(t == v for _g, _w, t in stages)]
         if named and named[0] != "four":
