@@ -369,7 +369,8 @@ def fit_walk_gh2010(**kw):
     return fit_gh2010(**kw)
 
 
-@pytest.mark.parametrize("name", ["gh2010.json", "gh2010_seed003.json"])
+@pytest.mark.parametrize("name", ["gh2010.json", "gh2010_seed003.json",
+                                  "gh2010_pushed_walk.json", "gh2010_pushed.json"])
 def test_shipped_gh2010_fits_score_today_what_they_scored_in_their_fit(name):
     """Reproducibility guard: a shipped fit's own parameters, evaluated by today's
     objective on its last stage's walk and trips, give the cost its fit recorded (on this
@@ -490,3 +491,37 @@ def test_pelvis_pushes_slow_the_walk_and_cost_the_candidates_that_fall_after_the
     x = np.array([getattr(p, n) for n in space.names])
     _cost, terms = evaluate_walk(x)
     assert terms["fall"] == 0.0 and terms["push"] >= 0.0
+
+
+def test_the_pushed_sets_load_by_name_withstand_pushes_and_recover_mid_swing_trips():
+    """The shipped pushed walking fit (``--params pushed-walk``: ``reflex fit --placement
+    --pushes --seed 5``) walks 10 s through two 200 N pushes on the pelvis, as it was
+    fitted to, where the shipped trip fit falls; the touch stages on it (``--params
+    pushed``) recover an obstacle trip at 0.40 of swing (1.2 m/s, its own gait) that the
+    shipped trip fit does not."""
+    import json
+
+    from stumble.control.reflex.fit_walk import PUSHES
+    from stumble.control.reflex.gh2010 import NAMED, load_params, named_file, shipped_params
+    from stumble.pipeline import simulate_trip, simulate_walk
+    from stumble.trip import Scenario
+
+    for name in NAMED:
+        assert load_params(name) == (shipped_params(walking_only=True) if name == "walk" else
+                                     load_params(str(named_file(name))))
+    assert named_file("nope") is None
+    walk, pushed = load_params("pushed-walk"), load_params("pushed")
+    fit = json.loads(named_file("pushed").read_text())["fit"]
+    assert fit["touch_only"] and fit["from"]["its_fit"]["from"]["its_fit"]["pushes"]
+    for n in ("g_sol", "g_vas", "k_place"):  # a touch stage keeps the walk's gains
+        assert getattr(pushed, n) == getattr(walk, n)
+    assert simulate_walk("gh2010", 10.0, 1.2, params=walk, pushes=PUSHES).summary[
+        "walked_s"] == 10.0
+    assert simulate_walk("gh2010", 10.0, 1.2, params=shipped_params(),
+                         pushes=PUSHES).summary["fell"]
+    sc = Scenario(controller="gh2010", mechanism="obstacle", swing_fraction=0.4,
+                  speed_m_per_s=1.2, start="own")
+    a = simulate_trip(sc, gh2010=pushed).summary
+    b = simulate_trip(sc).summary
+    assert a["strategy"] == b["strategy"] == "elevating"
+    assert a["recovered"] and not b["recovered"]

@@ -127,12 +127,13 @@ def _parser() -> argparse.ArgumentParser:
                    "musculoskeletal human; gh2010: Geyer & Herr 2010's reflexes on that "
                    "body (the reflex controllers' strategy emerges)")
     t.add_argument("--params", type=Path, metavar="FILE",
-                   help="gh2010 controller: a gh2010.json, or walk: the shipped walking fit "
-                   "(default: the shipped trip fit); fsm: a JSON of tuned targets and gains "
-                   "(scripts/tune_fsm.py --out) or a shipped set by name: upright (the "
-                   "default), step (tuned for --recovery step), anderson2007_walk_on "
-                   "and anderson2007 (the defaults with --strength anderson2007, walking "
-                   "on and with --recovery step)")
+                   help="gh2010 controller: a gh2010.json, or a shipped set by name: walk "
+                   "(the walking fit), pushed (the touch stage on the pushed walking fit) "
+                   "or pushed-walk (default: the shipped trip fit); fsm: a JSON of tuned "
+                   "targets and gains (scripts/tune_fsm.py --out) or a shipped set by "
+                   "name: upright (the default), step (tuned for --recovery step), "
+                   "anderson2007_walk_on and anderson2007 (the defaults with --strength "
+                   "anderson2007, walking on and with --recovery step)")
     t.add_argument("--network", type=Path, metavar="FILE",
                    help="reflex controller: a network.npz from `stumble reflex fit`, or "
                    "closed-loop: the shipped closed-loop refinement (default: the shipped "
@@ -247,7 +248,8 @@ def _parser() -> argparse.ArgumentParser:
                    "FILE), its gains and the stumbling corrective reflex's on a 10 s walk "
                    "and four obstacle trips in its own gait (60 generations)")
     f.add_argument("--params", type=Path, default=None, metavar="FILE",
-                   help="gh2010 --trips: the gh2010.json to start from")
+                   help="gh2010 --trips: the gh2010.json to start from, or a shipped set "
+                   "by name (walk, pushed-walk, pushed)")
     f.add_argument("--trip-set", choices=("four", "wide", "dense"), default=None,
                    help="gh2010 --trips: the stage's obstacle trips: four (the default), "
                    "twelve across swing 0.1-0.75 and the three start speeds (wide), or "
@@ -329,8 +331,9 @@ def _parser() -> argparse.ArgumentParser:
                     "closed-loop refinement (default: the shipped open-loop network)")
     rw.add_argument("--params", type=Path, metavar="FILE",
                     help="gh2010 controller: a gh2010.json from `stumble reflex fit "
-                    "--controller gh2010`, or walk: the shipped walking fit (default: the "
-                    "shipped trip fit)")
+                    "--controller gh2010`, or a shipped set by name: walk (the walking "
+                    "fit), pushed (the touch stage on the pushed walking fit) or "
+                    "pushed-walk (default: the shipped trip fit)")
     rw.add_argument("--duration", type=_positive("duration"), default=20.0, metavar="S",
                     help="seconds to walk at most (default 20)")
     rw.add_argument("--speed", type=float, default=None, metavar="V",
@@ -667,17 +670,10 @@ def cmd_reflex_fit_gh2010(args) -> int:
     if args.params is not None:
         import json
 
-        from stumble.control.reflex.gh2010 import load_params
+        from stumble.control.reflex.gh2010 import load_params, named_file
 
         start = load_params(args.params)
-        if str(args.params) == "walk":
-            from importlib import resources
-
-            from stumble.control.reflex.gh2010 import SHIPPED_WALKING
-
-            src = resources.files("stumble.control.reflex") / "data" / SHIPPED_WALKING["gh2010"]
-        else:
-            src = args.params
+        src = named_file(args.params) or args.params
         start_fit = json.loads(src.read_text()).get("fit")
     stages = (TRIP_STAGES if args.trips else GH2010_STAGES if args.wiring == "gh2010"
               else SEED003_STAGES)

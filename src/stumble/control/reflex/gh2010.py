@@ -117,6 +117,10 @@ LOAD_SOURCES = ("floor", "any")
 SHIPPED = {"gh2010": "gh2010.json", "seed003": "gh2010_seed003.json"}
 # the walking fit the shipped GH2010 trip fit started from (``--params walk``)
 SHIPPED_WALKING: dict[str, str] = {"gh2010": "gh2010_walk.json"}
+# every shipped GH2010 parameter set by the name ``--params`` takes: the walking fit; the
+# pushed walking fit (``reflex fit --pushes``) and the touch stage fitted on it
+NAMED = {"walk": "gh2010_walk.json", "pushed-walk": "gh2010_pushed_walk.json",
+         "pushed": "gh2010_pushed.json"}
 
 
 @dataclass(frozen=True)
@@ -255,13 +259,24 @@ class GH2010Params:
         return cls(**vals)
 
 
+def named_file(name):
+    """The shipped file of a named parameter set (``NAMED``), or None for another name."""
+    if str(name) not in NAMED:
+        return None
+    return resources.files("stumble.control.reflex") / "data" / NAMED[str(name)]
+
+
 def load_params(path) -> GH2010Params:
-    """Parameters from a ``gh2010.json`` (a fit's result), or ``walk``: the shipped
-    walking fit (``SHIPPED_WALKING``); InputError if it is not one."""
+    """Parameters from a ``gh2010.json`` (a fit's result), or a shipped set by name
+    (``NAMED``: ``walk``, the walking fit; ``pushed-walk`` and ``pushed``); InputError if
+    it is not one."""
     from pathlib import Path
 
     if str(path) == "walk":
         return shipped_params("gh2010", walking_only=True)
+    shipped = named_file(path)
+    if shipped is not None:
+        return GH2010Params.from_json(json.loads(shipped.read_text())["params"])
     path = Path(path)
     if not path.is_file():
         raise InputError(f"GH2010 parameter file {path} does not exist or is not a file")
