@@ -13,7 +13,7 @@ them among the 45 or a trip stage's (swing 0.075-0.725 in steps of 0.05 at 1.1 a
 figures on the 45.
 
 Run:  python scripts/measure_gh2010_trips.py [PARAMS] [--start own|playback]
-      [--grid main|held-out] [--out FILE]
+      [--grid main|held-out] [--delay-scale K] [--out FILE]
 """
 
 from __future__ import annotations
@@ -45,6 +45,9 @@ def main() -> None:
                     help="the walk tripped: the walker's own (default) or the recording's")
     ap.add_argument("--grid", choices=tuple(GRIDS), default="main",
                     help="the 45 trips (main) or 28 others (held-out)")
+    ap.add_argument("--delay-scale", type=float, default=1.0, metavar="K",
+                    help="every reflex delay times K, the walk-in's too (Scenario."
+                    "delay_scale; default 1)")
     args = ap.parse_args()
     swings, speeds = GRIDS[args.grid]
     p = shipped_params("gh2010") if args.params is None else load_params(args.params)
@@ -53,13 +56,15 @@ def main() -> None:
     for v in speeds:
         for s in swings:
             sc = Scenario(controller="gh2010", mechanism="obstacle", swing_fraction=s,
-                          speed_m_per_s=v, start=args.start)
+                          speed_m_per_s=v, start=args.start,
+                          delay_scale=args.delay_scale)
             try:
                 summ = simulate_trip(sc, gh2010=p).summary
                 row = {"swing": s, "speed": v, "set": True,
                        "tripped": summ.get("trip_time_s") is not None,
                        "strategy": summ.get("strategy"),
                        "recovered": bool(summ.get("recovered")),
+                       "fell": bool(summ.get("fell")),
                        "stop_reason": summ.get("stop_reason")}
             except InputError as e:
                 row = {"swing": s, "speed": v, "set": False, "strategy": None,
@@ -81,6 +86,7 @@ def main() -> None:
     rec = sum(r["recovered"] for r in rows)
     figures = {
         "recovered": rec, "of": len(rows),
+        "fell": sum(bool(r.get("fell")) for r in rows),
         "human_strategy": human, "window_trips": len(window),
         "human_early": sum(r["strategy"] == "elevating" for r in early),
         "human_late": sum(r["strategy"] == "lowering" for r in low),
