@@ -279,7 +279,8 @@ def load_params(path) -> GH2010Params:
         return GH2010Params.from_json(json.loads(shipped.read_text())["params"])
     path = Path(path)
     if not path.is_file():
-        raise InputError(f"GH2010 parameter file {path} does not exist or is not a file")
+        raise InputError(f"GH2010 parameter file {path} does not exist or is not a file "
+                         f"(the shipped sets by name: {', '.join(NAMED)})")
     try:
         obj = json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
