@@ -460,11 +460,14 @@ def test_pelvis_pushes_slow_the_walk_and_cost_the_candidates_that_fall_after_the
     )
     from stumble.control.reflex.gh2010 import shipped_params
     from stumble.errors import InputError
-    from stumble.pipeline import PelvisPushes, simulate_walk
+    from stumble.pipeline import simulate_walk
+    from stumble.trip import PelvisPushes
 
     f = PelvisPushes(((1.0, 0.2, -100.0), (1.1, 0.5, 30.0)))
     assert f(0.99)[0] == 0.0 and f(1.05)[0] == -100.0 and f(1.15)[0] == -70.0
     assert f(1.5)[0] == 30.0 and f(1.6)[0] == 0.0 and f.t_trip_s == pytest.approx(1.6)
+    assert f.active(0.9, 1.0) and f.active(1.55, 1.7) and not f.active(0.5, 0.99)
+    assert not f.active(1.6, 2.0)
     with pytest.raises(InputError, match="duration"):
         PelvisPushes(((1.0, 0.0, -100.0),))
     assert all(start + dur < PUSH_WALK_S and force < 0 for start, dur, force in PUSHES)
@@ -525,3 +528,30 @@ def test_the_pushed_sets_load_by_name_withstand_pushes_and_recover_mid_swing_tri
     b = simulate_trip(sc).summary
     assert a["strategy"] == b["strategy"] == "elevating"
     assert a["recovered"] and not b["recovered"]
+
+
+def test_a_pushed_walk_steps_natively_between_pushes_and_equals_stepping_every_step():
+    """Between pushes the physics loop steps a block natively (``PelvisPushes.active``
+    off), clearing the pelvis force: the walk is the same, bit for bit, as applying the
+    (zero) force at every step, as the loop does for a trip's force."""
+    from stumble.control.reflex.fit_walk import PUSHES
+    from stumble.control.reflex.gh2010 import load_params
+    from stumble.pipeline import simulate_walk
+    from stumble.trip import PelvisPushes
+
+    class EveryStep(PelvisPushes):
+        active = None  # no window test: the force applied step by step to the last push
+
+    p = load_params("pushed-walk")
+    native = simulate_walk("gh2010", 8.0, 1.2, params=p, pushes=PUSHES).recording
+    import stumble.pipeline as pipeline
+
+    real = pipeline.PelvisPushes
+    try:
+        pipeline.PelvisPushes = EveryStep
+        stepped = simulate_walk("gh2010", 8.0, 1.2, params=p, pushes=PUSHES).recording
+    finally:
+        pipeline.PelvisPushes = real
+    assert len(native.time_s) == len(stepped.time_s) == 1601
+    assert np.array_equal(native.qpos, stepped.qpos)
+    assert np.abs(native.trip_force[:, 0]).max() == 200.0

@@ -744,8 +744,7 @@ def cmd_reflex(args) -> int:
         raise InputError("--trips, --params, --trip-set, --scr-phase, --strategy-cost, "
                          "--recovery-cost, --crossing, --touch-only, --load-from, "
                          "--foot-angle, --stride-time, --stance-weight, --track-weight, "
-                         "--placement, "
-                         "--pushes and --ta-bound are for --controller gh2010")
+                         "--placement, --pushes and --ta-bound are for --controller gh2010")
     from stumble.control.reflex.identify import ITERATIONS, REFINE_ITERATIONS, fit
     from stumble.outputs import prepare_dir, write_fit
 

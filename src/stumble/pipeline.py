@@ -54,6 +54,7 @@ from stumble.trip import (
     OBSTACLE_GAP_M,
     OBSTACLE_WIDTH_M,
     POPULATIONS,
+    PelvisPushes,
     Scenario,
     obstacle_at,
     park_obstacle,
@@ -498,23 +499,6 @@ def reference_stride(pb: Playback) -> dict[str, np.ndarray]:
         series.update(foot_angles(pb.qpos, pb.body.model))
     curves = stride_curves(pb.time_s, series, list(pb.events.heel_strike_s["r"]))
     return {n: c.mean(axis=0) for n, c in curves.items()}
-
-
-class PelvisPushes:
-    """Horizontal forces on the pelvis (N, + forward) over windows of the walk: ``pushes``
-    of (start s, duration s, force N), from the controller's start; the sum of those on
-    at ``t`` (a ``sim.run`` trip force, applied at the pelvis's centre of mass)."""
-
-    def __init__(self, pushes) -> None:
-        self.pushes = tuple((float(a), float(b), float(f)) for a, b, f in pushes)
-        for a, b, f in self.pushes:
-            if not (np.isfinite(a) and np.isfinite(b) and np.isfinite(f) and a >= 0 and b > 0):
-                raise InputError(f"a push ({a}, {b}, {f}) needs a start >= 0 s, a duration "
-                                 "> 0 s and a finite force (N)")
-        self.t_trip_s = max((a + b for a, b, _f in self.pushes), default=0.0)
-
-    def __call__(self, t: float) -> np.ndarray:
-        return np.array([sum(f for a, b, f in self.pushes if a <= t < a + b), 0.0, 0.0])
 
 
 def simulate_walk(controller: str = "gh2010", duration_s: float = 20.0,

@@ -353,6 +353,7 @@ def run(ctx: Context, controller: Controller, duration_s: float,
     observe = getattr(controller, "observe", None)
     forcing = trip_force is not None and force_body >= 0
     force_end_s = getattr(trip_force, "t_trip_s", duration_s)
+    active = getattr(trip_force, "active", None)
     no_force = np.zeros(3)
 
     def force_at(t: float) -> np.ndarray:
@@ -452,8 +453,14 @@ def run(ctx: Context, controller: Controller, duration_s: float,
         if forcing and d.time - ctx.t0 > force_end_s:
             d.xfrc_applied[force_body] = 0.0
             forcing = False
+        # a force that says it is off over this whole block (``active(t0, t1)``, as
+        # pelvis pushes do between their windows) lets the block step natively
+        pushing = forcing and (active is None or active(d.time - ctx.t0,
+                                                        d.time - ctx.t0 + n_block * dt))
+        if forcing and not pushing:
+            d.xfrc_applied[force_body] = 0.0
         end = step + n_block
-        if plan is None and not forcing and observe is None and penalty is None:
+        if plan is None and not pushing and observe is None and penalty is None:
             # held controls: step natively from one recorded instant to the next
             while step < end:
                 nxt = min(next_rec, end)
@@ -469,7 +476,7 @@ def run(ctx: Context, controller: Controller, duration_s: float,
                         break
         else:
             ctrl = None if plan is None else plan[:n_block]
-            rows, states = stepper.advance(n_block, ctrl, apply_force if forcing else None,
+            rows, states = stepper.advance(n_block, ctrl, apply_force if pushing else None,
                                            want_rows=True, want_states=True)
             if observe is not None:
                 observe(rows)

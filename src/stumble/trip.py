@@ -168,6 +168,27 @@ class TripForce:
         return np.trapezoid(self(t), t, axis=0)
 
 
+class PelvisPushes:
+    """Horizontal forces on the pelvis (N, + forward) over windows of the walk: ``pushes``
+    of (start s, duration s, force N), from the controller's start; the sum of those on
+    at ``t`` (a ``sim.run`` trip force, applied at the pelvis's centre of mass)."""
+
+    def __init__(self, pushes) -> None:
+        self.pushes = tuple((float(a), float(b), float(f)) for a, b, f in pushes)
+        for a, b, f in self.pushes:
+            if not (np.isfinite(a) and np.isfinite(b) and np.isfinite(f) and a >= 0 and b > 0):
+                raise InputError(f"a push ({a}, {b}, {f}) needs a start >= 0 s, a duration "
+                                 "> 0 s and a finite force (N)")
+        self.t_trip_s = max((a + b for a, b, _f in self.pushes), default=0.0)
+
+    def __call__(self, t: float) -> np.ndarray:
+        return np.array([sum(f for a, b, f in self.pushes if a <= t < a + b), 0.0, 0.0])
+
+    def active(self, t0: float, t1: float) -> bool:
+        """Whether any push is on within [t0, t1] (s): outside, the loop steps natively."""
+        return any(a <= t1 and t0 < a + b for a, b, _f in self.pushes)
+
+
 @dataclass(frozen=True)
 class Scenario:
     """One trip: who, when, how fast, by what. SI units; degrees only at the edges."""

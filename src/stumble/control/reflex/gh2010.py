@@ -119,7 +119,7 @@ SHIPPED = {"gh2010": "gh2010.json", "seed003": "gh2010_seed003.json"}
 SHIPPED_WALKING: dict[str, str] = {"gh2010": "gh2010_walk.json"}
 # every shipped GH2010 parameter set by the name ``--params`` takes: the walking fit; the
 # pushed walking fit (``reflex fit --pushes``) and the touch stage fitted on it
-NAMED = {"walk": "gh2010_walk.json", "pushed-walk": "gh2010_pushed_walk.json",
+NAMED = {"walk": SHIPPED_WALKING["gh2010"], "pushed-walk": "gh2010_pushed_walk.json",
          "pushed": "gh2010_pushed.json"}
 
 
@@ -272,8 +272,6 @@ def load_params(path) -> GH2010Params:
     it is not one."""
     from pathlib import Path
 
-    if str(path) == "walk":
-        return shipped_params("gh2010", walking_only=True)
     shipped = named_file(path)
     if shipped is not None:
         return GH2010Params.from_json(json.loads(shipped.read_text())["params"])
