@@ -335,3 +335,16 @@ def test_trip_population_and_strength_options(tmp_path, capsys):
     assert s["speed_m_per_s"] == 1.17 and s["population"] == "older"
     assert s["strength_model"] == "anderson2007"
     assert s["support_peak_moments_nm"]["ankle_plantarflexion"] > 0.0
+
+
+def test_the_help_names_every_shipped_gh2010_set_and_the_default():
+    """``--params`` of ``trip``, ``reflex walk`` and ``reflex fit`` lists ``gh2010.NAMED``
+    (kept as text in the CLI, so that it starts without importing the physics)."""
+    from stumble.cli import GH2010_NAMES
+    from stumble.control.reflex.gh2010 import NAMED, SHIPPED
+
+    assert all(name in GH2010_NAMES for name in NAMED)
+    default = next(n for n, f in NAMED.items() if f == SHIPPED["gh2010"])
+    assert f"{default} (the default" in GH2010_NAMES
+    r = run("reflex", "walk", "--help")
+    assert r.returncode == 0 and "pushed (the default" in " ".join(r.stdout.split())

@@ -214,6 +214,10 @@ def test_the_trip_stage_fits_the_stumbling_reflex_from_the_walking_fit(tmp_path)
     assert all(getattr(fitted, n) == 0.0 for n in SCR_EXTENSION)
     fit = json.loads((tmp_path / "gh2010.json").read_text())["fit"]
     assert "--trips" in fit["command"] and fit["from"] == "the shipped walking fit"
+    # it starts from the pushed walking fit the default's touch stages started from
+    start = dict(zip(res.space.names, res.space.start, strict=True))
+    assert all(start[n] == pytest.approx(getattr(load_params("pushed-walk"), n))
+               for n in ("g_sol", "g_vas", "l_off_ta"))
     # by the foot's phase: the extension set is fitted too, and the command says so
     res = fit_gh2010(seed=2, stages=((1, 2.0, ((0.1, 1.2),)),), popsize=4, trips=True,
                      out=tmp_path, scr_phase="foot")
@@ -236,7 +240,7 @@ def test_the_trip_stage_fits_the_stumbling_reflex_from_the_walking_fit(tmp_path)
     with pytest.raises(ValueError, match="crossing is for the trip stage"):
         fit_gh2010(crossing=True)
     # the touch's reflexes alone: the walking gains stay the start's, bit for bit
-    start = load_params("walk")
+    start = load_params("pushed-walk")  # where a trip stage starts by default
     res = fit_gh2010(seed=2, stages=((1, 2.0, ((0.1, 1.2),)),), popsize=4, trips=True,
                      out=tmp_path, crossing=True, touch_only=True)
     assert set(res.space.names) == (set(SCR_BOUNDS) - set(SCR_EXTENSION)) | set(CROSS_BOUNDS)
@@ -369,7 +373,7 @@ def fit_walk_gh2010(**kw):
     return fit_gh2010(**kw)
 
 
-@pytest.mark.parametrize("name", ["gh2010.json", "gh2010_seed003.json",
+@pytest.mark.parametrize("name", ["gh2010_trip.json", "gh2010_seed003.json",
                                   "gh2010_pushed_walk.json", "gh2010_pushed.json"])
 def test_shipped_gh2010_fits_score_today_what_they_scored_in_their_fit(name):
     """Reproducibility guard: a shipped fit's own parameters, evaluated by today's
@@ -449,8 +453,9 @@ def test_swing_leg_placement_is_off_by_default_and_fitted_only_when_asked():
 def test_pelvis_pushes_slow_the_walk_and_cost_the_candidates_that_fall_after_them():
     """``--pushes`` (ours): a walk with backward pushes on the pelvis (``PUSHES``: 200 N for
     0.2 s at 3 and 6.5 s) is a second walk of each candidate, its part not walked costing
-    as a fall. The shipped trip fit walks 10 s unpushed and after two 100 N pushes, and
-    falls within 3 s of a 300 N one; the push slows its centre of mass."""
+    as a fall. The earlier trip fit (``--params trip``) walks 10 s unpushed and after two
+    100 N pushes, and falls within 3 s of a 300 N one; the push slows its centre of
+    mass."""
     from stumble.control.reflex.fit_walk import (
         PUSH_WALK_S,
         PUSHES,
@@ -458,7 +463,7 @@ def test_pelvis_pushes_slow_the_walk_and_cost_the_candidates_that_fall_after_the
         fit_gh2010,
         push_term,
     )
-    from stumble.control.reflex.gh2010 import shipped_params
+    from stumble.control.reflex.gh2010 import load_params
     from stumble.errors import InputError
     from stumble.pipeline import simulate_walk
     from stumble.trip import PelvisPushes
@@ -471,7 +476,7 @@ def test_pelvis_pushes_slow_the_walk_and_cost_the_candidates_that_fall_after_the
     with pytest.raises(InputError, match="duration"):
         PelvisPushes(((1.0, 0.0, -100.0),))
     assert all(start + dur < PUSH_WALK_S and force < 0 for start, dur, force in PUSHES)
-    p = shipped_params()
+    p = load_params("trip")
     mild = simulate_walk("gh2010", 10.0, 1.2, params=p,
                          pushes=((3.0, 0.2, -100.0), (6.0, 0.2, -100.0))).summary
     hard = simulate_walk("gh2010", 10.0, 1.2, params=p, pushes=((3.0, 0.2, -300.0),))
@@ -499,9 +504,9 @@ def test_pelvis_pushes_slow_the_walk_and_cost_the_candidates_that_fall_after_the
 def test_the_pushed_sets_load_by_name_withstand_pushes_and_recover_mid_swing_trips():
     """The shipped pushed walking fit (``--params pushed-walk``: ``reflex fit --placement
     --pushes --seed 5``) walks 10 s through two 200 N pushes on the pelvis, as it was
-    fitted to, where the shipped trip fit falls; the touch stages on it (``--params
-    pushed``) recover an obstacle trip at 0.40 of swing (1.2 m/s, its own gait) that the
-    shipped trip fit does not."""
+    fitted to, where the earlier trip fit (``--params trip``) falls; the touch stages on it
+    (``--params pushed``, the default since 2026-12-04) recover an obstacle trip at 0.40
+    of swing (1.2 m/s, its own gait) that the earlier trip fit does not."""
     import json
 
     from stumble.control.reflex.fit_walk import PUSHES
@@ -510,8 +515,9 @@ def test_the_pushed_sets_load_by_name_withstand_pushes_and_recover_mid_swing_tri
     from stumble.trip import Scenario
 
     for name in NAMED:
-        assert load_params(name) == (shipped_params(walking_only=True) if name == "walk" else
-                                     load_params(str(named_file(name))))
+        assert load_params(name) == load_params(str(named_file(name)))
+    assert load_params("pushed") == shipped_params()  # the default
+    assert load_params("pushed-walk") == shipped_params(walking_only=True)
     assert named_file("nope") is None
     walk, pushed = load_params("pushed-walk"), load_params("pushed")
     fit = json.loads(named_file("pushed").read_text())["fit"]
@@ -520,12 +526,12 @@ def test_the_pushed_sets_load_by_name_withstand_pushes_and_recover_mid_swing_tri
         assert getattr(pushed, n) == getattr(walk, n)
     assert simulate_walk("gh2010", 10.0, 1.2, params=walk, pushes=PUSHES).summary[
         "walked_s"] == 10.0
-    assert simulate_walk("gh2010", 10.0, 1.2, params=shipped_params(),
-                         pushes=PUSHES).summary["fell"]
+    trip = load_params("trip")
+    assert simulate_walk("gh2010", 10.0, 1.2, params=trip, pushes=PUSHES).summary["fell"]
     sc = Scenario(controller="gh2010", mechanism="obstacle", swing_fraction=0.4,
                   speed_m_per_s=1.2, start="own")
-    a = simulate_trip(sc, gh2010=pushed).summary
-    b = simulate_trip(sc).summary
+    a = simulate_trip(sc).summary  # the default
+    b = simulate_trip(sc, gh2010=trip).summary
     assert a["strategy"] == b["strategy"] == "elevating"
     assert a["recovered"] and not b["recovered"]
 
@@ -555,3 +561,19 @@ def test_a_pushed_walk_steps_natively_between_pushes_and_equals_stepping_every_s
     assert len(native.time_s) == len(stepped.time_s) == 1601
     assert np.array_equal(native.qpos, stepped.qpos)
     assert np.abs(native.trip_force[:, 0]).max() == 200.0
+
+
+def test_the_networks_expert_fit_starts_from_the_first_walking_fit_whatever_the_default():
+    """``reflex fit --controller gh2010 --wiring seed003`` starts from the first walking
+    fit (``gh2010.SEED003_START``, ``--params walk``), not from the default set, so that
+    the shipped expert's fit reproduces after the default changed (2026-12-04)."""
+    from stumble.control.reflex.fit_walk import fit_gh2010
+    from stumble.control.reflex.gh2010 import NAMED, SEED003_START, load_params, shipped_params
+
+    assert NAMED["walk"] == SEED003_START
+    res = fit_gh2010(wiring="seed003", stages=((1, 0.5, ()),), popsize=2)
+    walk, default = load_params("walk"), shipped_params()
+    start = dict(zip(res.space.names, res.space.start, strict=True))
+    differ = [n for n in start if getattr(walk, n) != getattr(default, n)]
+    assert len(differ) > 10
+    assert all(start[n] == pytest.approx(getattr(walk, n)) for n in differ)

@@ -144,3 +144,20 @@ def test_trip_plot_draws_the_foot_path_of_the_recovery_not_the_walk_on(tmp_path,
                                [("passive_reaction", 0.0)])
     assert tp.FOOT_PATH_S == 1.5 and seen == [int(np.sum(t <= 1.5))] and seen[0] < len(t)
     assert mpimg.imread(out).shape[1] > 1000
+
+
+def test_fall_rate_plots_a_scale_where_every_run_falls_and_one_where_none_does(tmp_path):
+    """The 95 % Wilson interval at 0 of n and n of n holds its proportion exactly (no
+    negative error bar from rounding: 6 of 6 gave -1.1e-16, which Matplotlib refuses)."""
+    from stumble.viz.study_plots import plot_fall_rate, wilson_interval
+
+    for n in range(1, 120):
+        assert wilson_interval(0, n)[0] == 0.0 and wilson_interval(n, n)[1] == 1.0
+    lo, hi = wilson_interval(3, 10)
+    assert lo == pytest.approx(0.1078, abs=1e-4) and hi == pytest.approx(0.6032, abs=1e-4)
+    rows = [{"controller": "gh2010", "mechanism": "obstacle", "swing_fraction": 0.1 * i,
+             "speed_m_per_s": 1.2, "delay_scale": k, "fell": k == 2.0,
+             "recovered": k != 2.0, "strategy": "elevating"}
+            for k in (1.0, 2.0) for i in range(1, 7)]
+    path = plot_fall_rate(tmp_path / "fall_rate.png", rows, ["delay_scale"])
+    assert path.read_bytes()[:4] == b"\x89PNG"

@@ -14,6 +14,12 @@ from stumble import __version__
 from stumble.errors import InputError, StumbleError
 from stumble.jsonio import dumps
 
+# the shipped GH2010 parameter sets by name (gh2010.NAMED; here as text, so that the
+# command line starts without importing the physics)
+GH2010_NAMES = ("pushed (the default: touch stages on pushed-walk), pushed-walk (the "
+                "walking fit with pushes), walk (the first walking fit) or trip (trip "
+                "stages on walk; the default until 2026-12-04)")
+
 
 class _Parser(argparse.ArgumentParser):
     """argparse with one-line errors: ``stumble: <problem> (stumble <cmd> --help)``."""
@@ -127,9 +133,8 @@ def _parser() -> argparse.ArgumentParser:
                    "musculoskeletal human; gh2010: Geyer & Herr 2010's reflexes on that "
                    "body (the reflex controllers' strategy emerges)")
     t.add_argument("--params", type=Path, metavar="FILE",
-                   help="gh2010 controller: a gh2010.json, or a shipped set by name: walk "
-                   "(the walking fit), pushed (the touch stage on the pushed walking fit) "
-                   "or pushed-walk (default: the shipped trip fit); fsm: a JSON of tuned "
+                   help="gh2010 controller: a gh2010.json, or a shipped set by name: "
+                   f"{GH2010_NAMES}; fsm: a JSON of tuned "
                    "targets and gains (scripts/tune_fsm.py --out) or a shipped set by "
                    "name: upright (the default), step (tuned for --recovery step), "
                    "anderson2007_walk_on and anderson2007 (the defaults with --strength "
@@ -244,12 +249,13 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument("--passes", type=int, default=None, metavar="N",
                    help="network, --closed-loop: DAgger passes (default 8)")
     f.add_argument("--trips", action="store_true",
-                   help="gh2010: the trip stage: from the shipped walking fit (or --params "
-                   "FILE), its gains and the stumbling corrective reflex's on a 10 s walk "
-                   "and four obstacle trips in its own gait (60 generations)")
+                   help="gh2010: the trip stage: from the default's walking fit, "
+                   "pushed-walk (or --params FILE), its gains and the stumbling corrective "
+                   "reflex's on a 10 s walk and four obstacle trips in its own gait (60 "
+                   "generations)")
     f.add_argument("--params", type=Path, default=None, metavar="FILE",
                    help="gh2010 --trips: the gh2010.json to start from, or a shipped set "
-                   "by name (walk, pushed-walk, pushed)")
+                   f"by name: {GH2010_NAMES}")
     f.add_argument("--trip-set", choices=("four", "wide", "dense"), default=None,
                    help="gh2010 --trips: the stage's obstacle trips: four (the default), "
                    "twelve across swing 0.1-0.75 and the three start speeds (wide), or "
@@ -331,9 +337,7 @@ def _parser() -> argparse.ArgumentParser:
                     "closed-loop refinement (default: the shipped open-loop network)")
     rw.add_argument("--params", type=Path, metavar="FILE",
                     help="gh2010 controller: a gh2010.json from `stumble reflex fit "
-                    "--controller gh2010`, or a shipped set by name: walk (the walking "
-                    "fit), pushed (the touch stage on the pushed walking fit) or "
-                    "pushed-walk (default: the shipped trip fit)")
+                    f"--controller gh2010`, or a shipped set by name: {GH2010_NAMES}")
     rw.add_argument("--duration", type=_positive("duration"), default=20.0, metavar="S",
                     help="seconds to walk at most (default 20)")
     rw.add_argument("--speed", type=float, default=None, metavar="V",

@@ -320,7 +320,8 @@ def wilson_interval(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
     den = 1 + z * z / n
     centre = (p + z * z / (2 * n)) / den
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
-    return max(0.0, centre - half), min(1.0, centre + half)
+    # it holds p (lo <= p <= hi); the min and max take out rounding at k = 0 and k = n
+    return min(p, max(0.0, centre - half)), max(p, min(1.0, centre + half))
 
 
 def plot_fall_rate(path, rows: Tally | Iterable[dict], scales: list[str],

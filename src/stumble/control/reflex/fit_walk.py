@@ -623,6 +623,7 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
         CROSS_GAINS,
         SCR_GAINS,
         GH2010Params,
+        load_params,
         shipped_params,
     )
 
@@ -640,8 +641,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
         stages = stages or TRIP_STAGES
     elif wiring == "gh2010":
         params, stages = GH2010Params(), stages or GH2010_STAGES
-    else:
-        params = replace(shipped_params("gh2010", walking_only=True), wiring=wiring)
+    else:  # the network's expert: from the first walking fit, pinned (SEED003_START)
+        params = replace(load_params("walk"), wiring=wiring)
         stages = stages or SEED003_STAGES
     total, evaluations, wall, res = 0, 0, 0.0, None
     history: list[dict] = []

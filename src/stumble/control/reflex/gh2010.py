@@ -113,14 +113,22 @@ PLACE_FIELDS = ("k_place", "place_a0", "place_cd", "place_cv")
 # of swing at 1.2 m/s) while a floor-only load leaves that leg in swing, its stance
 # reflexes off, so that the leg folds under the body.
 LOAD_SOURCES = ("floor", "any")
-# optimised parameters shipped in stumble/control/reflex/data/, per wiring
-SHIPPED = {"gh2010": "gh2010.json", "seed003": "gh2010_seed003.json"}
-# the walking fit the shipped GH2010 trip fit started from (``--params walk``)
-SHIPPED_WALKING: dict[str, str] = {"gh2010": "gh2010_walk.json"}
-# every shipped GH2010 parameter set by the name ``--params`` takes: the walking fit; the
-# pushed walking fit (``reflex fit --pushes``) and the touch stage fitted on it
-NAMED = {"walk": SHIPPED_WALKING["gh2010"], "pushed-walk": "gh2010_pushed_walk.json",
-         "pushed": "gh2010_pushed.json"}
+# optimised parameters shipped in stumble/control/reflex/data/, per wiring: for gh2010
+# (the default since 2026-12-04) the touch stages on the pushed walking fit (``pushed``);
+# the network's expert for seed003
+SHIPPED = {"gh2010": "gh2010_pushed.json", "seed003": "gh2010_seed003.json"}
+# the walking fit the shipped GH2010 set's touch stages started from (``--params
+# pushed-walk``), where a trip stage without ``--params`` starts
+SHIPPED_WALKING: dict[str, str] = {"gh2010": "gh2010_pushed_walk.json"}
+# the walking fit the network's expert (seed003 wiring) was fitted from: the first walking
+# fit, pinned so that the expert's fit reproduces whatever the default is
+SEED003_START = "gh2010_walk.json"
+# every shipped GH2010 parameter set by the name ``--params`` takes: the first walking fit
+# (``walk``) and the trip fit on it (``trip``, the default until 2026-12-04); the pushed
+# walking fit (``reflex fit --pushes``, ``pushed-walk``) and the touch stages fitted on it
+# (``pushed``, the default)
+NAMED = {"walk": SEED003_START, "trip": "gh2010_trip.json",
+         "pushed-walk": SHIPPED_WALKING["gh2010"], "pushed": SHIPPED["gh2010"]}
 
 
 @dataclass(frozen=True)
