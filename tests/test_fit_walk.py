@@ -577,3 +577,32 @@ def test_the_networks_expert_fit_starts_from_the_first_walking_fit_whatever_the_
     differ = [n for n in start if getattr(walk, n) != getattr(default, n)]
     assert len(differ) > 10
     assert all(start[n] == pytest.approx(getattr(walk, n)) for n in differ)
+
+
+def test_a_walking_fit_from_a_parameter_set_refits_its_walk_and_keeps_its_touch(tmp_path):
+    """``reflex fit --controller gh2010 --params NAME`` (no ``--trips``): the walk is
+    refitted from the set, in steps of ``GH2010_SIGMA_TRIPS``, and the reflexes a touch
+    triggers stay as the set has them; the result records where it started."""
+    import json
+
+    from stumble.control.reflex.fit_walk import GH2010_SIGMA_TRIPS, fit_gh2010
+    from stumble.control.reflex.gh2010 import TOUCH_FIELDS, load_params, named_file
+
+    start = load_params("pushed")
+    start_fit = json.loads(named_file("pushed").read_text())["fit"]
+    res = fit_gh2010(seed=3, stages=((1, 1.0, ()),), popsize=4, start=start,
+                     start_fit=start_fit, placement=True, out=tmp_path)
+    assert "k_place" in res.space.names and "g_scr_ta" not in res.space.names
+    begin = dict(zip(res.space.names, res.space.start, strict=True))
+    assert begin["g_sol"] == pytest.approx(start.g_sol)
+    assert begin["k_place"] == pytest.approx(start.k_place)
+    fitted = load_params(tmp_path / "gh2010.json")
+    assert all(getattr(fitted, n) == getattr(start, n) for n in TOUCH_FIELDS)
+    assert fitted.g_scr_ta > 0.0 and fitted.crossing
+    fit = json.loads((tmp_path / "gh2010.json").read_text())["fit"]
+    assert fit["sigma0"] == [GH2010_SIGMA_TRIPS] and fit["from"]["params"] == "--params"
+    assert fit["from"]["its_fit"]["touch_only"] and "--trips" not in fit["command"]
+    from stumble.cli import main
+
+    assert main(["reflex", "fit", "--controller", "gh2010", "--wiring", "seed003",
+                 "--params", "walk", "--out", str(tmp_path / "s")]) == 2

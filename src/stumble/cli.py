@@ -254,8 +254,9 @@ def _parser() -> argparse.ArgumentParser:
                    "reflex's on a 10 s walk and four obstacle trips in its own gait (60 "
                    "generations)")
     f.add_argument("--params", type=Path, default=None, metavar="FILE",
-                   help="gh2010 --trips: the gh2010.json to start from, or a shipped set "
-                   f"by name: {GH2010_NAMES}")
+                   help="gh2010: the gh2010.json to start from, or a shipped set by name: "
+                   f"{GH2010_NAMES} (with --trips the trip stage starts there; without, "
+                   "the walk is refitted from there, a touch's reflexes kept as they are)")
     f.add_argument("--trip-set", choices=("four", "wide", "dense"), default=None,
                    help="gh2010 --trips: the stage's obstacle trips: four (the default), "
                    "twelve across swing 0.1-0.75 and the three start speeds (wide), or "
@@ -661,7 +662,10 @@ def cmd_reflex_fit_gh2010(args) -> int:
 
     if args.trips and args.wiring != "gh2010":
         raise InputError("--trips is for --wiring gh2010")
-    for flag, given in (("--params", args.params), ("--trip-set", args.trip_set),
+    if args.params is not None and args.wiring != "gh2010":
+        raise InputError("--params is for --wiring gh2010 (the network's expert starts from "
+                         "the first walking fit, walk)")
+    for flag, given in (("--trip-set", args.trip_set),
                         ("--scr-phase", args.scr_phase),
                         ("--strategy-cost", args.strategy_cost),
                         ("--recovery-cost", args.recovery_cost),

@@ -563,7 +563,9 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     """Optimise the GH2010 gains in closed loop: per stage (generations, walk s, obstacle
     trips), CMA-ES on ``walk_cost`` plus, for each trip, ``W_TRIP`` times the part of the
     3 s after it not walked on. ``wiring`` ``gh2010`` starts from the paper's values
-    (stages ``GH2010_STAGES``); ``seed003`` (the network's expert) from the shipped
+    (stages ``GH2010_STAGES``), or refits the walk of ``start`` when it is given (steps of
+    ``GH2010_SIGMA_TRIPS``; the gains outside the fit, a touch's reflexes among them,
+    kept as ``start`` has them); ``seed003`` (the network's expert) from the shipped
     ``gh2010`` parameters (``SEED003_STAGES``). ``trips``: the trip stage
     (``TRIP_STAGES``) from ``start`` (default the shipped walking fit; ``start_fit``: how
     ``start`` was found, recorded with the result), with the stumbling corrective reflex's
@@ -639,8 +641,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
             params = replace(params, **{n: getattr(params, n) or SCR_START
                                         for n in CROSS_GAINS})
         stages = stages or TRIP_STAGES
-    elif wiring == "gh2010":
-        params, stages = GH2010Params(), stages or GH2010_STAGES
+    elif wiring == "gh2010":  # from the paper, or refitting the walk of ``start``
+        params, stages = start or GH2010Params(), stages or GH2010_STAGES
     else:  # the network's expert: from the first walking fit, pinned (SEED003_START)
         params = replace(load_params("walk"), wiring=wiring)
         stages = stages or SEED003_STAGES
@@ -652,7 +654,7 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
             params = replace(params, k_place=PLACE_START)
         space = gh2010_space(params, stumble_reflex=with_trips, ta_bound=ta_bound,
                              crossing=crossing, touch_only=touch_only, placement=placement)
-        first = k == 0 and wiring == "gh2010"
+        first = k == 0 and wiring == "gh2010" and start is None  # from the paper
         sigma = (TRIP_SIGMA if with_trips else GH2010_SIGMA if first else GH2010_SIGMA_TRIPS)
         fixed = {n: v for n, v in params.to_json().items() if n not in space.names}
         res = cma_fit(evaluate_walk, space, seed=seed + k, generations=gens,
@@ -660,7 +662,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                       workers=workers, out=out, progress=progress,
                       initializer=init_walk_eval,
                       initargs=("gh2010", walk_s, GH2010_SPEED_M_PER_S,
-                                fixed if with_trips else {"wiring": wiring}, trips,
+                                fixed if with_trips or start is not None
+                                else {"wiring": wiring}, trips,
                                 with_trips, strategy_cost, crossing, foot_angle,
                                 stride_time, stance_weight, touch_only, recovery_cost,
                                 placement, pushes, track_weight),
@@ -681,11 +684,11 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                                 "trips": [{"swing_fraction": a, "speed_m_per_s": b}
                                           for a, b in t]} for g, w, t in stages],
                     "population": popsize, "evaluations": evaluations,
-                    "sigma0": [TRIP_SIGMA] if with_trips else [GH2010_SIGMA,
-                                                               GH2010_SIGMA_TRIPS],
+                    "sigma0": ([TRIP_SIGMA] if with_trips else [GH2010_SIGMA_TRIPS]
+                               if start is not None else [GH2010_SIGMA, GH2010_SIGMA_TRIPS]),
                     "from": ("the shipped walking fit" if with_trips and start is None else
-                             {"params": "--params", "its_fit": start_fit} if with_trips
-                             else "the paper"),
+                             {"params": "--params", "its_fit": start_fit}
+                             if start is not None else "the paper"),
                     "start_speed_m_per_s": GH2010_SPEED_M_PER_S,
                     "cost": res.best_cost, "terms": res.best_terms,
                     "wall_time_s": round(wall, 1),
