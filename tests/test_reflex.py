@@ -357,7 +357,7 @@ def test_fit_reaches_the_seeds_average_error_quickly(ident):
 
 
 def test_shipped_network_fits_walking_like_the_seed():
-    info = default_network().info
+    info = default_network("open-loop").info
     assert info["avg_error"] < 0.02  # seed 003 §V.A: 2.0 %
     assert info["iterations"] >= 1000
 
@@ -365,9 +365,12 @@ def test_shipped_network_fits_walking_like_the_seed():
 # ---- emergence ---------------------------------------------------------------------------
 @pytest.mark.parametrize("swing, expected", [(0.13, "elevating"), (0.56, "lowering")])
 def test_both_strategies_emerge_from_one_network(swing, expected):
-    """Seed 003 CASE 1 and CASE 2: same network, never switched, strategy from motion."""
+    """Seed 003 CASE 1 and CASE 2: same network, never switched, strategy from motion;
+    the open-loop network, seed 003's identification alone (the default closed-loop one:
+    test_reflex_walking.py)."""
     r = simulate_trip(Scenario(controller="reflex", swing_fraction=swing,
-                               mechanism="obstacle", duration_after_trip_s=1.0))
+                               mechanism="obstacle", duration_after_trip_s=1.0),
+                      network=default_network("open-loop"))
     s = r.summary
     assert s["strategy"] == expected
     assert not s["diverged"]

@@ -95,8 +95,8 @@ def test_a_network_whose_tick_the_time_step_does_not_divide(tmp_path, capsys):
     from stumble.control.reflex.identify import default_network
     from stumble.control.reflex.network import Network, Topology
 
-    t = default_network().topology
-    n = default_network()
+    t = default_network("open-loop").topology
+    n = default_network("open-loop")
     fast = Network(Topology(3000.0, t.hidden, t.contact), n.w, n.b, n.v, n.c, n.mean, n.std,
                    n.info, n.walk_rates)
     fast.save(tmp_path / "fast.npz")

@@ -125,3 +125,30 @@ def test_cli_names_the_closed_loop_network(tmp_path):
 
     assert main(["reflex", "walk", "--network", "closed-loop", "--speed", "1.2",
                  "--duration", "1", "--no-video", "--out", str(tmp_path / "w")]) == 0
+
+
+def test_the_default_network_is_the_closed_loop_one_and_walks(tmp_path):
+    """Since 2026-12-04 a reflex trip or walk given no network runs the closed-loop one
+    (``identify.DEFAULT_NETWORK``), which walks; the open-loop identification, seed 003's
+    own method, stays ``--network open-loop`` and falls within a second; the
+    identification's figures stay the open-loop network's."""
+    import json
+
+    from stumble.cli import main
+    from stumble.control.reflex.identify import (
+        DEFAULT_NETWORK,
+        default_network,
+        fit_summary,
+    )
+
+    assert DEFAULT_NETWORK == "closed-loop" and default_network() is default_network(
+        "closed-loop")
+    assert fit_summary() == dict(default_network("open-loop").info)
+    assert main(["reflex", "walk", "--duration", "3", "--no-video",
+                 "--out", str(tmp_path / "d")]) == 0
+    d = json.loads((tmp_path / "d" / "summary.json").read_text())
+    assert d["walked_s"] == pytest.approx(3.0) and not d["fell"]
+    assert main(["reflex", "walk", "--network", "open-loop", "--duration", "3",
+                 "--no-video", "--out", str(tmp_path / "o")]) == 0
+    o = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert o["fell"] and o["walked_s"] < 1.0

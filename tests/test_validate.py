@@ -114,8 +114,8 @@ def test_validate_prints_the_table_and_writes_json(tmp_path, fake, capsys, monke
     assert normal["stumble"] == 0.42 and normal["agreement"] == "yes"
 
     # the reflex controller and its identification are not there: "not available"
-    closed = by[("walking 20 s from the played-back walk", "reflex (closed loop)")]
-    assert closed["stumble_text"] == "not available"
+    opened = by[("walking 20 s from the played-back walk", "reflex (open loop)")]
+    assert opened["stumble_text"] == "not available"
     reflex = [r for r in rows if r["controller"] == "reflex"]
     assert len(reflex) == 3 + 4 + 1 + 1 + 2  # windows, durations, recovery, walk, ident.
     assert all(r["agreement"] == "n/a" and r["stumble_text"] == "not available"

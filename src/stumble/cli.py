@@ -140,9 +140,10 @@ def _parser() -> argparse.ArgumentParser:
                    "anderson2007_walk_on and anderson2007 (the defaults with --strength "
                    "anderson2007, walking on and with --recovery step)")
     t.add_argument("--network", type=Path, metavar="FILE",
-                   help="reflex controller: a network.npz from `stumble reflex fit`, or "
-                   "closed-loop: the shipped closed-loop refinement (default: the shipped "
-                   "open-loop network)")
+                   help="reflex controller: a network.npz from `stumble reflex fit`, or a "
+                   "shipped network: closed-loop (the default: the identification refined "
+                   "in closed loop, which walks) or open-loop (seed 003's identification "
+                   "alone)")
     t.add_argument("--no-trunk-balance", action="store_true",
                    help="reflex controller: without the stance hips' trunk-lean reflex "
                    "(our addition to seed 003; see the README)")
@@ -241,11 +242,12 @@ def _parser() -> argparse.ArgumentParser:
                    "(default: hfl for --closed-loop, seed otherwise)")
     loop = f.add_mutually_exclusive_group()
     loop.add_argument("--open-loop", action="store_true",
-                      help="network: the seed's identification alone (the default, and the "
-                      "shipped network)")
+                      help="network: the seed's identification alone (the default; shipped "
+                      "as --network open-loop)")
     loop.add_argument("--closed-loop", action="store_true",
                       help="network: then refine it in closed loop by DAgger with the "
-                      "seed003-wired GH2010 expert (shipped as --network closed-loop)")
+                      "seed003-wired GH2010 expert (shipped as --network closed-loop, the "
+                      "default network)")
     f.add_argument("--passes", type=int, default=None, metavar="N",
                    help="network, --closed-loop: DAgger passes (default 8)")
     f.add_argument("--trips", action="store_true",
@@ -334,8 +336,9 @@ def _parser() -> argparse.ArgumentParser:
                     help="network: seed 003's reflex network (default); gh2010: Geyer & "
                     "Herr 2010's reflexes")
     rw.add_argument("--network", type=Path, metavar="FILE",
-                    help="network controller: a network.npz, or closed-loop: the shipped "
-                    "closed-loop refinement (default: the shipped open-loop network)")
+                    help="network controller: a network.npz, or a shipped network: "
+                    "closed-loop (the default, which walks) or open-loop (seed 003's "
+                    "identification alone, which falls after 0.8 s)")
     rw.add_argument("--params", type=Path, metavar="FILE",
                     help="gh2010 controller: a gh2010.json from `stumble reflex fit "
                     f"--controller gh2010`, or a shipped set by name: {GH2010_NAMES}")

@@ -450,11 +450,12 @@ class StepResult:
 
 def simulate_walking_step(network=None, trunk_balance: bool = True,
                           speed_m_per_s: float | None = None) -> StepResult:
-    """One step (half a stride, from right heel strike) of walking under the network,
-    from the played-back state, against the recorded walk (seed 003 §V.A, Fig. 3)."""
+    """One step (half a stride, from right heel strike) of walking under the network
+    (default the open-loop identification's), from the played-back state, against the
+    recorded walk (seed 003 §V.A, Fig. 3)."""
     from stumble.control.reflex.identify import default_network
 
-    net = network or default_network()
+    net = network or default_network("open-loop")  # the identification's Fig. 3
     speed = speed_m_per_s or load_reference().speed_m_per_s
     body, pb = _walk(1.75, 70.0, "male", DEFAULT_CONTACT, round(speed, 4), 0.001, True,
                      net.muscle_set)

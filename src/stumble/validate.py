@@ -321,21 +321,22 @@ def flight_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
     return out
 
 
-def walking_rows(ctrl: str, closed_loop: bool = False) -> list[dict]:
+def walking_rows(ctrl: str, open_loop: bool = False) -> list[dict]:
     """A reflex controller's 20 s walk: time walked, RMSE per joint, stance fraction.
-    ``closed_loop``: the shipped closed-loop network (``reflex`` only), from the same
-    played-back walk (``stumble.control.reflex.dagger``)."""
+    ``open_loop``: the shipped open-loop network (``reflex`` only; seed 003's
+    identification alone, for comparison with the default closed-loop one), from the same
+    played-back walk."""
     from stumble.pipeline import simulate_walk
 
     kind = REFLEX_CONTROLLERS[ctrl]
-    if closed_loop:
-        ctrl = "reflex (closed loop)"
+    if open_loop:
+        ctrl = "reflex (open loop)"
     try:
         kw = {}
-        if closed_loop:
+        if open_loop:
             from stumble.control.reflex.identify import default_network
 
-            kw = {"network": default_network("closed-loop")}
+            kw = {"network": default_network("open-loop")}
         s = simulate_walk(kind, WALK_S, **kw).summary
     except Exception as e:
         why = f"{type(e).__name__}: {e}"
@@ -562,7 +563,7 @@ def run_validation(out: Path, workers: int | None = None, progress: bool = True,
         if ctrl in REFLEX_CONTROLLERS:
             rows += walking_rows(ctrl)
         if ctrl == "reflex":
-            rows += walking_rows(ctrl, closed_loop=True)
+            rows += walking_rows(ctrl, open_loop=True)
     rows += identification_rows()
     report = {
         "stumble_version": __version__,
