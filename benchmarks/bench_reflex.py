@@ -2,9 +2,10 @@
 
 Run:  python benchmarks/bench_reflex.py [--repeats N]
 
-For a reflex trip (CASE 1 of seed 003: obstacle at 0.13 of swing, 1.2 m/s) and a 10 s
-and a 20 s walk of each reflex controller (``network``: seed 003's, the closed-loop one
-from the 1.2 m/s walk for the walks; ``gh2010``), it
+For a reflex trip (CASE 1 of seed 003: obstacle at 0.13 of swing, 1.2 m/s; the network
+the default closed-loop one, and the open-loop one for comparison with the figures
+before 2026-12-04) and a 10 s and a 20 s walk of each reflex controller (``network``:
+the closed-loop one, from the 1.2 m/s walk; ``gh2010``, the default set), it
 times the whole ``sim.run`` loop and a bare loop that replays the recorded controls on
 the same model from the same state after the controller's start, doing nothing else
 (``mj_step`` per control row): the physical limit of this engine for that motion. CPU
@@ -81,6 +82,12 @@ def main() -> None:
                   speed_m_per_s=1.2, duration_after_trip_s=3.0)
     pipeline.simulate_trip(sc)  # warm the walk cache
     measure("reflex trip (network), CASE 1", lambda: pipeline.simulate_trip(sc), args.repeats)
+    from stumble.control.reflex.identify import default_network
+
+    open_loop = default_network("open-loop")
+    pipeline.simulate_trip(sc, network=open_loop)
+    measure("reflex trip (open-loop network), CASE 1",
+            lambda: pipeline.simulate_trip(sc, network=open_loop), args.repeats)
     # from the recording, as the seed's CASE 1 (its own-gait default would add the 4 s
     # walk-in to the run's time, not to its steps)
     gh = sc.with_(controller="gh2010", start="playback")
@@ -88,8 +95,6 @@ def main() -> None:
     measure("reflex trip (gh2010), CASE 1", lambda: pipeline.simulate_trip(gh), args.repeats)
     # the walks: GH2010 from the recording's speed; the network closed-loop, from the
     # 1.2 m/s walk it walks from (the open-loop network falls within a second)
-    from stumble.control.reflex.identify import default_network
-
     net = default_network("closed-loop")
     for kind, kw in (("network", {"network": net, "speed_m_per_s": 1.2}), ("gh2010", {})):
         pipeline.simulate_walk(kind, 1.0, **kw)
