@@ -239,7 +239,7 @@ def plot_strategy_map(path, rows: Tally | Iterable[dict], caption: str = "") -> 
                          else f"E {k}/{taken}")
                 dark = _dark(cmap, frac[i, j])
             else:  # every run raised, or none could be classified (an emergent strategy)
-                label = "error" if c.raised == c.runs else "unclassified"
+                label = "error" if c.raised == c.runs else "–"
             _annotate(ax, sw, v, label, dark, len(cells))
         ax.pcolormesh(xe, ye, np.zeros_like(frac), cmap=ListedColormap(["#bdbdbd"]))
         mesh = ax.pcolormesh(xe, ye, np.ma.masked_invalid(frac), cmap=cmap, vmin=0, vmax=1,
@@ -249,7 +249,8 @@ def plot_strategy_map(path, rows: Tally | Iterable[dict], caption: str = "") -> 
     cb.set_label("fraction elevating")
     cb.set_ticks([0, 0.5, 1], labels=["lowering", "mixed", "elevating"])
     note = _pooled_note(t)
-    fig.suptitle("Strategy taken: E elevating, L lowering" + ("; (n): runs in the cell; "
+    fig.suptitle("Strategy taken: E elevating, L lowering, – neither (grey: unclassified)"
+                 + ("; (n): runs in the cell; "
                  "E k/n: k of n elevating" if t.pooled() else "")
                  + "".join(f"\n{x}" for x in (note, caption) if x), fontsize=10)
     fig.savefig(path, dpi=110)
