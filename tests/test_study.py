@@ -214,7 +214,7 @@ def test_study_rows_table_and_rerun(tmp_path, fake, capsys):
     table = summary_table(rows)
     assert "elevating" in table and "lowering" in table
     last = table.splitlines()[-1].split()
-    assert last == ["all", "8", "4", "2", "2", "0", "0", "0"]  # 4 recovered, 2 fell, 2 diverged
+    assert last == ["all", "8", "4", "2", "2", "0", "0", "0", "0"]  # 4 recovered, 2 fell, 2 div.
 
 
 def test_resumption_after_an_interruption(tmp_path, monkeypatch, capsys):
@@ -803,3 +803,34 @@ def test_a_summary_with_nan_is_stored_as_null(tmp_path, monkeypatch):
     res = run_study(small_grid()[:2], tmp_path / "s", workers=1, progress=False)
     assert [r["trunk_tilt_at_recovery_contact_deg"] for r in res.rows] == [None, None]
     assert json.loads(res.rows[0]["states"]) == [{"start_s": None}]
+
+
+def test_a_trip_that_cannot_be_set_is_an_outcome_not_an_error(tmp_path, monkeypatch):
+    """A reflex walker's toe over the obstacle at the trip's instant (``TripNotSet``): the
+    run's row says ``not_set`` with the reason and no error or traceback; the table counts
+    it apart, the maps mark it ×, and no fall rate counts it."""
+    from stumble.errors import TripNotSet
+    from stumble.study.runner import outcome
+    from stumble.viz.study_plots import Tally
+
+    def simulate_trip(sc, **kw):
+        if sc.swing_fraction == 0.6:
+            raise TripNotSet("at 0.6 of swing the gh2010 walker's toe is 0.12 m up, over a "
+                             "0.1 m obstacle")
+        return SimpleNamespace(summary=fake_summary(sc))
+
+    monkeypatch.setattr(pipeline, "simulate_trip", simulate_trip)
+    out = tmp_path / "s"
+    assert main(["study", "--out", str(out), "--swing", "0.2,0.6", "--speed", "1.0,1.3",
+                 "--delay-scale", "1,2", "--workers", "1", "--quiet"]) == 0
+    rows = rows_of(out / "results.parquet")
+    not_set = [r for r in rows if r["swing_fraction"] == 0.6]
+    assert len(not_set) == 4 and all(r["not_set"] and r["error"] is None for r in not_set)
+    assert all("toe is 0.12 m up" in r["not_set_reason"] for r in not_set)
+    assert {outcome(r) for r in not_set} == {"not set"}
+    assert not (out / "errors").exists() or not any((out / "errors").iterdir())
+    last = summary_table(rows).splitlines()[-1].split()
+    assert last == ["all", "8", "4", "0", "0", "0", "4", "0", "0"]
+    t = Tally.of(rows)  # the fall rate counts only the trips that were set
+    assert all(runs == 2 for by_x in t.fall.values() for _f, runs in by_x.values())
+    assert (out / "fall_rate.png").exists() and (out / "strategy_map.png").exists()

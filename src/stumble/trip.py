@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING
 import mujoco
 import numpy as np
 
-from stumble.errors import InputError
+from stumble.errors import InputError, TripNotSet
 from stumble.gait.reference import check_speed
 
 if TYPE_CHECKING:
@@ -361,7 +361,7 @@ def check_clear_of_stance(body: Body, qpos: np.ndarray, side: str, box) -> None:
     inside = ((pts[:, 0] > x0) & (pts[:, 0] < x0 + depth)
               & (np.abs(pts[:, 1] - y0) < 0.5 * width))
     if inside.any():
-        raise InputError("the obstacle would stand under the stance foot at this instant")
+        raise TripNotSet("the obstacle would stand under the stance foot at this instant")
 
 
 def obstacle_at(body: Body, qpos: np.ndarray, sc: Scenario, who: str = "the"):
@@ -370,7 +370,7 @@ def obstacle_at(body: Body, qpos: np.ndarray, sc: Scenario, who: str = "the"):
     under the stance foot."""
     front, low, lane = toe_front(body, qpos, sc.side)
     if low > sc.obstacle_height_m - 0.01:
-        raise InputError(f"at {sc.swing_fraction} of swing {who} toe is {low:.3f} m up, "
+        raise TripNotSet(f"at {sc.swing_fraction} of swing {who} toe is {low:.3f} m up, "
                          f"over a {sc.obstacle_height_m} m obstacle")
     box = (front + OBSTACLE_GAP_M, sc.obstacle_height_m, OBSTACLE_DEPTH_M,
            OBSTACLE_WIDTH_M, lane)

@@ -180,7 +180,7 @@ def validation_scenarios(controllers=CONTROLLERS) -> list[tuple[str, Scenario]]:
 def recovery_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
     """The share of a controller's window trips that recovered."""
     rows = [by_case[f"{ctrl}/window/{s}"] for s in WINDOW_SWINGS]
-    ran = [r for r in rows if not r.get("error")]
+    ran = [r for r in rows if not _failed(r)]
     figure = "recovery rate, obstacle trips at 5-75 % of swing, 1.1 m/s"
     pub_text = f"≥ {RECOVERY_TARGET:.0%} (our criterion)"
     keys = [r["key"] for r in rows]
@@ -199,7 +199,7 @@ def strength_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
     2005), the trunk at recovery contact (van den Bogert et al. 2002), older adults
     (Roos et al. 2010)."""
     rows = [by_case[f"{ctrl}/window/{s}"] for s in WINDOW_SWINGS]
-    ran = [r for r in rows if not r.get("error")]
+    ran = [r for r in rows if not _failed(r)]
     keys = [r["key"] for r in rows]
     out = []
     for name, pub in PUSH_OFF_NM:
@@ -226,7 +226,7 @@ def strength_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
                     ("yes" if max(tilts) <= TRUNK_TILT_MAX_DEG else "no") if tilts else "n/a",
                     keys))
     older = [by_case[f"{ctrl}/older/{s}"] for s in WINDOW_SWINGS]
-    o_ran = [r for r in older if not r.get("error")]
+    o_ran = [r for r in older if not _failed(r)]
     late = [r for r in o_ran if OLDER_LOWERING[0] - 1e-9 <= r["swing_fraction"]
             <= OLDER_LOWERING[1] + 1e-9]
     n_low = sum(r.get("strategy") == "lowering" for r in late)
@@ -237,7 +237,7 @@ def strength_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
                     [r["key"] for r in older]))
     grid = {pop: [by_case[f"{ctrl}/grid/{pop}/{m}/{s}/{v}"] for m, s, v in OLDER_GRID]
             for pop in ("young", "older")}
-    g_ran = {pop: [r for r in rows if not r.get("error")] for pop, rows in grid.items()}
+    g_ran = {pop: [r for r in rows if not _failed(r)] for pop, rows in grid.items()}
     lost = {pop: sum(not r.get("recovered") for r in rows) for pop, rows in g_ran.items()}
     fell = {pop: sum(bool(r.get("fell")) for r in rows) for pop, rows in g_ran.items()}
     n = {pop: len(rows) for pop, rows in g_ran.items()}
@@ -278,7 +278,7 @@ def flight_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
     """Flight against double support over the young's grid (walking on): the share of
     recovered window trips at 1.4 m/s with a flight phase, and flights at 1.0 m/s."""
     rows = [by_case[f"{ctrl}/grid/young/{m}/{s}/{v}"] for m, s, v in OLDER_GRID]
-    rec = [r for r in rows if not r.get("error") and r.get("recovered")]
+    rec = [r for r in rows if not _failed(r) and r.get("recovered")]
     keys = [r["key"] for r in rows]
     fast = [r for r in rec if abs(r["speed_m_per_s"] - FLIGHT_SPEED_M_PER_S) < 1e-9]
     counts, shares, ok = [], {}, True
@@ -369,8 +369,14 @@ def duration_agrees(ours: float, mocap: float, paper_sim: float) -> bool:
     return abs(ours - mocap) <= max(abs(paper_sim - mocap), RELATIVE_TOLERANCE * mocap)
 
 
+def _failed(r: dict) -> bool:
+    """A run with no trip to read: it raised, or the trip could not be set."""
+    return bool(r.get("error") or r.get("not_set"))
+
+
 def _first_error(rows: list[dict]) -> str | None:
-    errs = [r["error"] for r in rows if r.get("error")]
+    errs = [r.get("error") or f"not set: {r.get('not_set_reason')}" for r in rows
+            if _failed(r)]
     return errs[0] if errs and len(errs) == len(rows) else None
 
 
@@ -407,7 +413,7 @@ def window_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
         figure = f"strategy, trip at {lo * 100:.0f}-{hi * 100:.0f} % of swing"
         pub_text = {"either": "either strategy"}.get(published, published)
         keys = [r["key"] for r in rows]
-        ran = [r for r in rows if not r.get("error")]
+        ran = [r for r in rows if not _failed(r)]
         if not ran:
             out.append(_row(figure, "SCA 2009 §3", ctrl, published, pub_text, None,
                             "not available", "n/a", keys, _why(rows)))
@@ -436,7 +442,7 @@ def duration_rows(ctrl: str, by_case: dict[str, dict],
         pub = {"mocap_s": c.mocap_s, "paper_sim_s": c.paper_sim_s}
         pub_text = f"mocap {_s(c.mocap_s)}; sim {_s(c.paper_sim_s)}"
         value = r.get(c.column)
-        if r.get("error"):
+        if _failed(r):
             out.append(_row(figure, c.source, ctrl, pub, pub_text, None, "not available",
                             "n/a", [r["key"]], _why([r])))
             continue

@@ -43,7 +43,7 @@ import numpy as np
 
 from stumble import __version__
 from stumble.control.fsm_params import FSMParams, ParamsFile
-from stumble.errors import SimulationDiverged, StumbleError
+from stumble.errors import SimulationDiverged, StumbleError, TripNotSet
 from stumble.jsonio import dumps, strict
 from stumble.study.grid import Grid, check_scenario, run_key, scenario_fields
 from stumble.study.store import (
@@ -248,6 +248,9 @@ def run_one(sc: Scenario, timeout_s: float | None = None,
         except SimulationDiverged as e:
             summary = {**NO_OUTCOME, "diverged": True}
             error = one_line(e)
+        except TripNotSet as e:  # an outcome, not an error: the foot passes over the box
+            summary = {**NO_OUTCOME, "not_set": True, "not_set_reason": str(e)}
+            error = None
         except Exception as e:
             summary = dict(NO_OUTCOME)
             error = one_line(e)
@@ -764,9 +767,13 @@ def _write_study_json(out: Path, runs: int, metadata: dict | None) -> None:
 
 
 def outcome(row: dict) -> str:
-    """timeout, error, diverged, recovered, fell or neither (no recovery within the time)."""
+    """timeout, not set (the trip could not be set at that instant: the tripped toe over
+    the obstacle), error, diverged, recovered, fell or neither (no recovery within the
+    time)."""
     if row.get("timed_out"):
         return "timeout"
+    if row.get("not_set"):
+        return "not set"
     if row.get("error") and not row.get("diverged"):
         return "error"
     if row.get("diverged"):
@@ -778,9 +785,9 @@ def outcome(row: dict) -> str:
     return "neither"
 
 
-OUTCOMES = ("recovered", "fell", "diverged", "neither", "timeout", "error")
+OUTCOMES = ("recovered", "fell", "diverged", "neither", "not set", "timeout", "error")
 SUMMARY_COLUMNS = ("controller", "strategy", "timed_out", "error", "diverged", "recovered",
-                   "fell")  # what summary_table and outcome read
+                   "fell", "not_set")  # what summary_table and outcome read
 
 
 def summary_table(rows: Iterable[dict]) -> str:

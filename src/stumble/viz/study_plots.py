@@ -35,18 +35,20 @@ PUBLISHED_WINDOWS = (
 ELEVATING_COLOR = "#e08214"
 LOWERING_COLOR = "#2166ac"
 OUTCOME_COLORS = {"recovered": "#1a9850", "fell": "#d73027", "diverged": "#762a83",
-                  "neither": "#fee08b", "timeout": "#636363", "error": "#bdbdbd"}
+                  "neither": "#fee08b", "not set": "#c6dbef", "timeout": "#636363",
+                  "error": "#bdbdbd"}
 RDYLGN = colormaps["RdYlGn"]
-SHORT = {"fell": "fell", "diverged": "div.", "neither": "not yet", "timeout": "timeout",
-         "error": "error"}
-LEGEND = {"neither": "neither (not recovered in time)"}
+SHORT = {"fell": "fell", "diverged": "div.", "neither": "not yet", "not set": "×",
+         "timeout": "timeout", "error": "error"}
+LEGEND = {"neither": "neither (not recovered in time)",
+          "not set": "not set (the toe over the obstacle at that instant)"}
 FACETS = ("controller", "mechanism")  # one panel per combination present
 POOLED = ("leg", "strategy_mode", "obstacle_height_m", "delay_scale", "strength_scale",
           "height_m", "mass_kg", "sex", "contact", "seed", "duration_after_trip_s",
           "timestep_s")
 SCALES = ("delay_scale", "strength_scale")
 PLOT_COLUMNS = ("swing_fraction", "speed_m_per_s", *FACETS, *POOLED, "strategy", "error",
-                "timed_out", "diverged", "recovered", "fell")  # what the plots read
+                "timed_out", "diverged", "recovered", "fell", "not_set")  # what they read
 
 
 @dataclass
@@ -107,7 +109,7 @@ class Tally:
         self.outcomes[what] += 1
         for scale in SCALES:
             self.scale_values[scale].add(r.get(scale))
-        if what in ("error", "timeout"):
+        if what in ("error", "timeout", "not set"):  # no trip to count a fall of
             return
         for scale in SCALES:
             if r.get(scale) is None:
@@ -238,8 +240,9 @@ def plot_strategy_map(path, rows: Tally | Iterable[dict], caption: str = "") -> 
                 label = (f"E{n}" if k == taken else f"L{n}" if c.lowering == taken
                          else f"E {k}/{taken}")
                 dark = _dark(cmap, frac[i, j])
-            else:  # every run raised, or none could be classified (an emergent strategy)
-                label = "error" if c.raised == c.runs else "–"
+            else:  # every run raised or was not set, or none could be classified
+                label = ("error" if c.raised == c.runs else
+                         "×" if c.outcomes["not set"] == c.runs else "–")
             _annotate(ax, sw, v, label, dark, len(cells))
         ax.pcolormesh(xe, ye, np.zeros_like(frac), cmap=ListedColormap(["#bdbdbd"]))
         mesh = ax.pcolormesh(xe, ye, np.ma.masked_invalid(frac), cmap=cmap, vmin=0, vmax=1,
@@ -249,7 +252,8 @@ def plot_strategy_map(path, rows: Tally | Iterable[dict], caption: str = "") -> 
     cb.set_label("fraction elevating")
     cb.set_ticks([0, 0.5, 1], labels=["lowering", "mixed", "elevating"])
     note = _pooled_note(t)
-    fig.suptitle("Strategy taken: E elevating, L lowering, – neither (grey: unclassified)"
+    fig.suptitle("Strategy taken: E elevating, L lowering, – neither (grey: unclassified), "
+                 "× not set"
                  + ("; (n): runs in the cell; "
                  "E k/n: k of n elevating" if t.pooled() else "")
                  + "".join(f"\n{x}" for x in (note, caption) if x), fontsize=10)
@@ -287,14 +291,16 @@ def plot_outcome_map(path, rows: Tally | Iterable[dict], caption: str = "") -> P
         frac = np.full((len(speeds), len(swings)), np.nan)
         for (v, sw), c in cells.items():
             i, j = speeds.index(v), swings.index(sw)
-            ok = c.runs - c.outcomes["error"] - c.outcomes["timeout"]
+            ok = (c.runs - c.outcomes["error"] - c.outcomes["timeout"]
+                  - c.outcomes["not set"])
             dark = False
             if ok:
                 frac[i, j] = c.outcomes["recovered"] / ok
                 label = f"{c.outcomes['recovered']}/{ok}"
                 dark = _dark(RDYLGN, frac[i, j])
             else:
-                label = "error" if c.outcomes["error"] else "timeout"
+                label = ("error" if c.outcomes["error"] else
+                         "×" if c.outcomes["not set"] else "timeout")
             _annotate(ax, sw, v, label, dark, len(cells))
         ax.pcolormesh(xe, ye, np.zeros_like(frac), cmap=ListedColormap(["#bdbdbd"]))
         mesh = ax.pcolormesh(xe, ye, np.ma.masked_invalid(frac), cmap=RDYLGN, vmin=0,
