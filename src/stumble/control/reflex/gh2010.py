@@ -600,9 +600,13 @@ class GH2010Controller:
         if not self._place:
             return v[:, :-1]
         r = rows[:, self._place_cols]  # pelvis x, z, ankle x (2), ankle z (2), COM x, vx
-        alpha = np.arctan2(r[:, 2:4] - r[:, :1], r[:, 1:2] - r[:, 4:6])  # (n, 2)
-        ahead = r[:, 6:7] - r[:, 3:1:-1]  # COM ahead of the other leg's ankle (n, 2)
-        return np.hstack([v[:, :-1], alpha, ahead, r[:, 7:8]])
+        k = v.shape[1] - 1
+        out = np.empty((len(v), k + 5))  # the channels, then α (2), ahead (2), speed
+        out[:, :k] = v[:, :-1]
+        np.arctan2(r[:, 2:4] - r[:, :1], r[:, 1:2] - r[:, 4:6], out=out[:, k:k + 2])
+        np.subtract(r[:, 6:7], r[:, 3:1:-1], out=out[:, k + 2:k + 4])  # COM ahead of the
+        out[:, k + 4] = r[:, 7]  # other leg's ankle; the COM's forward speed
+        return out
 
     # ---- the reflex laws ------------------------------------------------------------
     # the features of a leg's laws, in order: F of SOL, GAS, VAS, GLU, HAMS (own paths);
@@ -784,8 +788,12 @@ class GH2010Controller:
         (``GH2010Params.k_place``)."""
         p, sl = self.p, self._sl["place"]
         pl = x[:, sl]
-        alpha, ahead, speed = pl[:, 0:2], pl[:, 2:4], pl[:, 4:5]
-        e = p.k_place * (p.place_a0 + p.place_cd * ahead + p.place_cv * speed - alpha)
+        alpha = pl[:, 0:2]
+        if p.place_cd or p.place_cv:
+            ahead, speed = pl[:, 2:4], pl[:, 4:5]
+            e = p.k_place * (p.place_a0 + p.place_cd * ahead + p.place_cv * speed - alpha)
+        else:  # the same numbers: a0 + (±0) + (±0) is a0 (the sensed values are finite)
+            e = p.k_place * (p.place_a0 - alpha)
         on = (x[:, self._sl["vest_load"]] < p.stance_load) & (alpha > 0.0)
         u[:, :, self._i_flex] += on * np.maximum(e, 0.0)
         u[:, :, self._i_glu] += on * np.maximum(-e, 0.0)
