@@ -250,6 +250,10 @@ def _parser() -> argparse.ArgumentParser:
                       "default network)")
     f.add_argument("--passes", type=int, default=None, metavar="N",
                    help="network, --closed-loop: DAgger passes (default 8)")
+    f.add_argument("--expert", type=Path, default=None, metavar="FILE",
+                   help="network, --closed-loop: the DAgger expert, a gh2010.json of "
+                   "`reflex fit --controller gh2010 --wiring seed003` (default: the "
+                   "shipped one)")
     f.add_argument("--trips", action="store_true",
                    help="gh2010: the trip stage: from the default's walking fit, "
                    "pushed-walk (or --params FILE), its gains and the stumbling corrective "
@@ -665,6 +669,8 @@ def cmd_reflex_fit_gh2010(args) -> int:
 
     if args.trips and args.wiring != "gh2010":
         raise InputError("--trips is for --wiring gh2010")
+    if args.expert is not None or args.closed_loop or args.passes is not None:
+        raise InputError("--expert, --closed-loop and --passes are for --controller network")
     if args.params is not None and args.wiring != "gh2010":
         raise InputError("--params is for --wiring gh2010 (the network's expert starts from "
                          "the first walking fit, walk)")
@@ -767,6 +773,17 @@ def cmd_reflex(args) -> int:
     muscles = args.muscles or ("hfl" if closed else "seed")
     contact = closed if args.contact_afferents is None else args.contact_afferents
     passes = args.passes
+    expert = None
+    if args.expert is not None:
+        from stumble.control.reflex.gh2010 import load_params
+
+        if not closed:
+            raise InputError("--expert is for --closed-loop (the DAgger expert)")
+        expert = load_params(args.expert)
+        if expert.wiring != "seed003":
+            raise InputError(f"--expert {args.expert} is wired {expert.wiring}: the network "
+                             "learns from a seed003-wired expert (`reflex fit --controller "
+                             "gh2010 --wiring seed003`)")
     if passes is not None and (not closed or passes < 1):
         raise InputError("--passes is for the closed-loop fit and must be at least 1")
     out = prepare_dir(args.out)
@@ -787,10 +804,13 @@ def cmd_reflex(args) -> int:
 
         n = passes or PASSES
         bar = _Progress("closed loop", sys.stderr.isatty())
-        closed_loop = dagger(result.network, result.ident, shipped_params("seed003"), n,
+        closed_loop = dagger(result.network, result.ident,
+                             expert or shipped_params("seed003"), n,
                              seed=args.seed, workers=args.workers or os.cpu_count() or 1,
                              progress=lambda row: bar(row["pass"] + 1, n))
         bar.done()
+        if args.expert is not None:
+            closed_loop.expert = str(args.expert)
     written = write_fit(out, result, video=not args.no_video, closed_loop=closed_loop)
     print(identified + ("" if closed_loop else f"; wrote {', '.join(written)} to {out}"))
     if closed_loop is None:

@@ -229,6 +229,7 @@ def write_fit(out: Path, fit, video: bool = True, closed_loop=None) -> list[str]
         fit.report["closed_loop"] = {
             "method": "DAgger with the GH2010 expert on seed 003's wiring "
                       "(stumble.control.reflex.dagger)",
+            "expert": closed_loop.expert,
             "passes": closed_loop.history, "wall_time_s": round(closed_loop.wall_time_s, 1)}
     step = simulate_walking_step(net)
     fit.report["walking_step"] = {

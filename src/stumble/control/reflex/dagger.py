@@ -200,6 +200,7 @@ class DaggerResult:
     network: Network
     history: list[dict] = field(default_factory=list)
     wall_time_s: float = 0.0
+    expert: str = "the shipped seed003-wired GH2010 (data/gh2010_seed003.json)"
 
 
 def ident_data(net: Network, ident) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:

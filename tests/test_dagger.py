@@ -1,0 +1,48 @@
+"""DAgger's building blocks (stumble.control.reflex.dagger): the mixed controller's
+episodes, labelled by the expert whoever drives, and training on them."""
+
+import numpy as np
+import pytest
+
+from stumble.control.reflex.dagger import DaggerResult, collect, train_on
+from stumble.control.reflex.gh2010 import shipped_params
+from stumble.control.reflex.identify import default_network
+
+
+@pytest.fixture(scope="module")
+def episodes():
+    net, expert = default_network("closed-loop"), shipped_params("seed003")
+    return net, {beta: collect(net, expert, beta, seed=3, speed_m_per_s=1.2,
+                               duration_s=0.6) for beta in (1.0, 0.0)}
+
+
+def test_an_episode_is_labelled_by_the_expert_whoever_drives(episodes):
+    """0.6 s from the 1.2 m/s walk: one row of inputs per tick, the expert's excitation as
+    the label of every tick after the walk's history, within (0.01, 0.99)."""
+    net, eps = episodes
+    for beta, ep in eps.items():
+        T = len(ep.inputs)
+        assert ep.walked_s == pytest.approx(0.6, abs=0.002), beta
+        assert ep.inputs.shape[1] == 2 and ep.targets.shape == (T, 2, len(net.topology.muscles))
+        assert 0.5 * T < ep.mask.sum() < T  # the history's ticks carry no label
+        assert not ep.mask[: int(net.topology.max_lag)].any()
+        assert ep.targets.min() >= 0.01 and ep.targets.max() <= 0.99
+        assert np.isfinite(ep.inputs).all()
+    # the expert drives (β = 1) or the network does (β = 0): the same start, other bodies
+    a, b = eps[1.0], eps[0.0]
+    assert not np.allclose(a.inputs[a.mask][-50:], b.inputs[b.mask][-50:])
+
+
+def test_training_on_the_labels_lowers_the_loss(episodes):
+    """A few L-BFGS iterations on one episode bring the network closer to its labels."""
+    from stumble.control.reflex.dagger import _loss_grad
+
+    net, eps = episodes
+    ep = eps[0.0]
+    data = [(ep.inputs[:, side], ep.targets[:, side], ep.mask.astype(float))
+            for side in range(2)]
+    before, _g = _loss_grad(net, data)
+    trained, after = train_on(net, data, iterations=15)
+    assert after < before and _loss_grad(trained, data)[0] == pytest.approx(after)
+    assert trained is not net and net.pack().tolist() != trained.pack().tolist()
+    assert DaggerResult(trained).expert.endswith("(data/gh2010_seed003.json)")
