@@ -3,7 +3,8 @@
 The grid of ``stumble study --controller gh2010 --mechanism obstacle --swing
 0.05:0.75:15 --speed 1.0,1.2,1.4`` (10 cm box, the walker's own gait, 3 s after the
 trip), run by ``simulate_trip`` in this one process, for a ``gh2010.json`` (or ``walk``,
-or nothing: the shipped trip fit); ``--start playback`` trips the recording instead.
+or nothing: the default set, ``pushed``); ``--start playback`` trips the recording
+instead.
 Prints the strategy map (E elevating, L lowering, - neither, x not set; * recovered),
 the recoveries of 45, the human strategy in the 30 window trips (elevating at
 0.05-0.25, lowering at 0.55-0.75) and the lowering-window recoveries; ``--out FILE``
@@ -26,7 +27,7 @@ import numpy as np
 
 from stumble.control.reflex.fit_walk import human_strategy
 from stumble.control.reflex.gh2010 import load_params, shipped_params
-from stumble.errors import InputError
+from stumble.errors import TripNotSet
 from stumble.pipeline import simulate_trip
 from stumble.trip import Scenario
 
@@ -66,7 +67,7 @@ def main() -> None:
                        "recovered": bool(summ.get("recovered")),
                        "fell": bool(summ.get("fell")),
                        "stop_reason": summ.get("stop_reason")}
-            except InputError as e:
+            except TripNotSet as e:
                 row = {"swing": s, "speed": v, "set": False, "strategy": None,
                        "recovered": False, "error": str(e)}
             rows.append(row)

@@ -213,7 +213,8 @@ def test_the_trip_stage_fits_the_stumbling_reflex_from_the_walking_fit(tmp_path)
     assert all(getattr(fitted, n) > 0.0 for n in SCR_GAINS if n not in SCR_EXTENSION)
     assert all(getattr(fitted, n) == 0.0 for n in SCR_EXTENSION)
     fit = json.loads((tmp_path / "gh2010.json").read_text())["fit"]
-    assert "--trips" in fit["command"] and fit["from"] == "the shipped walking fit"
+    assert "--trips" in fit["command"] and "--params" not in fit["command"]
+    assert fit["from"] == "the shipped walking fit (gh2010_pushed_walk.json)"
     # it starts from the pushed walking fit the default's touch stages started from
     start = dict(zip(res.space.names, res.space.start, strict=True))
     assert all(start[n] == pytest.approx(getattr(load_params("pushed-walk"), n))
@@ -563,15 +564,21 @@ def test_a_pushed_walk_steps_natively_between_pushes_and_equals_stepping_every_s
     assert np.abs(native.trip_force[:, 0]).max() == 200.0
 
 
-def test_the_networks_expert_fit_starts_from_the_first_walking_fit_whatever_the_default():
+def test_the_networks_expert_fit_starts_from_the_first_walking_fit_whatever_the_default(
+        tmp_path):
     """``reflex fit --controller gh2010 --wiring seed003`` starts from the first walking
     fit (``gh2010.SEED003_START``, ``--params walk``), not from the default set, so that
     the shipped expert's fit reproduces after the default changed (2026-12-04)."""
+    import json
+
     from stumble.control.reflex.fit_walk import fit_gh2010
     from stumble.control.reflex.gh2010 import NAMED, SEED003_START, load_params, shipped_params
 
     assert NAMED["walk"] == SEED003_START
-    res = fit_gh2010(wiring="seed003", stages=((1, 0.5, ()),), popsize=2)
+    res = fit_gh2010(wiring="seed003", stages=((1, 0.5, ()),), popsize=2, out=tmp_path)
+    fit = json.loads((tmp_path / "gh2010.json").read_text())["fit"]
+    assert fit["from"] == f"the first walking fit ({SEED003_START})"
+    assert fit["sigma0"] == [0.3]  # a walker's start: the smaller steps
     walk, default = load_params("walk"), shipped_params()
     start = dict(zip(res.space.names, res.space.start, strict=True))
     differ = [n for n in start if getattr(walk, n) != getattr(default, n)]
@@ -579,7 +586,8 @@ def test_the_networks_expert_fit_starts_from_the_first_walking_fit_whatever_the_
     assert all(start[n] == pytest.approx(getattr(walk, n)) for n in differ)
 
 
-def test_a_walking_fit_from_a_parameter_set_refits_its_walk_and_keeps_its_touch(tmp_path):
+def test_a_walking_fit_from_a_parameter_set_refits_its_walk_and_keeps_its_touch(tmp_path,
+                                                                                capsys):
     """``reflex fit --controller gh2010 --params NAME`` (no ``--trips``): the walk is
     refitted from the set, in steps of ``GH2010_SIGMA_TRIPS``, and the reflexes a touch
     triggers stay as the set has them; the result records where it started."""
@@ -603,6 +611,29 @@ def test_a_walking_fit_from_a_parameter_set_refits_its_walk_and_keeps_its_touch(
     assert fit["sigma0"] == [GH2010_SIGMA_TRIPS] and fit["from"]["params"] == "--params"
     assert fit["from"]["its_fit"]["touch_only"] and "--trips" not in fit["command"]
     from stumble.cli import main
+    from stumble.control.reflex.fit_walk import _fit_command
 
-    assert main(["reflex", "fit", "--controller", "gh2010", "--wiring", "seed003",
-                 "--params", "walk", "--out", str(tmp_path / "s")]) == 2
+    # the command names the set (--params aside it would fit from the paper's values)
+    assert "--wiring gh2010 --params pushed --placement --pushes" in _fit_command(
+        "gh2010", False, ((1, 1.0, ()),), None, 3, placement=True, pushes=True,
+        params="pushed")
+    bad = {"--wiring seed003 --params walk": "is for --wiring gh2010",
+           "--params src/stumble/control/reflex/data/gh2010_seed003.json":
+               "is wired seed003, the fit --wiring gh2010",
+           "--expert walk": "are for --controller network",
+           "--closed-loop": "are for --controller network"}
+    capsys.readouterr()
+    for opts, words in bad.items():
+        assert main(["reflex", "fit", "--controller", "gh2010", *opts.split(),
+                     "--out", str(tmp_path / "s")]) == 2, opts
+        err = capsys.readouterr().err
+        assert words in err and err.count("\n") == 1, (opts, err)
+    assert not (tmp_path / "s").exists()
+    # the network's DAgger expert: for --closed-loop, seed003-wired
+    for opts, words in (("--expert walk", "--expert is for --closed-loop"),
+                        ("--closed-loop --expert walk", "is wired gh2010"),
+                        ("--closed-loop --expert nope.json", "does not exist")):
+        assert main(["reflex", "fit", *opts.split(), "--out", str(tmp_path / "n")]) == 2
+        err = capsys.readouterr().err
+        assert words in err and err.count("\n") == 1, (opts, err)
+    assert not (tmp_path / "n").exists()

@@ -834,3 +834,39 @@ def test_a_trip_that_cannot_be_set_is_an_outcome_not_an_error(tmp_path, monkeypa
     t = Tally.of(rows)  # the fall rate counts only the trips that were set
     assert all(runs == 2 for by_x in t.fall.values() for _f, runs in by_x.values())
     assert (out / "fall_rate.png").exists() and (out / "strategy_map.png").exists()
+
+
+def test_a_reflex_study_is_not_resumed_with_other_default_reflex_sets(tmp_path, capsys,
+                                                                        monkeypatch):
+    """``study.json`` records the network and GH2010 set the reflex controllers run by
+    default (name and SHA-256: they changed on 2026-12-04); a directory whose runs were
+    made with others, or before they were recorded, is not resumed."""
+    import hashlib
+    from importlib import resources
+
+    got = []
+
+    def simulate_trip(sc, **kw):
+        got.append(sc)
+        return SimpleNamespace(summary=fake_summary(sc))
+
+    monkeypatch.setattr(pipeline, "simulate_trip", simulate_trip)
+    out = tmp_path / "g"
+    argv = ["study", "--controller", "gh2010", "--swing", "0.2,0.6", "--workers", "1",
+            "--quiet", "--out", str(out)]
+    assert main(argv) == 0 and len(got) == 2
+    meta = json.loads((out / "study.json").read_text())["reflex_default_params"]
+    data = resources.files("stumble.control.reflex") / "data"
+    assert meta == {"gh2010": {"name": "gh2010_pushed.json", "sha256": hashlib.sha256(
+        (data / "gh2010_pushed.json").read_bytes()).hexdigest()}}
+    assert main(argv) == 0 and len(got) == 2  # the same defaults: resumed, nothing run
+    capsys.readouterr()
+    study = out / "study.json"
+    for change in ({"reflex_default_params": {"gh2010": {"name": "gh2010.json",
+                                                         "sha256": "0" * 64}}},
+                   {"reflex_default_params": None}):
+        study.write_text(json.dumps({**json.loads(study.read_text()), **change}))
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert "other default reflex parameters" in err and err.count("\n") == 1
+    assert len(got) == 2

@@ -257,3 +257,22 @@ def test_window_rows_count_unclassified_and_failed_runs():
     assert early["agreement"] == "no" and "1 raised" in early["stumble_text"]
     assert mid["agreement"] == "yes"  # either strategy
     assert late["stumble"] == {"elevating": 2, "lowering": 1} and late["agreement"] == "no"
+
+
+def test_a_trip_not_set_counts_as_no_run_in_the_figures():
+    """A window trip that could not be set (``not_set``) is no trip to read: the figure
+    says why, as for a run that raised, and the recovery rate leaves it out."""
+    from stumble.validate import WINDOW_SWINGS, _failed, _first_error, recovery_rows
+
+    ns = {"key": "k1", "not_set": True, "not_set_reason": "at 0.6 of swing the toe is up",
+          "recovered": False, "error": None}
+    ok = {"key": "k2", "recovered": True, "fell": False, "error": None}
+    assert _failed(ns) and not _failed(ok)
+    assert _first_error([ns]) == "not set: at 0.6 of swing the toe is up"
+    assert _first_error([ns, ok]) is None
+    by_case = {f"gh2010/window/{sw}": ({**ns, "key": f"n{k}"} if k == 0 else
+                                        {**ok, "key": f"o{k}"})
+               for k, sw in enumerate(WINDOW_SWINGS)}
+    (row,) = recovery_rows("gh2010", by_case)
+    n = len(WINDOW_SWINGS) - 1
+    assert row["stumble_text"] == f"{n}/{n} (100%)" and len(row["runs"]) == n + 1

@@ -683,15 +683,21 @@ def cmd_reflex_fit_gh2010(args) -> int:
                         ("--load-from", args.load_from)):
         if given is not None and not args.trips:
             raise InputError(f"{flag} is for --trips (the trip stage)")
-    start = start_fit = None
+    start = start_fit = start_from = None
     if args.params is not None:
+        import hashlib
         import json
 
         from stumble.control.reflex.gh2010 import load_params, named_file
 
         start = load_params(args.params)
+        if start.wiring != args.wiring:
+            raise InputError(f"--params {args.params} is wired {start.wiring}, the fit "
+                             f"--wiring {args.wiring}")
         src = named_file(args.params) or args.params
         start_fit = json.loads(src.read_text()).get("fit")
+        start_from = {"params": str(args.params),
+                      "sha256": hashlib.sha256(src.read_bytes()).hexdigest()}
     stages = (TRIP_STAGES if args.trips else GH2010_STAGES if args.wiring == "gh2010"
               else SEED003_STAGES)
     if args.trip_set is not None:
@@ -730,7 +736,8 @@ def cmd_reflex_fit_gh2010(args) -> int:
     res = fit_gh2010(seed=args.seed, stages=stages, workers=workers, out=out,
                      progress=lambda row: bar(row["generation"] + 1, gens),
                      wiring=args.wiring, trips=args.trips, start=start,
-                     start_fit=start_fit, scr_phase=args.scr_phase,
+                     start_fit=start_fit, start_from=start_from,
+                     scr_phase=args.scr_phase,
                      ta_bound=args.ta_bound, strategy_cost=strategy_cost,
                      crossing=args.crossing, foot_angle=args.foot_angle,
                      load_from=args.load_from, stride_time=args.stride_time,
@@ -773,9 +780,11 @@ def cmd_reflex(args) -> int:
     muscles = args.muscles or ("hfl" if closed else "seed")
     contact = closed if args.contact_afferents is None else args.contact_afferents
     passes = args.passes
-    expert = None
+    expert = expert_text = None
     if args.expert is not None:
-        from stumble.control.reflex.gh2010 import load_params
+        import hashlib
+
+        from stumble.control.reflex.gh2010 import load_params, named_file
 
         if not closed:
             raise InputError("--expert is for --closed-loop (the DAgger expert)")
@@ -784,6 +793,9 @@ def cmd_reflex(args) -> int:
             raise InputError(f"--expert {args.expert} is wired {expert.wiring}: the network "
                              "learns from a seed003-wired expert (`reflex fit --controller "
                              "gh2010 --wiring seed003`)")
+        src = named_file(args.expert) or args.expert
+        expert_text = (f"{args.expert} (sha256 "
+                       f"{hashlib.sha256(src.read_bytes()).hexdigest()})")
     if passes is not None and (not closed or passes < 1):
         raise InputError("--passes is for the closed-loop fit and must be at least 1")
     out = prepare_dir(args.out)
@@ -805,12 +817,10 @@ def cmd_reflex(args) -> int:
         n = passes or PASSES
         bar = _Progress("closed loop", sys.stderr.isatty())
         closed_loop = dagger(result.network, result.ident,
-                             expert or shipped_params("seed003"), n,
+                             expert or shipped_params("seed003"), n, expert=expert_text,
                              seed=args.seed, workers=args.workers or os.cpu_count() or 1,
                              progress=lambda row: bar(row["pass"] + 1, n))
         bar.done()
-        if args.expert is not None:
-            closed_loop.expert = str(args.expert)
     written = write_fit(out, result, video=not args.no_video, closed_loop=closed_loop)
     print(identified + ("" if closed_loop else f"; wrote {', '.join(written)} to {out}"))
     if closed_loop is None:

@@ -70,8 +70,8 @@ TIMESTEP_RANGE_S = (0.0002, 0.005)  # any controller
 MAX_TIMESTEP_S = {"fsm": 0.002}
 STARTS = ("playback", "own")
 # where each controller's walk before the trip comes from when a scenario names none:
-# the state machines and the seed's network (which cannot walk on from its open-loop
-# identification) from the recording, as their seeds; GH2010 from its own gait
+# the state machines and the seed's network from the recording, as their seeds (seed 003's
+# CASE 1 and CASE 2 are instants of its recording); GH2010 from its own gait
 DEFAULT_START = {"fsm": "playback", "reflex": "playback", "gh2010": "own"}
 WALK_IN_S = 4.0  # own start: seconds walked before the trip's swing (our choice: GH2010's
 # stride settles within two strides of taking over)

@@ -577,13 +577,14 @@ class _Scenarios:
 
     def scan(self) -> np.ndarray:
         """Every scenario checked (InputError naming the first bad one); keys as uint64.
-        Also notes whether any is a state-machine trip (``has_fsm``)."""
+        Also notes which controllers run (``controllers``; ``has_fsm``: a state machine)."""
         keys = []
-        self.has_fsm = False
+        self.controllers: set[str] = set()
         for sc in self:
             check_scenario(sc)
             keys.append(int(run_key(sc), 16))
-            self.has_fsm = self.has_fsm or sc.controller == "fsm"
+            self.controllers.add(sc.controller)
+        self.has_fsm = "fsm" in self.controllers
         return np.array(keys, dtype=np.uint64)
 
 
@@ -649,6 +650,12 @@ def run_study(scenarios: Grid | Iterable[Scenario], out: Path, workers: int | No
                 defaults = default_params_record()
                 _check_same_defaults(out, defaults, bool(len(store.done)))
                 metadata = {**(metadata or {}), "fsm_default_params": defaults}
+            reflex = sorted(source.controllers & set(REFLEX_DEFAULTS))
+            if reflex:  # the network and GH2010 set a reflex trip runs by default
+                defaults = reflex_defaults_record(reflex)
+                _check_same_defaults(out, defaults, bool(len(store.done)),
+                                     "reflex_default_params", "reflex")
+                metadata = {**(metadata or {}), "reflex_default_params": defaults}
             _write_study_json(out, n_runs, metadata)
             stored_any = contains(store.done, keys)
             finished = contains(store.done_ok, keys) if retry_errors else stored_any
@@ -738,20 +745,56 @@ def default_params_record() -> dict:
             for (strength, rule), name in DEFAULT_SETS.items()}
 
 
-def _check_same_defaults(out: Path, defaults: dict, has_runs: bool) -> None:
-    """StumbleError when ``out`` holds state-machine runs made without ``--params`` by a
-    version whose default sets differ from ``defaults`` (or were not recorded): run keys
-    name scenarios, not parameters, so the runs must not mix."""
+# the shipped sets a reflex trip runs when none is given: the network (``identify.
+# DEFAULT_NETWORK``) and Geyer & Herr's parameters (``gh2010.SHIPPED``)
+REFLEX_DEFAULTS = ("reflex", "gh2010")
+
+
+def reflex_defaults_record(controllers) -> dict:
+    """The shipped network and GH2010 set the reflex ``controllers`` run by default:
+    name and SHA-256 of each file (the defaults changed on 2026-12-04)."""
+    import hashlib
+    from importlib import resources
+
+    def shipped(c: str) -> str:
+        if c == "reflex":
+            from stumble.control.reflex.identify import DEFAULT_NETWORK, NETWORK_NAMES
+
+            return NETWORK_NAMES[DEFAULT_NETWORK]
+        from stumble.control.reflex.gh2010 import SHIPPED
+
+        return SHIPPED["gh2010"]
+
+    data = resources.files("stumble.control.reflex") / "data"
+    out = {}
+    for c in controllers:
+        try:
+            name = shipped(c)
+        except ImportError:  # the controller is not available: its runs are errors
+            out[c] = {"name": None, "sha256": None}
+            continue
+        out[c] = {"name": name,
+                  "sha256": hashlib.sha256((data / name).read_bytes()).hexdigest()}
+    return out
+
+
+def _check_same_defaults(out: Path, defaults: dict, has_runs: bool,
+                         key: str = "fsm_default_params",
+                         what: str = "state-machine") -> None:
+    """StumbleError when ``out`` holds runs made without ``--params`` by a version whose
+    default sets (``key`` in ``study.json``: the state machines', or the reflex
+    controllers' network and GH2010 set) differ from ``defaults`` (or were not recorded):
+    run keys name scenarios, not parameters, so the runs must not mix."""
     path = out / "study.json"
     if not has_runs or not path.exists():
         return
     try:
-        before = json.loads(path.read_text()).get("fsm_default_params")
+        before = json.loads(path.read_text()).get(key)
     except (OSError, ValueError, AttributeError):
         before = None
     if before == defaults:
         return
-    raise StumbleError(f"{out} holds runs made with other default state-machine "
+    raise StumbleError(f"{out} holds runs made with other default {what} "
                        "parameters (an earlier version's); it cannot be resumed: give "
                        "another --out")
 

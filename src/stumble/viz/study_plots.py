@@ -41,7 +41,7 @@ RDYLGN = colormaps["RdYlGn"]
 SHORT = {"fell": "fell", "diverged": "div.", "neither": "not yet", "not set": "×",
          "timeout": "timeout", "error": "error"}
 LEGEND = {"neither": "neither (not recovered in time)",
-          "not set": "not set (the toe over the obstacle at that instant)"}
+          "not set": "not set (no room for the trip at that instant)"}
 FACETS = ("controller", "mechanism")  # one panel per combination present
 POOLED = ("leg", "strategy_mode", "obstacle_height_m", "delay_scale", "strength_scale",
           "height_m", "mass_kg", "sex", "contact", "seed", "duration_after_trip_s",
@@ -242,7 +242,7 @@ def plot_strategy_map(path, rows: Tally | Iterable[dict], caption: str = "") -> 
                 dark = _dark(cmap, frac[i, j])
             else:  # every run raised or was not set, or none could be classified
                 label = ("error" if c.raised == c.runs else
-                         "×" if c.outcomes["not set"] == c.runs else "–")
+                         "×" if c.raised + c.outcomes["not set"] == c.runs else "–")
             _annotate(ax, sw, v, label, dark, len(cells))
         ax.pcolormesh(xe, ye, np.zeros_like(frac), cmap=ListedColormap(["#bdbdbd"]))
         mesh = ax.pcolormesh(xe, ye, np.ma.masked_invalid(frac), cmap=cmap, vmin=0, vmax=1,
@@ -252,8 +252,8 @@ def plot_strategy_map(path, rows: Tally | Iterable[dict], caption: str = "") -> 
     cb.set_label("fraction elevating")
     cb.set_ticks([0, 0.5, 1], labels=["lowering", "mixed", "elevating"])
     note = _pooled_note(t)
-    fig.suptitle("Strategy taken: E elevating, L lowering, – neither (grey: unclassified), "
-                 "× not set"
+    fig.suptitle("Strategy taken: E elevating, L lowering, – none read from the motion, "
+                 "× not set (grey: no strategy)"
                  + ("; (n): runs in the cell; "
                  "E k/n: k of n elevating" if t.pooled() else "")
                  + "".join(f"\n{x}" for x in (note, caption) if x), fontsize=10)
@@ -265,7 +265,8 @@ def plot_outcome_map(path, rows: Tally | Iterable[dict], caption: str = "") -> P
     """Swing fraction × speed → recovered / fell / diverged / neither / timeout / error.
 
     One run per cell: its outcome as a colour. Pooled runs: the fraction recovered, with
-    "recovered/runs" written in the cell (runs that raised or timed out left out)."""
+    "recovered/runs" written in the cell (runs that raised, timed out or were not set
+    left out)."""
     t = _tally(rows)
     facets = t.facets()
     fig, axes = _figure(len(facets), t)
@@ -313,7 +314,8 @@ def plot_outcome_map(path, rows: Tally | Iterable[dict], caption: str = "") -> P
                    for k, c in OUTCOME_COLORS.items() if t.outcomes[k]]
         fig.legend(handles=handles, loc="outside right center", fontsize=8, frameon=False)
     note = _pooled_note(t)
-    fig.suptitle("Outcome" + (": recovered / runs without error" if pooled else "")
+    fig.suptitle("Outcome" + (": recovered / trips set and run without error" if pooled
+                               else "")
                  + "".join(f"\n{x}" for x in (note, caption) if x), fontsize=10)
     fig.savefig(path, dpi=110)
     return Path(path)
@@ -333,7 +335,8 @@ def wilson_interval(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
 
 def plot_fall_rate(path, rows: Tally | Iterable[dict], scales: list[str],
                    caption: str = "") -> Path:
-    """Fall rate (falls / runs without error, 95 % Wilson interval) against each scale.
+    """Fall rate (falls / trips set and run without error, 95 % Wilson interval) against
+    each scale.
 
     ``scales``: ``delay_scale`` and/or ``strength_scale``. One line per controller and
     mechanism (and per value of the other scale when both vary)."""
@@ -373,8 +376,8 @@ def plot_fall_rate(path, rows: Tally | Iterable[dict], scales: list[str],
         ax.set_ylabel("fall rate (falls / runs)")
         ax.legend(fontsize=8, loc="best")
         ax.grid(alpha=0.3)
-    fig.suptitle("Fall rate, 95 % Wilson intervals (runs that raised or timed out are left "
-                 "out)" + (f"\n{caption}" if caption else ""), fontsize=10)
+    fig.suptitle("Fall rate, 95 % Wilson intervals (runs that raised, timed out or were "
+                 "not set are left out)" + (f"\n{caption}" if caption else ""), fontsize=10)
     fig.savefig(path, dpi=110)
     return Path(path)
 

@@ -243,8 +243,9 @@ def judge(net: Network, speeds: tuple[float, ...] = JUDGE_SPEEDS) -> dict:
 
 def dagger(net: Network, ident, params: GH2010Params, passes: int = PASSES, seed: int = 0,
            workers: int = 1, progress=None, episode_speeds: tuple = EPISODE_SPEEDS,
-           judge_speeds: tuple = JUDGE_SPEEDS) -> DaggerResult:
-    """Refine ``net`` by DAgger with the GH2010 expert (module docstring); each pass's
+           judge_speeds: tuple = JUDGE_SPEEDS, expert: str | None = None) -> DaggerResult:
+    """Refine ``net`` by DAgger with the GH2010 expert ``params`` (module docstring;
+    ``expert``: what it is, for the record, default the shipped one's name); each pass's
     episodes start from the walks at ``episode_speeds`` (m/s), its network is judged by
     ``judge`` from ``judge_speeds`` and the best of them is returned."""
     from concurrent.futures import ProcessPoolExecutor
@@ -252,7 +253,7 @@ def dagger(net: Network, ident, params: GH2010Params, passes: int = PASSES, seed
     t0 = time.perf_counter()
     base = ident_data(net, ident)
     data: list = []
-    out = DaggerResult(net)
+    out = DaggerResult(net) if expert is None else DaggerResult(net, expert=expert)
     best_cost = judge(net, judge_speeds)["cost"]
     pool = ProcessPoolExecutor(workers) if workers > 1 else None
     try:

@@ -495,7 +495,7 @@ def trip_outcome(kind: str, swing: float, speed: float, params=None, network=Non
     ``strategy``: elevating, lowering, or None when the tripped foot never came down, the
     trip could not be set or the walker fell before it). ``walk_in_cache``: a
     ``pipeline.WalkInCache`` (fits of the touch's reflexes alone)."""
-    from stumble.errors import InputError
+    from stumble.errors import TripNotSet
     from stumble.pipeline import simulate_trip
     from stumble.trip import Scenario
 
@@ -504,7 +504,7 @@ def trip_outcome(kind: str, swing: float, speed: float, params=None, network=Non
                   duration_after_trip_s=WALK_ON_TRIP_S)
     try:
         r = simulate_trip(sc, network=network, gh2010=params, walk_in_cache=walk_in_cache)
-    except InputError:  # the toe is over the obstacle at that instant of its own swing
+    except TripNotSet:  # the toe is over the obstacle at that instant of its own swing
         return 0.0, None
     s = r.summary
     if s.get("trip_time_s") is None:  # fell before the trip
@@ -528,7 +528,7 @@ GH2010_SIGMA = 0.5  # initial step, in units of 30 % of each of the paper's valu
 GH2010_SIGMA_TRIPS = 0.3  # the trip stage starts from a walker: smaller steps
 
 
-SEED003_STAGES = ((100, 10.0, ()),)  # the network's expert: walking, from the shipped GH2010
+SEED003_STAGES = ((100, 10.0, ()),)  # the network's expert: walking, from SEED003_START
 # The trip stage (``fit_gh2010(trips=True)``): from the walking fit, the GH2010 gains and
 # the stumbling corrective reflex's on a 10 s walk and four obstacle trips in the walker's
 # own gait (``Scenario.start`` own), two per strategy window and one per start speed
@@ -553,7 +553,8 @@ SCR_START = 0.2  # every gain of the stumbling corrective reflex starts here
 def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                workers: int = 1, out: Path | None = None, progress=None,
                wiring: str = "gh2010", trips: bool = False, start=None,
-               start_fit: dict | None = None, scr_phase: str | None = None,
+               start_fit: dict | None = None, start_from: dict | None = None,
+               scr_phase: str | None = None,
                ta_bound: str = "wide", strategy_cost: float = 0.0,
                crossing: bool = False, foot_angle: float = 0.0,
                load_from: str | None = None, stride_time: bool = False,
@@ -565,10 +566,13 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     3 s after it not walked on. ``wiring`` ``gh2010`` starts from the paper's values
     (stages ``GH2010_STAGES``), or refits the walk of ``start`` when it is given (steps of
     ``GH2010_SIGMA_TRIPS``; the gains outside the fit, a touch's reflexes among them,
-    kept as ``start`` has them); ``seed003`` (the network's expert) from the shipped
-    ``gh2010`` parameters (``SEED003_STAGES``). ``trips``: the trip stage
-    (``TRIP_STAGES``) from ``start`` (default the shipped walking fit; ``start_fit``: how
-    ``start`` was found, recorded with the result), with the stumbling corrective reflex's
+    kept as ``start`` has them); ``seed003`` (the network's expert) from the first walking
+    fit (``gh2010.SEED003_START``; ``SEED003_STAGES``). ``trips``: the trip stage
+    (``TRIP_STAGES``) from ``start`` (default the default set's walking fit,
+    ``gh2010.SHIPPED_WALKING``; ``start_fit``: how
+    ``start`` was found, recorded with the result; ``start_from``: what ``--params``
+    named, ``{"params": name or path, "sha256": of the file}``, recorded and put in the
+    command), with the stumbling corrective reflex's
     gains: each at zero in ``start`` (never fitted, or fitted to its lower bound) restarts
     at ``SCR_START``, so that a later stage explores it again (the shipped second stage
     restarted the hip flexor's, zero after the first); ``scr_phase``: the reflex's
@@ -624,6 +628,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     from stumble.control.reflex.gh2010 import (
         CROSS_GAINS,
         SCR_GAINS,
+        SEED003_START,
+        SHIPPED_WALKING,
         GH2010Params,
         load_params,
         shipped_params,
@@ -685,10 +691,15 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                                           for a, b in t]} for g, w, t in stages],
                     "population": popsize, "evaluations": evaluations,
                     "sigma0": ([TRIP_SIGMA] if with_trips else [GH2010_SIGMA_TRIPS]
-                               if start is not None else [GH2010_SIGMA, GH2010_SIGMA_TRIPS]),
-                    "from": ("the shipped walking fit" if with_trips and start is None else
-                             {"params": "--params", "its_fit": start_fit}
-                             if start is not None else "the paper"),
+                               if start is not None or wiring != "gh2010"
+                               else [GH2010_SIGMA, GH2010_SIGMA_TRIPS]),
+                    "from": ({"params": (start_from or {}).get("params", "--params"),
+                              **({"sha256": start_from["sha256"]} if start_from else {}),
+                              "its_fit": start_fit} if start is not None else
+                             f"the shipped walking fit ({SHIPPED_WALKING['gh2010']})"
+                             if with_trips else
+                             f"the first walking fit ({SEED003_START})"
+                             if wiring != "gh2010" else "the paper"),
                     "start_speed_m_per_s": GH2010_SPEED_M_PER_S,
                     "cost": res.best_cost, "terms": res.best_terms,
                     "wall_time_s": round(wall, 1),
@@ -710,7 +721,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                                             ta_bound, strategy_cost, crossing,
                                             foot_angle, load_from, stride_time,
                                             stance_weight, touch_only, recovery_cost,
-                                            placement, pushes, track_weight)}})
+                                            placement, pushes, track_weight,
+                                            (start_from or {}).get("params"))}})
     return res
 
 
@@ -720,9 +732,13 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
                  load_from: str | None = None, stride_time: bool = False,
                  stance_weight: float = W_STANCE, touch_only: bool = False,
                  recovery_cost: float = 0.0, placement: bool = False,
-                 pushes: bool = False, track_weight: float = W_TRACK) -> str:
-    """The ``stumble reflex fit`` command of a GH2010 fit (``--params`` aside)."""
+                 pushes: bool = False, track_weight: float = W_TRACK,
+                 params: str | None = None) -> str:
+    """The ``stumble reflex fit`` command of a GH2010 fit (``params``: what ``--params``
+    named, None: none given)."""
     opts = ["--trips"] if trips else []
+    if params is not None:
+        opts.append(f"--params {params}")
     if ta_bound != "wide":
         opts.append(f"--ta-bound {ta_bound}")
     if stride_time:

@@ -276,8 +276,9 @@ def named_file(name):
 
 def load_params(path) -> GH2010Params:
     """Parameters from a ``gh2010.json`` (a fit's result), or a shipped set by name
-    (``NAMED``: ``walk``, the walking fit; ``pushed-walk`` and ``pushed``); InputError if
-    it is not one."""
+    (``NAMED``: ``walk``, the first walking fit; ``trip``, the trip stages on it;
+    ``pushed-walk``, the walking fit with pushes; ``pushed``, the touch stages on it, the
+    default); InputError if it is not one."""
     from pathlib import Path
 
     shipped = named_file(path)
