@@ -45,3 +45,27 @@ def test_training_on_the_labels_lowers_the_loss(episodes):
     trained, after = train_on(net, data, iterations=15)
     assert after < before and _loss_grad(trained, data)[0] == pytest.approx(after)
     assert trained is not net and net.pack().tolist() != trained.pack().tolist()
+
+
+def test_each_pass_is_written_as_it_ends(tmp_path, monkeypatch):
+    """``dagger(out_dir=...)``: every pass's row is appended to ``passes.jsonl`` when it
+    ends and the best network so far saved whole (``best_network.npz``), so that a
+    stopped closed-loop fit loses nothing (episodes, training and judging shortened)."""
+    import json
+
+    from stumble.control.reflex import dagger as D
+    from stumble.control.reflex.network import Network
+
+    net, expert = default_network("closed-loop"), shipped_params("seed003")
+    costs = iter([50.0, 40.0, 45.0])  # the start, pass 0 (better), pass 1 (worse)
+    monkeypatch.setattr(D, "judge", lambda n, speeds: {"cost": next(costs)})
+    monkeypatch.setattr(D, "_collect_job", lambda a: collect(*a, duration_s=0.3))
+    monkeypatch.setattr(D, "train_on", lambda n, data: (train_on(n, data, 2)[0], 0.5))
+    monkeypatch.setattr(D, "ident_data", lambda n, ident: [])
+    res = D.dagger(net, None, expert, passes=2, episode_speeds=(1.2,), judge_speeds=(1.2,),
+                   out_dir=tmp_path)
+    rows = [json.loads(x) for x in (tmp_path / "passes.jsonl").read_text().splitlines()]
+    assert [r["pass"] for r in rows] == [0, 1] and [r["cost"] for r in rows] == [40.0, 45.0]
+    best = Network.load(tmp_path / "best_network.npz")
+    assert np.array_equal(best.pack(), res.network.pack())  # pass 0's, the best
+    assert not list(tmp_path.glob(".*tmp*"))

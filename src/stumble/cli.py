@@ -818,6 +818,7 @@ def cmd_reflex(args) -> int:
         bar = _Progress("closed loop", sys.stderr.isatty())
         closed_loop = dagger(result.network, result.ident,
                              expert or shipped_params("seed003"), n, expert=expert_text,
+                             out_dir=out,
                              seed=args.seed, workers=args.workers or os.cpu_count() or 1,
                              progress=lambda row: bar(row["pass"] + 1, n))
         bar.done()

@@ -27,6 +27,7 @@ excitation error and L-BFGS as ``identify.train``.
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import dataclass, field, replace
 
@@ -243,12 +244,18 @@ def judge(net: Network, speeds: tuple[float, ...] = JUDGE_SPEEDS) -> dict:
 
 def dagger(net: Network, ident, params: GH2010Params, passes: int = PASSES, seed: int = 0,
            workers: int = 1, progress=None, episode_speeds: tuple = EPISODE_SPEEDS,
-           judge_speeds: tuple = JUDGE_SPEEDS, expert: str | None = None) -> DaggerResult:
+           judge_speeds: tuple = JUDGE_SPEEDS, expert: str | None = None,
+           out_dir=None) -> DaggerResult:
     """Refine ``net`` by DAgger with the GH2010 expert ``params`` (module docstring;
     ``expert``: what it is, for the record, default the shipped one's name); each pass's
     episodes start from the walks at ``episode_speeds`` (m/s), its network is judged by
-    ``judge`` from ``judge_speeds`` and the best of them is returned."""
+    ``judge`` from ``judge_speeds`` and the best of them is returned. ``out_dir``: each
+    pass's row is appended to ``passes.jsonl`` there as it ends, and the best network so
+    far saved as ``best_network.npz`` (a stopped fit loses nothing)."""
     from concurrent.futures import ProcessPoolExecutor
+    from pathlib import Path
+
+    from stumble.jsonio import dumps
 
     t0 = time.perf_counter()
     base = ident_data(net, ident)
@@ -275,7 +282,14 @@ def dagger(net: Network, ident, params: GH2010Params, passes: int = PASSES, seed
                    "wall_time_s": round(time.perf_counter() - t0, 1)}
             if row["cost"] < best_cost:
                 best_cost, out.network = row["cost"], net
+                if out_dir is not None:  # written whole, then renamed
+                    net.save(Path(out_dir) / ".best_network.tmp.npz")
+                    os.replace(Path(out_dir) / ".best_network.tmp.npz",
+                               Path(out_dir) / "best_network.npz")
             out.history.append(row)
+            if out_dir is not None:
+                with open(Path(out_dir) / "passes.jsonl", "a") as f:
+                    f.write(dumps(row) + "\n")
             if progress is not None:
                 progress(row)
     finally:
