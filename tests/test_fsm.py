@@ -327,6 +327,25 @@ def test_walks_on_for_six_seconds_after_the_trip(swing, strategy):
     assert s["sim_time_s"] > 5.9 and s["steps_after_recovery_step"] >= 4
 
 
+@pytest.mark.parametrize("swing", [0.4, 0.6])
+def test_slow_walkers_walk_on_at_the_walk_ons_slowest_aim(swing):
+    """At 0.8 m/s, below the 1.0-1.4 m/s the sets were tuned on, the walk on aims at
+    ``walk_on_speed_floor_m_per_s`` (1.0 m/s), not at the speed before the trip: the
+    force trips at 0.4 and 0.6 of swing then walk on 6 s at about 1.0-1.1 m/s; aimed at
+    0.8 m/s the first stops walking and the second falls."""
+    from dataclasses import replace
+
+    from stumble.control.fsm_params import default_params
+
+    sc = Scenario(swing_fraction=swing, speed_m_per_s=0.8)
+    s = simulate_trip(sc).summary
+    assert s["recovered"] and not s["fell"] and 0.95 < s["walk_on_speed_m_per_s"] < 1.15
+    aimed = replace(default_params("fixed", "walk_on"), walk_on_speed_floor_m_per_s=0.0)
+    assert not simulate_trip(sc, params=aimed).summary["recovered"]
+    assert default_params("fixed", "walk_on").scaled_to(1.95).walk_on_speed_floor_m_per_s \
+        == pytest.approx(1.0 * (1.95 / 1.75) ** 0.5)
+
+
 def test_pelvis_attitude_damped_by_its_own_rate_keeps_the_trunk_up():
     """``attitude_damping`` pelvis (SIMBICON's torso PD on the world rate, an untuned
     option): the same early-swing trip recovers with the trunk at recovery contact about

@@ -458,9 +458,10 @@ class TripFSM:
         if self._state == "step_reach":  # walking on, toward the speed before the trip
             n, ramp = self._walk_on_landings, p.walk_on_speed_ramp_steps
             w = min(1.0, n / ramp) if ramp > 0.0 else 1.0
-            thigh += w * p.walk_on_speed_gain_rad_s_per_m * (s.com_vel[0] - self.speed)
+            aim = max(self.speed, p.walk_on_speed_floor_m_per_s)  # not below the floor
+            thigh += w * p.walk_on_speed_gain_rad_s_per_m * (s.com_vel[0] - aim)
             thigh -= (w * p.walk_on_speed_feedforward * p.balance_cv_rad_s_per_m
-                      * (self.speed - p.walk_on_speed_ref_m_per_s))
+                      * (aim - p.walk_on_speed_ref_m_per_s))
         target[i] = thigh - tilt
 
     def _place_foot_laterally(self, ctx: Context, target: np.ndarray, lst: float) -> None:

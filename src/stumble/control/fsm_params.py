@@ -431,6 +431,13 @@ class FSMParams:
     # f = 0: off.
     walk_on_speed_feedforward: float = 0.0
     walk_on_speed_ref_m_per_s: float = 1.17
+    # The slowest speed the walk on aims for (ours, 2026-12-04): both speed terms above take
+    # max(v_trip, this) for v_trip. The walk-on gait was tuned on trips at 1.0-1.4 m/s;
+    # aiming it at slower walking makes it fall or stop: force trips at swing 0.05-0.75
+    # with the default `upright` set walk on after 15 of 15 at 1.0 m/s but 4 of 15 at
+    # 0.9 and 1 of 15 at 0.8 when it aims at the speed before the trip. Trips at 1.0 m/s
+    # and faster are unchanged bit for bit.
+    walk_on_speed_floor_m_per_s: float = 1.0
     # Walking on with double support (ours): after each walk-on landing the trailing leg
     # pushes off for this long (targets step_push) before it swings. 0: off, the swing
     # starts at the landing (SIMBICON's gait, Yin et al. 2007).
@@ -504,6 +511,8 @@ class FSMParams:
                        walk_on_speed_gain_rad_s_per_m=(self.walk_on_speed_gain_rad_s_per_m
                                                        / ell ** 0.5),
                        walk_on_speed_ref_m_per_s=self.walk_on_speed_ref_m_per_s * ell ** 0.5,
+                       walk_on_speed_floor_m_per_s=(self.walk_on_speed_floor_m_per_s
+                                                    * ell ** 0.5),
                        balance_cd_lat_rad_per_m=self.balance_cd_lat_rad_per_m / ell,
                        balance_cv_lat_rad_s_per_m=self.balance_cv_lat_rad_s_per_m / ell ** 0.5)
 
