@@ -685,10 +685,9 @@ def cmd_reflex_fit_gh2010(args) -> int:
             raise InputError(f"{flag} is for --trips (the trip stage)")
     start = start_fit = start_from = None
     if args.params is not None:
-        import hashlib
         import json
 
-        from stumble.control.reflex.gh2010 import load_params, named_file
+        from stumble.control.reflex.gh2010 import file_sha256, load_params, named_file
 
         start = load_params(args.params)
         if start.wiring != args.wiring:
@@ -696,8 +695,7 @@ def cmd_reflex_fit_gh2010(args) -> int:
                              f"--wiring {args.wiring}")
         src = named_file(args.params) or args.params
         start_fit = json.loads(src.read_text()).get("fit")
-        start_from = {"params": str(args.params),
-                      "sha256": hashlib.sha256(src.read_bytes()).hexdigest()}
+        start_from = {"params": str(args.params), "sha256": file_sha256(args.params)}
     stages = (TRIP_STAGES if args.trips else GH2010_STAGES if args.wiring == "gh2010"
               else SEED003_STAGES)
     if args.trip_set is not None:
@@ -782,9 +780,7 @@ def cmd_reflex(args) -> int:
     passes = args.passes
     expert = expert_text = None
     if args.expert is not None:
-        import hashlib
-
-        from stumble.control.reflex.gh2010 import load_params, named_file
+        from stumble.control.reflex.gh2010 import file_sha256, load_params
 
         if not closed:
             raise InputError("--expert is for --closed-loop (the DAgger expert)")
@@ -793,9 +789,7 @@ def cmd_reflex(args) -> int:
             raise InputError(f"--expert {args.expert} is wired {expert.wiring}: the network "
                              "learns from a seed003-wired expert (`reflex fit --controller "
                              "gh2010 --wiring seed003`)")
-        src = named_file(args.expert) or args.expert
-        expert_text = (f"{args.expert} (sha256 "
-                       f"{hashlib.sha256(src.read_bytes()).hexdigest()})")
+        expert_text = f"{args.expert} (sha256 {file_sha256(args.expert)})"
     if passes is not None and (not closed or passes < 1):
         raise InputError("--passes is for the closed-loop fit and must be at least 1")
     out = prepare_dir(args.out)

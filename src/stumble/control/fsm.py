@@ -76,6 +76,8 @@ class TripFSM:
         self.tripped = tripped_side
         self.kc = self.p.kc(speed_m_per_s)
         self.speed = speed_m_per_s  # the walk before the trip, m/s
+        # the speed the walk on aims for: the walk's, but not below the floor
+        self._walk_on_aim = max(speed_m_per_s, self.p.walk_on_speed_floor_m_per_s)
         self.log: list[tuple[str, float]] = []
         self._state = "walking"
 
@@ -458,7 +460,7 @@ class TripFSM:
         if self._state == "step_reach":  # walking on, toward the speed before the trip
             n, ramp = self._walk_on_landings, p.walk_on_speed_ramp_steps
             w = min(1.0, n / ramp) if ramp > 0.0 else 1.0
-            aim = max(self.speed, p.walk_on_speed_floor_m_per_s)  # not below the floor
+            aim = self._walk_on_aim
             thigh += w * p.walk_on_speed_gain_rad_s_per_m * (s.com_vel[0] - aim)
             thigh -= (w * p.walk_on_speed_feedforward * p.balance_cv_rad_s_per_m
                       * (aim - p.walk_on_speed_ref_m_per_s))

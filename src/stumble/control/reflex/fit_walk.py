@@ -57,7 +57,8 @@ W_FOOT = 1.0  # the foot-angle term's weight by default (``--foot-angle``; a joi
 # played-back walk's strides at 1.0-1.3 m/s last 1.30-1.07 s (subject01, scaled with
 # speed); trip stages without it grew the strides to 1.5-1.6 s (README)
 W_STRIDE = 1.0
-# ``--pushes`` (ours; off in every shipped fit): each candidate also walks PUSH_WALK_S from
+# ``--pushes`` (ours; off unless asked; the pushed sets, ``pushed-walk`` and the default
+# ``pushed`` on it, were fitted with it): each candidate also walks PUSH_WALK_S from
 # the same start with two backward pushes on the pelvis, PUSHES ((start s, duration s,
 # force N), + forward: 40 N·s each, about −0.57 m/s for 70 kg, a trip's speed loss in
 # part: a trip slows our walker from 1.05 to 0.1 m/s within 0.45 s), and that walk's

@@ -121,7 +121,9 @@ SHIPPED = {"gh2010": "gh2010_pushed.json", "seed003": "gh2010_seed003.json"}
 # pushed-walk``), where a trip stage without ``--params`` starts
 SHIPPED_WALKING: dict[str, str] = {"gh2010": "gh2010_pushed_walk.json"}
 # the walking fit the network's expert (seed003 wiring) was fitted from: the first walking
-# fit, pinned so that the expert's fit reproduces whatever the default is
+# fit, pinned so that the expert's fit starts where it did whatever the default is (its
+# recorded command does not reproduce the shipped expert: README "Reproducing the
+# shipped fits")
 SEED003_START = "gh2010_walk.json"
 # every shipped GH2010 parameter set by the name ``--params`` takes: the first walking fit
 # (``walk``) and the trip fit on it (``trip``, the default until 2026-12-04); the pushed
@@ -272,6 +274,15 @@ def named_file(name):
     if str(name) not in NAMED:
         return None
     return resources.files("stumble.control.reflex") / "data" / NAMED[str(name)]
+
+
+def file_sha256(path) -> str:
+    """SHA-256 of a parameter file, or of a shipped set's by name (``NAMED``), for a
+    fit's record."""
+    import hashlib
+    from pathlib import Path
+
+    return hashlib.sha256((named_file(path) or Path(path)).read_bytes()).hexdigest()
 
 
 def load_params(path) -> GH2010Params:
