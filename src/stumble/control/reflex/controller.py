@@ -24,12 +24,14 @@ from __future__ import annotations
 import numpy as np
 
 from stumble.body.muscles import MUSCLE_NAMES
+from stumble.control.reflex.kernels import kernels
 from stumble.control.reflex.network import Network
 from stumble.control.reflex.receptors import (
     IA_BASE,
     IA_STRETCH_GAIN,
     IA_VELOCITY_EXPONENT,
     IA_VELOCITY_GAIN,
+    IB_GAIN,
     II_BASE,
     II_STRETCH_GAIN,
     GTOFilter,
@@ -104,14 +106,19 @@ class TrunkBalance:
         if weight_n is not None:
             self.weight_n = weight_n
 
-    def sense(self, rows: np.ndarray, lay) -> np.ndarray:
-        """(n, 6) lean (rad), pitch rate (rad/s), the right and left feet's vertical loads
-        (N) and their ankles' forward positions (m), from sensor rows (n, nsensordata)."""
-        if self._lay is not lay:  # torso axis x and z, pitch rate, loads, ankles' x
+    def sense_cols(self, lay) -> np.ndarray:
+        """The sensor columns ``sense`` reads: the torso's axis x and z, its pitch rate,
+        the feet's vertical forces and the ankles' x."""
+        if self._lay is not lay:
             self._lay, self._cols = lay, np.concatenate([
                 lay.torso_z[[0, 2]], [lay.torso_angvel[1]], lay.foot_force[:, 2],
                 lay.foot_pos[:, 0]])
-        g = rows[:, self._cols]
+        return self._cols
+
+    def sense(self, rows: np.ndarray, lay) -> np.ndarray:
+        """(n, 6) lean (rad), pitch rate (rad/s), the right and left feet's vertical loads
+        (N) and their ankles' forward positions (m), from sensor rows (n, nsensordata)."""
+        g = rows[:, self.sense_cols(lay)]
         out = np.empty((len(rows), 6))
         out[:, 0] = np.arctan2(g[:, 0], g[:, 1])  # forward lean (z axis towards +x)
         out[:, 1] = g[:, 2]  # pitch rate about +y
@@ -128,6 +135,14 @@ class TrunkBalance:
     def drive_cols(self, sensed: np.ndarray) -> np.ndarray:
         """``drive`` of the muscles it reaches only, (n, 2, 3): GLU, HAMS, the flexor
         (``cols``); the other muscles' drive is zero."""
+        kern = kernels()
+        if kern is not None:  # the same numbers, compiled (``kernels``)
+            out = np.empty((len(sensed), 2, 3))
+            kern["balance_cols"](sensed, float(self.kp), float(self.kd), float(self.ref),
+                                 bool(self.rectified), float(self.k_lean),
+                                 self.stance_load * self.weight_n, float(self.k_bw),
+                                 float(self.weight_n), out)
+            return out
         lean = sensed[:, 0] - self.ref
         g = self.kp * lean + self.kd * sensed[:, 1]  # (n,)
         fz = sensed[:, 2:4]
@@ -259,6 +274,11 @@ class ReflexController:
         self.block_start = 0
         if self.balance is not None:
             self.bal_buf = np.zeros((self.balance.lag + self.block + 1, 6))
+        # the compiled block's (``_next_block_compiled``) scratch and constants
+        self._scratch = tuple(np.empty((self.block, 2 * self.nm)) for _ in range(5))
+        self._no_balance = np.zeros((0, 2, 3))
+        self._bal_cols = (self.balance.cols.astype(np.int64) if self.balance is not None
+                          else np.zeros(3, dtype=np.int64))
 
     # ---- the network over a range of ticks --------------------------------------------
     def _push_signals(self, first: int, rates: np.ndarray) -> None:
@@ -300,7 +320,12 @@ class ReflexController:
         if self.trace is not None:
             self.trace["inputs"].append(x)
         h = np.tanh(x @ self.w + self.b)  # (n, 2, S·H)
-        self.hid_buf.reshape(self.n_buf, -1)[self._slots(self.h_done, n)] = h.reshape(n, -1)
+        kern = kernels()
+        if kern is not None:
+            kern["store_rows"](h, self.hid_buf.reshape(self.n_buf, -1),
+                               self._slots(self.h_done, n))
+        else:
+            self.hid_buf.reshape(self.n_buf, -1)[self._slots(self.h_done, n)] = h.reshape(n, -1)
         self.h_done = upto
 
     def _motor(self, first: int, n: int) -> np.ndarray:
@@ -334,8 +359,44 @@ class ReflexController:
             out[:, :, nm3] = loads / self.body_weight_n
         return out
 
+    def _rates_push_compiled(self, kern: dict, first: int, n: int) -> None:
+        """``_rates`` then ``_push_signals`` of the block's n sensed ticks, compiled where
+        elementwise (``kernels``; NumPy's power, log and SciPy's filter): the same numbers."""
+        d, v, absv, fin = (a[:n] for a in self._scratch[:4])
+        kern["net_pre"](self.sensed[:n], self.k_mm, self.l_ref, d, v, absv, fin)
+        p = absv ** IA_VELOCITY_EXPONENT
+        ib = self._scratch[4][:n]
+        kern["iir2"](self.gto.b, self.gto.a, IB_GAIN * np.log(fin), self.gto.z, ib)
+        kern["net_push"](d, v, p, ib, self.loads[:n], self.body_weight_n, self.contact,
+                         self.net.mean, self.inv_std, self.sig_buf.reshape(self.n_buf, -1),
+                         self._slots(first, n))
+
+    def _next_block_compiled(self, kern: dict) -> None:
+        """``_next_block`` with its elementwise steps compiled (``kernels``)."""
+        k, nb = self.k, self.block
+        if k > self.block_start:
+            self._rates_push_compiled(kern, self.block_start, k - self.block_start)
+        self._interneurons(k + self.a_min)
+        idx = self._gather_idx(self._mn_at, self.c_lag, self.hid_row, self.hid_off, k, nb)
+        t = self.hid_buf.take(idx) @ self.mv
+        kern["net_drive"](t, self.c)
+        e = np.exp(t, out=t)
+        bal = (self.balance.drive_cols(self.bal_buf[self._bal_rows(k - self.balance.lag, nb)])
+               if self.balance is not None else self._no_balance)
+        self.exc_block = np.empty((nb, 2, self.nm))
+        self.ctrl_block = np.empty((nb, 2 * self.nm))
+        # the plan's rows too, when a tick is a step and the muscles are one slice
+        plan = self.plan if self._plan_in_kernel else self._no_plan
+        kern["net_out"](e, bal, self._bal_cols, self.exc_block, self.ctrl_block, plan,
+                        self._act_first, self._held)
+        self._plan_done = self._plan_in_kernel
+        self.block_start = k
+
     def _next_block(self) -> None:
         """Sense the finished block, then fix the excitations of the next one."""
+        kern = kernels()
+        if kern is not None and self.trace is None:
+            return self._next_block_compiled(kern)
         k, nb = self.k, self.block
         if k > self.block_start:  # the ticks sensed since the last block
             n = k - self.block_start
@@ -368,16 +429,28 @@ class ReflexController:
         self._obs_cols = np.concatenate([lay.muscle_length, lay.muscle_velocity,
                                          lay.muscle_force, lay.foot_force[:, 2]])
         self._n_mus3 = 3 * len(lay.muscle_length)
+        self._bal_sense_cols = (self.balance.sense_cols(lay) if self.balance is not None
+                                else None)
+        self._bal_g = np.empty((self.block * max(1, round(1.0 / (
+            self.net.topology.rate_hz * ctx.model.opt.timestep))), 7))
         self.every = max(1, round(1.0 / (self.net.topology.rate_hz * ctx.model.opt.timestep)))
         self.period_steps = self.block * self.every
         if self.history is not None:
             hist, gto_state = self.history
             ib = hist[:, :, self.ib_cols].reshape(len(hist), -1)  # (N, 2·nm): r, then l
             self.gto.z[:] = gto_state  # the walk's steady state (the filter is slow, 5 s)
-            for k in range(len(hist)):
-                r = hist[k].copy()
-                r[:, self.ib_cols] = self.gto.step(ib[k]).reshape(2, -1)
-                self.excitation = self._tick(r)
+            rates = hist.copy()
+            for k in range(len(hist)):  # the tendon organs' filter, tick by tick
+                rates[k][:, self.ib_cols] = self.gto.step(ib[k]).reshape(2, -1)
+            # then the network, a block of ticks at a time (the numbers of ``_tick``
+            # tick by tick: each tick's interneurons read inputs already pushed)
+            for first in range(0, len(hist), self.block):
+                n = min(self.block, len(hist) - first)
+                self._push_signals(self.k, rates[first:first + n])
+                self._interneurons(self.k + n)
+                self.k += n
+            if len(hist):
+                self.excitation = self._motor(self.k - 1, 1)[0]
             # muscles start at the activity the network held during the walk (the
             # excitation, filtered by the 10 ms activation, is within a few % of it)
             act = ctx.model.actuator_actadr[self.act_ids]
@@ -388,12 +461,19 @@ class ReflexController:
         self.lumbar_target = float(ctx.data.qpos[self.lumbar_q])
         ctx.data.ctrl[self.lumbar] = self.lumbar_target
         self.plan = np.empty((self.period_steps, ctx.model.nu))
+        self._no_plan = np.empty((0, ctx.model.nu))
+        self._plan_in_kernel = self.every == 1 and isinstance(self.act_slice, slice)
+        self._act_first = self.act_slice.start if self._plan_in_kernel else 0
         self.log.append(("reflex", 0.0))
 
     def update(self, ctx: Context) -> np.ndarray:
         """The next block's controls (period_steps, nu), fixed by what has been sensed."""
+        self._plan_done = False
+        self._held = ctx.data.ctrl
         self._next_block()
         self.excitation = self.exc_block[-1]
+        if self._plan_done:
+            return self.plan
         self.plan[:] = ctx.data.ctrl
         self.plan[:, self.act_slice] = (self.ctrl_block if self.every == 1
                                         else np.repeat(self.ctrl_block, self.every, axis=0))
@@ -404,6 +484,18 @@ class ReflexController:
         ticks = rows[::self.every] if self.every > 1 else rows
         n = len(ticks)
         k0 = self.k
+        kern = kernels()
+        if kern is not None:  # the same numbers, compiled where elementwise (``kernels``)
+            bal = self.balance is not None
+            g = self._bal_g[:n]
+            kern["net_observe"](ticks, self._obs_cols, self._n_mus3, self.contact,
+                                self.sensed, self.loads, self._bal_sense_cols if bal
+                                else self._obs_cols[:0], g)
+            if bal:
+                kern["bal_store"](g, np.arctan2(g[:, 0], g[:, 1]), self.bal_buf,
+                                  self._bal_rows(k0, n))
+            self.k = k0 + n
+            return
         g = ticks[:, self._obs_cols]  # muscle lengths, velocities, forces; feet's loads
         self.sensed[:n] = g[:, :self._n_mus3].reshape(n, 3, -1)
         if self.contact:

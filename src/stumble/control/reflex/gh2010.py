@@ -46,6 +46,7 @@ import numpy as np
 
 from stumble.body.muscles import PRE_ACTIVATION
 from stumble.control.reflex.delays import DelayTaps
+from stumble.control.reflex.kernels import kernels
 from stumble.errors import InputError
 from stumble.sim import Context
 
@@ -410,6 +411,11 @@ class GH2010Controller:
         self.plan = np.empty((self.period_steps, m.nu))
         lumbar = m.joint("lumbar_extension")  # the upper body held as at the start
         ctx.data.ctrl[m.actuator("lumbar_extension").id] = ctx.data.qpos[lumbar.qposadr[0]]
+        self._no_plan = np.empty((0, m.nu))
+        self._act_first = (self._act_cols.start if isinstance(self._act_cols, slice)
+                           else None)
+        self._ungated_b = self._ungated.astype(np.bool_)
+        self._held = ctx.data.ctrl
         u = self._excitations(self.delay.read(1))[0]
         ctx.data.act[self.act_adr] = u  # muscles start at the reflexes' present output
         self.log.append(("reflex", 0.0))
@@ -603,17 +609,27 @@ class GH2010Controller:
 
     def _channels(self, rows: np.ndarray) -> np.ndarray:
         """(n, channels) sensed signals from sensor rows (n, nsensordata)."""
-        v = rows[:, self._gather]
-        v *= self._scale
-        v += self._offset
+        kern = kernels()
+        if kern is not None:  # the same numbers, compiled (``kernels``)
+            v = np.empty((len(rows), len(self._gather)))
+            kern["gh_channels"](rows, self._gather, self._scale, self._offset, v)
+        else:
+            v = rows[:, self._gather]
+            v *= self._scale
+            v += self._offset
         if self._ob_load is not None:
             v[:, self._c_load:self._c_load + 2] -= rows[:, self._ob_load] / self.weight_n
         v[:, -2] = np.arctan2(v[:, -2], v[:, -1])  # forward lean
         if not self._place:
             return v[:, :-1]
-        r = rows[:, self._place_cols]  # pelvis x, z, ankle x (2), ankle z (2), COM x, vx
         k = v.shape[1] - 1
         out = np.empty((len(v), k + 5))  # the channels, then α (2), ahead (2), speed
+        if kern is not None:
+            a, b = np.empty((len(v), 2)), np.empty((len(v), 2))
+            kern["gh_place_in"](rows, self._place_cols, v, out, a, b)
+            np.arctan2(a, b, out=out[:, k:k + 2])
+            return out
+        r = rows[:, self._place_cols]  # pelvis x, z, ankle x (2), ankle z (2), COM x, vx
         out[:, :k] = v[:, :-1]
         np.arctan2(r[:, 2:4] - r[:, :1], r[:, 1:2] - r[:, 4:6], out=out[:, k:k + 2])
         np.subtract(r[:, 6:7], r[:, 3:1:-1], out=out[:, k + 2:k + 4])  # COM ahead of the
@@ -680,8 +696,45 @@ class GH2010Controller:
         self._n_feat = len(self._w_st)
         self._all_gated = bool(self.gated.all())
 
-    def _excitations(self, x: np.ndarray) -> np.ndarray:
-        """Excitations (n, 2·nm) of both legs from the block's taps (n, taps)."""
+    def _excitations_compiled(self, kern: dict, x: np.ndarray,
+                              plan: np.ndarray) -> np.ndarray:
+        """``_excitations`` with its elementwise steps compiled (``kernels``; NumPy's
+        matrix products): the same numbers; with ``plan`` rows, written into them too."""
+        p, n, nm, sl = self.p, len(x), self.nm, self._sl
+        v = np.empty((n, 2, self._n_feat))
+        stance = np.empty((n, 2, nm), dtype=np.bool_)
+        ds_load = sl["ds_load"].start if self._has_ds else 0
+        ds_x = sl["ds_x"].start if self._has_ds else 0
+        kern["gh_features"](x, sl["phi"].start, self._phi_sign, self._phi_off,
+                            self._phi_low, sl["knee_v"].start, self._has_ds, ds_load, ds_x,
+                            p.stance_load, sl["gate"].start, self._ungated_b, v, stance)
+        u = np.empty((n, 2, nm))
+        kern["gh_select"](stance, v @ self._w_st, self._b_st, v @ self._w_sw, self._b_sw, u)
+        kern["gh_lean"](x, self._iLean, self._iLeanV, sl["vest_load"].start,
+                        sl["vest_x"].start, p.lean_ref, p.kp_trunk, p.kd_trunk, p.k_lean,
+                        p.stance_load, self.wiring == "seed003", p.k_bw, self._i_glu,
+                        self._i_hams, self._i_flex, u)
+        if self._place:
+            kern["gh_place"](x, sl["place"].start, sl["vest_load"].start, p.k_place,
+                             p.place_a0, p.place_cd, p.place_cv,
+                             bool(p.place_cd or p.place_cv), p.stance_load, self._i_flex,
+                             self._i_glu, u)
+        u = u.reshape(n, 2 * nm)
+        if self._scr:
+            u += self._stumble(x).reshape(n, 2 * nm)
+        kern["clip_plan"](u, PRE_ACTIVATION, plan, self._act_first, self._held)
+        return u
+
+    def _excitations(self, x: np.ndarray, plan: np.ndarray | None = None) -> np.ndarray:
+        """Excitations (n, 2·nm) of both legs from the block's taps (n, taps); with
+        ``plan`` (n, nu), its rows are also set: the controls now, the muscles' from
+        these (only where the compiled kernels run: the caller checks ``_plan_done``)."""
+        kern = kernels()
+        self._plan_done = False
+        if kern is not None and self.lean_free is None:
+            self._plan_done = plan is not None and self._act_first is not None
+            return self._excitations_compiled(
+                kern, x, plan if self._plan_done else self._no_plan)
         p, n, nm, sl = self.p, len(x), self.nm, self._sl
         t = x[:, sl["phi"]].reshape(n, 2, 10) * self._phi_sign
         t -= self._phi_off
@@ -813,7 +866,10 @@ class GH2010Controller:
     # ---- Controller protocol -----------------------------------------------------------
     def update(self, ctx: Context) -> np.ndarray:
         """The next block's excitations, from what its shortest path has sensed."""
-        u = self._excitations(self.delay.read(self.period_steps))
+        self._held = ctx.data.ctrl
+        u = self._excitations(self.delay.read(self.period_steps), self.plan)
+        if self._plan_done:
+            return self.plan
         self.plan[:] = ctx.data.ctrl
         self.plan[:, self._act_cols] = u
         return self.plan

@@ -1,0 +1,385 @@
+"""Compiled kernels of the reflex controllers' per-block arithmetic (optional: Numba).
+
+A reflex controller evaluates its laws once per block of a few physics steps, on arrays
+of a few dozen numbers, where NumPy spends its time in the overhead of each small
+operation rather than in the arithmetic. These kernels do the elementwise parts of a
+block in one compiled call each.
+
+They change no result: each does, element by element and in the same order, the IEEE
+operations of the NumPy code it stands in for (no fused multiply-add, no reassociation:
+Numba's defaults), and ``tests/test_kernels.py`` checks them equal bit for bit, alone and
+over whole walks and trips. What would not be the same stays NumPy's: its transcendental
+functions (``tanh``, ``exp``, ``log``, ``power``, ``arctan2``: SIMD implementations that
+round differently from a compiled libm on some CPUs) and its matrix products (BLAS).
+
+Numba is the optional extra ``fast`` (``pip install -e ".[fast]"``, in ``dev`` too).
+Without it, or with ``STUMBLE_KERNELS=numpy`` in the environment, the NumPy code runs;
+the numbers are the same either way, only the time differs (``benchmarks/bench_reflex.py``).
+The first use in a process compiles the kernels (a few seconds, the first time on a
+machine) or loads them from Numba's cache (about 0.2 s with Numba's import).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+ENV = "STUMBLE_KERNELS"  # "numpy": the reference code even where Numba is installed
+
+
+def _load():
+    """The compiled kernels, or None (no Numba, or ``STUMBLE_KERNELS=numpy``)."""
+    if os.environ.get(ENV, "").strip().lower() == "numpy":
+        return None
+    try:
+        import numba
+    except ImportError:
+        return None
+    from stumble.control.reflex import receptors as rec
+
+    ia_gain, ia_stretch, ia_base = rec.IA_VELOCITY_GAIN, rec.IA_STRETCH_GAIN, rec.IA_BASE
+    ii_base, ii_stretch, ib_force = rec.II_BASE, rec.II_STRETCH_GAIN, rec.IB_FORCE_N
+
+    jit = numba.njit(cache=True, error_model="numpy", nogil=True)
+
+    @jit
+    def balance_cols(sensed, kp, kd, ref, rectified, k_lean, swing_below_n, k_bw,
+                     weight_n, out):
+        """``TrunkBalance.drive_cols`` into ``out`` (n, 2, 3)."""
+        for i in range(sensed.shape[0]):
+            lean = sensed[i, 0] - ref
+            g = kp * lean + kd * sensed[i, 1]
+            f0 = sensed[i, 2]
+            f1 = sensed[i, 3]
+            total = f0 + f1
+            if total > 0.0:
+                s0 = f0 / total
+                s1 = f1 / total
+            else:
+                s0 = 0.5
+                s1 = 0.5
+            if rectified:
+                ge = g if (g >= 0.0 or g != g) else 0.0
+                gf = -g if (-g >= 0.0 or g != g) else 0.0
+                out[i, 0, 0] = ge * s0
+                out[i, 0, 1] = ge * s0
+                out[i, 0, 2] = gf * s0
+                out[i, 1, 0] = ge * s1
+                out[i, 1, 1] = ge * s1
+                out[i, 1, 2] = gf * s1
+            else:
+                out[i, 0, 0] = g * s0
+                out[i, 0, 1] = g * s0
+                out[i, 0, 2] = -(g * s0)
+                out[i, 1, 0] = g * s1
+                out[i, 1, 1] = g * s1
+                out[i, 1, 2] = -(g * s1)
+            if k_lean != 0.0:
+                kl = k_lean * lean
+                out[i, 0, 2] += (1.0 if f0 < swing_below_n else 0.0) * kl
+                out[i, 1, 2] += (1.0 if f1 < swing_below_n else 0.0) * kl
+            if k_bw != 0.0:
+                on0 = f0 > swing_below_n
+                on1 = f1 > swing_below_n
+                x0 = sensed[i, 4]
+                x1 = sensed[i, 5]
+                r0 = 1.0 if (on0 and on1 and x0 < x1) else 0.0
+                r1 = 1.0 if (on1 and on0 and x1 < x0) else 0.0
+                b0 = k_bw * f1 / weight_n * r0
+                b1 = k_bw * f0 / weight_n * r1
+                out[i, 0, 0] -= b0
+                out[i, 1, 0] -= b1
+                out[i, 0, 2] += b0
+                out[i, 1, 2] += b1
+
+    @jit
+    def net_pre(sensed, k_mm, l_ref, d, v, absv, fin):
+        """The receptors' first step (``ReflexController._rates``) for ticks of ``sensed``
+        (n, 3, m): fibre stretch ``d`` and its rate ``v`` (mm, mm/s), ``|v|``, and the
+        tendon organ's ``max(F, 0)/4 N + 1`` (F pulling positive), each (n, m)."""
+        for i in range(sensed.shape[0]):
+            for c in range(sensed.shape[2]):
+                d[i, c] = k_mm[c] * (sensed[i, 0, c] - l_ref[c])
+                vc = k_mm[c] * sensed[i, 1, c]
+                v[i, c] = vc
+                absv[i, c] = abs(vc)
+                f = -sensed[i, 2, c]
+                f = f if (f >= 0.0 or f != f) else 0.0
+                fin[i, c] = f / ib_force + 1.0
+
+    @jit
+    def net_push(d, v, p, ib, loads, weight_n, contact, mean, inv_std, buf, slots):
+        """The receptor rates of ticks (n: Ia, II, Ib per muscle, then the load), each
+        standardised, into the ring buffer ``buf`` (slot, 2·n_signals) at ``slots``."""
+        nm2 = d.shape[1]
+        nm = nm2 // 2
+        n_sig = buf.shape[1] // 2
+        for i in range(d.shape[0]):
+            row = slots[i]
+            for s in range(2):
+                base = s * n_sig
+                for j in range(nm):
+                    c = s * nm + j
+                    dd = d[i, c]
+                    ia = ia_gain * math.copysign(p[i, c], v[i, c]) + ia_stretch * dd + ia_base
+                    ia = ia if (ia >= 0.0 or ia != ia) else 0.0
+                    ii = ii_base + ii_stretch * dd
+                    ii = ii if (ii >= 0.0 or ii != ii) else 0.0
+                    buf[row, base + 3 * j] = (ia - mean[3 * j]) * inv_std[3 * j]
+                    buf[row, base + 3 * j + 1] = (ii - mean[3 * j + 1]) * inv_std[3 * j + 1]
+                    buf[row, base + 3 * j + 2] = (ib[i, c] - mean[3 * j + 2]) * inv_std[3 * j + 2]
+                if contact:
+                    q = 3 * nm
+                    buf[row, base + q] = (loads[i, s] / weight_n - mean[q]) * inv_std[q]
+
+    @jit
+    def net_drive(t, c):
+        """The motor neurons' negated drive, −(t + c), in place in ``t`` (n, 2, m)."""
+        for i in range(t.shape[0]):
+            for s in range(2):
+                for j in range(t.shape[2]):
+                    t[i, s, j] = -(t[i, s, j] + c[j])
+
+    @jit
+    def net_out(e, bal, cols, exc, ctrl, plan, first, held):
+        """Motor neurons' excitation ``1/(1 + e)`` (n, 2, m) from ``e`` = exp(−drive), the
+        trunk balance ``bal`` (n, 2, 3) added on ``cols`` (when ``bal`` has rows), and
+        the controls clipped to 0.01-1 (n, 2·m); when ``plan`` has rows, each is
+        ``held`` (the controls now) with the muscles' columns from ``first`` set."""
+        n, _two, m = e.shape
+        for i in range(n):
+            for s in range(2):
+                for j in range(m):
+                    exc[i, s, j] = 1.0 / (1.0 + e[i, s, j])
+                if bal.shape[0]:
+                    for c in range(3):
+                        exc[i, s, cols[c]] += bal[i, s, c]
+                for j in range(m):
+                    u = exc[i, s, j]
+                    u = u if (u >= 0.01 or u != u) else 0.01
+                    ctrl[i, s * m + j] = u if (u <= 1.0 or u != u) else 1.0
+        if plan.shape[0]:
+            for i in range(n):
+                for q in range(plan.shape[1]):
+                    plan[i, q] = held[q]
+                for q in range(2 * m):
+                    plan[i, first + q] = ctrl[i, q]
+
+    @jit
+    def store_rows(h, buf, slots):
+        """Rows of ``h`` (n, 2, k) into the ring buffer ``buf`` (slots, 2·k)."""
+        k = h.shape[2]
+        for i in range(h.shape[0]):
+            r = slots[i]
+            for s in range(2):
+                for j in range(k):
+                    buf[r, s * k + j] = h[i, s, j]
+
+    @jit
+    def net_observe(ticks, obs_cols, n_mus3, contact, sensed, loads, bal_cols, bal_g):
+        """``ReflexController.observe``'s gathers: the muscles' lengths, velocities and
+        forces into ``sensed`` (n, 3, m), the feet's loads into ``loads`` (n, 2), the
+        trunk balance's columns ``bal_cols`` into ``bal_g`` (n, 7)."""
+        m = n_mus3 // 3
+        for i in range(ticks.shape[0]):
+            for q in range(3):
+                for c in range(m):
+                    sensed[i, q, c] = ticks[i, obs_cols[q * m + c]]
+            if contact:
+                for s in range(obs_cols.shape[0] - n_mus3):
+                    loads[i, s] = -ticks[i, obs_cols[n_mus3 + s]]
+            for j in range(bal_cols.shape[0]):
+                bal_g[i, j] = ticks[i, bal_cols[j]]
+
+    @jit
+    def bal_store(g, lean, buf, rows):
+        """``TrunkBalance.sense`` from its gathered columns ``g`` (n, 7) and the lean,
+        into ``buf`` at ``rows``: lean, pitch rate, the feet's loads, the ankles' x."""
+        for i in range(g.shape[0]):
+            r = rows[i]
+            buf[r, 0] = lean[i]
+            buf[r, 1] = g[i, 2]
+            buf[r, 2] = -g[i, 3]
+            buf[r, 3] = -g[i, 4]
+            buf[r, 4] = g[i, 5]
+            buf[r, 5] = g[i, 6]
+
+    @jit
+    def iir2(b, a, x, z, y):
+        """A second-order filter along axis 0 of ``x`` (n, channels) into ``y``, from and
+        updating the state ``z`` (2, channels), in direct form II transposed with the
+        operations in the order of SciPy's ``lfilter`` kernel (``a[0]`` is 1)."""
+        for c in range(x.shape[1]):
+            z0 = z[0, c]
+            z1 = z[1, c]
+            for k in range(x.shape[0]):
+                xk = x[k, c]
+                yk = z0 + b[0] * xk
+                z0 = z1 + xk * b[1] - yk * a[1]
+                z1 = xk * b[2] - yk * a[2]
+                y[k, c] = yk
+            z[0, c] = z0
+            z[1, c] = z1
+
+    @jit
+    def gh_channels(rows, gather, scale, offset, v):
+        """``GH2010Controller._channels``' affine map: ``v`` = rows[:, gather]·scale +
+        offset (n, channels)."""
+        for i in range(rows.shape[0]):
+            for c in range(gather.shape[0]):
+                v[i, c] = rows[i, gather[c]] * scale[c] + offset[c]
+
+    @jit
+    def gh_place_in(rows, cols, v, out, a, b):
+        """``GH2010Controller._channels``' placement inputs: ``out`` (n, k + 5) gets the
+        channels ``v`` but its last, then (after the caller's arctan2 of ``a`` over
+        ``b``, the legs' angles) the COM ahead of each other ankle and its speed, from
+        ``rows[:, cols]``: pelvis x, z, ankles' x, ankles' z, COM x, vx."""
+        k = v.shape[1] - 1
+        for i in range(rows.shape[0]):
+            for c in range(k):
+                out[i, c] = v[i, c]
+            r0 = rows[i, cols[0]]
+            r1 = rows[i, cols[1]]
+            a[i, 0] = rows[i, cols[2]] - r0
+            a[i, 1] = rows[i, cols[3]] - r0
+            b[i, 0] = r1 - rows[i, cols[4]]
+            b[i, 1] = r1 - rows[i, cols[5]]
+            r6 = rows[i, cols[6]]
+            out[i, k + 2] = r6 - rows[i, cols[3]]
+            out[i, k + 3] = r6 - rows[i, cols[2]]
+            out[i, k + 4] = rows[i, cols[7]]
+
+    @jit
+    def gh_features(x, phi0, sign, off, low, knee_v0, has_ds, ds_load0, ds_x0,
+                    stance_load, gate0, ungated, v, stance):
+        """``GH2010Controller._excitations``' features ``v`` (n, 2, K) and each muscle's
+        stance ``stance`` (n, 2, nm) from the block's taps ``x`` (n, taps); the column
+        arguments are where each group of taps starts."""
+        nm = stance.shape[2]
+        for i in range(x.shape[0]):
+            for leg in range(2):
+                for f in range(10):
+                    t = x[i, phi0 + leg * 10 + f] * sign[f]
+                    t = t - off[f]
+                    lo = low[f]
+                    v[i, leg, f] = t if (t >= lo or t != t) else lo
+                v[i, leg, 8] *= 1.0 if x[i, knee_v0 + leg] < 0.0 else 0.0
+                if has_ds:
+                    other = 1 - leg
+                    la = x[i, ds_load0 + leg]
+                    lb = x[i, ds_load0 + other]
+                    on = (la > stance_load) and (lb > stance_load)
+                    rear = on and x[i, ds_x0 + leg] < x[i, ds_x0 + other]
+                    v[i, leg, 10] = lb * (1.0 if rear else 0.0)
+                for j in range(nm):
+                    stance[i, leg, j] = (x[i, gate0 + leg * nm + j] > stance_load) or ungated[j]
+
+    @jit
+    def gh_select(stance, a, b_st, b, b_sw, u):
+        """The stance law's ``a + b_st`` where a muscle is in stance, else the swing
+        law's ``b + b_sw`` (n, 2, nm)."""
+        for i in range(u.shape[0]):
+            for leg in range(2):
+                for j in range(u.shape[2]):
+                    if stance[i, leg, j]:
+                        u[i, leg, j] = a[i, leg, j] + b_st[j]
+                    else:
+                        u[i, leg, j] = b[i, leg, j] + b_sw[j]
+
+    @jit
+    def gh_lean(x, i_lean, i_lean_v, load0, x0, lean_ref, kp, kd, k_lean, stance_load,
+                seed003, k_bw, i_glu, i_hams, i_flex, u):
+        """``GH2010Controller._add_vestibular``: the trunk-lean laws added to ``u``."""
+        for i in range(x.shape[0]):
+            lean = x[i, i_lean] - lean_ref
+            g = kp * lean + kd * x[i, i_lean_v]
+            l0 = x[i, load0]
+            l1 = x[i, load0 + 1]
+            total = l0 + l1
+            if total > 0.0:
+                sh0 = l0 / total
+                sh1 = l1 / total
+            else:
+                sh0 = 0.5
+                sh1 = 0.5
+            ge = g if (g >= 0.0 or g != g) else 0.0
+            gf = -g if (-g >= 0.0 or g != g) else 0.0
+            kl = k_lean * lean
+            for leg in range(2):
+                sh = sh0 if leg == 0 else sh1
+                ld = l0 if leg == 0 else l1
+                ext = ge * sh
+                flex = gf * sh + (1.0 if ld < stance_load else 0.0) * kl
+                glu = ext
+                if seed003:
+                    lo = l1 if leg == 0 else l0
+                    rear = ((not ld < stance_load) and (not lo < stance_load)
+                            and x[i, x0 + leg] < x[i, x0 + 1 - leg])
+                    bw = k_bw * lo * (1.0 if rear else 0.0)
+                    glu = ext + bw * -1.0
+                    flex = flex + bw
+                u[i, leg, i_glu] += glu
+                u[i, leg, i_hams] += ext
+                u[i, leg, i_flex] += flex
+
+    @jit
+    def gh_place(x, pl0, load0, k_place, a0, cd, cv, with_terms, stance_load, i_flex,
+                 i_glu, u):
+        """``GH2010Controller._add_placement``: the swing-leg placement added to ``u``."""
+        for i in range(x.shape[0]):
+            for leg in range(2):
+                alpha = x[i, pl0 + leg]
+                if with_terms:
+                    e = k_place * (a0 + cd * x[i, pl0 + 2 + leg] + cv * x[i, pl0 + 4]
+                                   - alpha)
+                else:
+                    e = k_place * (a0 - alpha)
+                on = 1.0 if (x[i, load0 + leg] < stance_load and alpha > 0.0) else 0.0
+                ep = e if (e >= 0.0 or e != e) else 0.0
+                en = -e if (-e >= 0.0 or e != e) else 0.0
+                u[i, leg, i_flex] += on * ep
+                u[i, leg, i_glu] += on * en
+
+    @jit
+    def clip_plan(u, lo, plan, first, held):
+        """``u`` (n, k) clipped to lo-1 in place; when ``plan`` has rows, each is ``held``
+        (the controls now) with columns ``first``… set to ``u``."""
+        for i in range(u.shape[0]):
+            for q in range(u.shape[1]):
+                w = u[i, q]
+                w = w if (w >= lo or w != w) else lo
+                u[i, q] = w if (w <= 1.0 or w != w) else 1.0
+        if plan.shape[0]:
+            for i in range(u.shape[0]):
+                for q in range(plan.shape[1]):
+                    plan[i, q] = held[q]
+                for q in range(u.shape[1]):
+                    plan[i, first + q] = u[i, q]
+
+    return {"iir2": iir2, "balance_cols": balance_cols, "net_pre": net_pre,
+            "net_push": net_push, "net_drive": net_drive, "net_out": net_out,
+            "net_observe": net_observe, "bal_store": bal_store, "store_rows": store_rows,
+            "gh_channels": gh_channels, "gh_place_in": gh_place_in,
+            "gh_features": gh_features, "gh_select": gh_select, "gh_lean": gh_lean,
+            "gh_place": gh_place, "clip_plan": clip_plan}
+
+
+_KERNELS: dict | bool | None = False  # False: not looked for yet
+
+
+def kernels() -> dict | None:
+    """The compiled kernels by name, or None where the NumPy code runs (looked up once)."""
+    global _KERNELS
+    if _KERNELS is False:
+        _KERNELS = _load()
+    return _KERNELS
+
+
+def use_numpy(flag: bool = True) -> None:
+    """Force the NumPy code (True) or look for the kernels again (False); for tests."""
+    global _KERNELS
+    _KERNELS = None if flag else False
+
+
+__all__ = ["ENV", "kernels", "use_numpy"]

@@ -1,0 +1,129 @@
+"""The compiled kernels of the reflex controllers (``stumble.control.reflex.kernels``):
+each the same numbers as the NumPy code it stands in for, alone and over whole walks and
+trips of both controllers."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from stumble.control.reflex import kernels as K
+from stumble.control.reflex.receptors import GTOFilter, _linear_filter
+
+pytest.importorskip("numba")
+
+
+@pytest.fixture
+def compiled():
+    """The compiled kernels (Numba is in the dev extra), restored after the test."""
+    K.use_numpy(False)
+    k = K.kernels()
+    if k is None:
+        pytest.skip(f"{K.ENV}=numpy in the environment")
+    yield k
+    K.use_numpy(False)
+
+
+def _arrays(rec) -> dict:
+    return {k: v for k, v in vars(rec).items() if isinstance(v, np.ndarray)}
+
+
+def _same_runs(run) -> None:
+    """``run()`` gives every recorded array the same, bit for bit, with the compiled
+    kernels and with the NumPy code."""
+    K.use_numpy(False)
+    assert K.kernels() is not None
+    fast = _arrays(run())
+    K.use_numpy(True)
+    try:
+        ref = _arrays(run())
+    finally:
+        K.use_numpy(False)
+    assert fast.keys() == ref.keys()
+    assert len(ref["time_s"]) > 100
+    for name, a in ref.items():
+        assert np.array_equal(fast[name], a, equal_nan=True), name
+
+
+def test_second_order_filter_is_scipys_lfilter_bit_for_bit(compiled):
+    """``iir2`` is SciPy's filter kernel, to the bit, on the tendon organ's filter."""
+    g = GTOFilter(0.001, 16)
+    rng = np.random.default_rng(3)
+    for n in (1, 5, 8, 20):
+        x = rng.uniform(0.0, 300.0, (n, 16))
+        z = rng.uniform(-500.0, 500.0, (2, 16))
+        y_ref, z_ref = (_linear_filter(g.b, g.a, x, 0, z) if _linear_filter is not None
+                        else pytest.skip("SciPy without its filter kernel"))
+        y, zz = np.empty_like(x), z.copy()
+        compiled["iir2"](g.b, g.a, x, zz, y)
+        assert np.array_equal(y, y_ref) and np.array_equal(zz, z_ref)
+
+
+def test_trunk_balance_kernel_equals_numpy(compiled):
+    """``TrunkBalance.drive_cols`` compiled and in NumPy, every option on, on loads that
+    cross the stance threshold and feet that pass each other."""
+    from stumble.control.reflex.controller import TrunkBalance
+
+    rng = np.random.default_rng(4)
+    sensed = np.column_stack([rng.uniform(-0.5, 0.5, 64), rng.uniform(-3, 3, 64),
+                              rng.uniform(0, 900, (64, 2)), rng.uniform(-0.4, 0.4, (64, 2))])
+    sensed[::7, 2:4] = 0.0  # no load at all: the half shares
+    for rectified in (False, True):
+        bal = TrunkBalance(kp_per_rad=1.6, kd_s_per_rad=0.5, lean_ref_rad=-0.1,
+                           rectified=rectified, k_lean=0.23, stance_load=0.28, k_bw=0.9)
+        fast = bal.drive_cols(sensed)
+        K.use_numpy(True)
+        ref = bal.drive_cols(sensed)
+        K.use_numpy(False)
+        assert np.array_equal(fast, ref)
+        assert np.abs(ref).max() > 0.1  # it drives something
+
+
+def test_network_walk_and_trips_compiled_equal_numpy():
+    """The closed-loop network's walk and a trip, and the open-loop network's trip: the
+    same recordings with and without the kernels."""
+    from stumble.control.reflex.identify import default_network
+    from stumble.pipeline import simulate_trip, simulate_walk
+    from stumble.trip import Scenario
+
+    _same_runs(lambda: simulate_walk("network", 2.0).recording)
+    sc = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.13,
+                  speed_m_per_s=1.2, duration_after_trip_s=0.6)
+    _same_runs(lambda: simulate_trip(sc).recording)
+    open_loop = default_network("open-loop")
+    _same_runs(lambda: simulate_trip(sc.with_(swing_fraction=0.56),
+                                     network=open_loop).recording)
+
+
+@pytest.mark.parametrize("variant", [
+    {},  # the default set: placement, touch reflexes, crossing step
+    {"wiring": "seed003"},  # the network's expert wiring (double support via the lean)
+    {"load_from": "any", "scr_phase": "foot", "g_scr_ext_glu": 0.5, "g_scr_ext_rf": 0.5,
+     "place_cd": 0.2, "place_cv": 0.1, "delay_scale": 1.5},
+])
+def test_gh2010_trips_compiled_equal_numpy(variant):
+    """Geyer & Herr's trips from their own gait, with the options that change the
+    kernels' paths: the same recordings with and without the kernels."""
+    from stumble.control.reflex.gh2010 import load_params, shipped_params
+    from stumble.pipeline import simulate_trip
+    from stumble.trip import Scenario
+
+    base = shipped_params("seed003") if variant.get("wiring") == "seed003" else \
+        load_params("pushed")
+    params = replace(base, **{k: v for k, v in variant.items() if k != "wiring"})
+    sc = Scenario(controller="gh2010", mechanism="obstacle", swing_fraction=0.65,
+                  speed_m_per_s=1.2, duration_after_trip_s=0.8,
+                  start="playback" if variant.get("wiring") else "own")
+    _same_runs(lambda: simulate_trip(sc, gh2010=params).recording)
+
+
+def test_numpy_is_forced_by_the_environment(monkeypatch):
+    """``STUMBLE_KERNELS=numpy`` runs the NumPy code even where Numba is installed."""
+    monkeypatch.setenv(K.ENV, "numpy")
+    K.use_numpy(False)
+    try:
+        assert K.kernels() is None
+    finally:
+        monkeypatch.delenv(K.ENV)
+        K.use_numpy(False)
+    assert K.kernels() is not None
