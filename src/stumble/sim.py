@@ -251,6 +251,9 @@ class _Stepper:
         self._pool = mj_rollout.Rollout(nthread=0)
         self._out: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # rollout outputs per n
         self.physics_s = 0.0
+        # the rollout's start: views made once (each access of a data field makes one)
+        self._state0_row, self._warm0_row = self.state0[0], self.warm0[0]
+        self._warm_now = d.qacc_warmstart
 
     def state_now(self) -> np.ndarray:
         """The full-physics state now (a new array)."""
@@ -300,12 +303,14 @@ class _Stepper:
             if ctrl is None:
                 ctrl = np.repeat(d.ctrl[None], n, axis=0)
             ctrl = np.ascontiguousarray(ctrl, dtype=float).reshape(1, n, m.nu)
-            mujoco.mj_getState(m, d, self.state0[0], _STATE)
-            self.warm0[0] = d.qacc_warmstart
-            if n not in self._out:  # reused: the caller is done with a block's rows
-                self._out[n] = (np.empty((1, n, self.nstate)), np.empty((1, n, m.nsensordata)))
-            states, rows = self._out[n]
-            self._pool.rollout_.rollout([m], [d], n, _CTRL, self.state0, self.warm0, ctrl,
+            mujoco.mj_getState(m, d, self._state0_row, _STATE)
+            self._warm0_row[:] = self._warm_now
+            out = self._out.get(n)
+            if out is None:  # reused: the caller is done with a block's rows
+                out = self._out[n] = (np.empty((1, n, self.nstate)),
+                                      np.empty((1, n, m.nsensordata)), [m], [d])
+            states, rows, ms, ds = out
+            self._pool.rollout_.rollout(ms, ds, n, _CTRL, self.state0, self.warm0, ctrl,
                                         states, rows, None)
             states, rows = states[0], rows[0]
         self.physics_s += time.perf_counter() - tic

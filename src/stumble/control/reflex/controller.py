@@ -314,16 +314,20 @@ class ReflexController:
         if upto <= self.h_done:
             return
         n = upto - self.h_done
-        idx = self._gather_idx(self._in_at, self.in_lag, self.sig_row, self.in_off,
-                               self.h_done, n)
-        x = self.sig_buf.take(idx)  # (n, 2, n_inputs): the delayed standardised inputs
+        kern = kernels()
+        if kern is not None:  # the same gather, compiled
+            x = np.empty((n, 2, len(self.in_lag)))
+            kern["ring_take"](self.sig_buf, self.h_done, self.in_lag, self.in_off,
+                              self.sig_row, self.n_buf, x)
+        else:
+            idx = self._gather_idx(self._in_at, self.in_lag, self.sig_row, self.in_off,
+                                   self.h_done, n)
+            x = self.sig_buf.take(idx)  # (n, 2, n_inputs): the delayed standardised inputs
         if self.trace is not None:
             self.trace["inputs"].append(x)
         h = np.tanh(x @ self.w + self.b)  # (n, 2, S·H)
-        kern = kernels()
         if kern is not None:
-            kern["store_rows"](h, self.hid_buf.reshape(self.n_buf, -1),
-                               self._slots(self.h_done, n))
+            kern["store_rows"](h, self.hid_buf.reshape(self.n_buf, -1), self.h_done)
         else:
             self.hid_buf.reshape(self.n_buf, -1)[self._slots(self.h_done, n)] = h.reshape(n, -1)
         self.h_done = upto
@@ -369,7 +373,7 @@ class ReflexController:
         kern["iir2"](self.gto.b, self.gto.a, IB_GAIN * np.log(fin), self.gto.z, ib)
         kern["net_push"](d, v, p, ib, self.loads[:n], self.body_weight_n, self.contact,
                          self.net.mean, self.inv_std, self.sig_buf.reshape(self.n_buf, -1),
-                         self._slots(first, n))
+                         first)
 
     def _next_block_compiled(self, kern: dict) -> None:
         """``_next_block`` with its elementwise steps compiled (``kernels``)."""
@@ -377,11 +381,14 @@ class ReflexController:
         if k > self.block_start:
             self._rates_push_compiled(kern, self.block_start, k - self.block_start)
         self._interneurons(k + self.a_min)
-        idx = self._gather_idx(self._mn_at, self.c_lag, self.hid_row, self.hid_off, k, nb)
-        t = self.hid_buf.take(idx) @ self.mv
+        hid = np.empty((nb, 2, len(self.c_lag)))
+        kern["ring_take"](self.hid_buf, k, self.c_lag, self.hid_off, self.hid_row, self.n_buf,
+                          hid)
+        t = hid @ self.mv
         kern["net_drive"](t, self.c)
         e = np.exp(t, out=t)
-        bal = (self.balance.drive_cols(self.bal_buf[self._bal_rows(k - self.balance.lag, nb)])
+        bal = (self.balance.drive_cols(self.bal_buf.take(
+            (k - self.balance.lag + self._nb_ticks) % len(self.bal_buf), axis=0))
                if self.balance is not None else self._no_balance)
         self.exc_block = np.empty((nb, 2, self.nm))
         self.ctrl_block = np.empty((nb, 2 * self.nm))
@@ -492,8 +499,7 @@ class ReflexController:
                                 self.sensed, self.loads, self._bal_sense_cols if bal
                                 else self._obs_cols[:0], g)
             if bal:
-                kern["bal_store"](g, np.arctan2(g[:, 0], g[:, 1]), self.bal_buf,
-                                  self._bal_rows(k0, n))
+                kern["bal_store"](g, np.arctan2(g[:, 0], g[:, 1]), self.bal_buf, k0)
             self.k = k0 + n
             return
         g = ticks[:, self._obs_cols]  # muscle lengths, velocities, forces; feet's loads

@@ -523,6 +523,9 @@ class GH2010Controller:
         self._cross_since = np.full(2, np.iinfo(np.int64).max // 2)  # ticks since its onset
         self._was_on = np.ones(2, bool)  # each foot loaded at the last tick
         self._mark = -np.inf  # where the obstacle was touched (foot x, m)
+        self._mark_box = np.full(1, -np.inf)  # the compiled path's (``kernels.gh_touch``)
+        self._no_sets = np.zeros((3, 2, 2, nm))
+        self._no_any = np.zeros((2, 2, nm))
         self._f_cols = [ix[k] for k in ("GAS", "VAS", "GLU", "HAMS")]
         self._l_cols = [ix["TA"], ix[self.flexor]]
         self._l_offs = np.array([p.l_off_ta, p.l_off_hfl])
@@ -721,7 +724,17 @@ class GH2010Controller:
                              self._i_glu, u)
         u = u.reshape(n, 2 * nm)
         if self._scr:
-            u += self._stumble(x).reshape(n, 2 * nm)
+            by_foot = self._scr_by_foot
+            self._mark_box[0] = self._mark
+            kern["gh_touch"](x, sl["touch"].start, sl["x_touch"].start, sl["vest_load"].start,
+                             sl["vest_x"].start, p.stance_load, self._scr_hold,
+                             self._scr_vas_after, by_foot, p.scr_ahead_m,
+                             self._w_scr if by_foot else self._no_sets,
+                             self._no_any if by_foot else self._w_scr, self._w_scr_vas,
+                             self._cross, self._cross_hold, p.cross_ahead_m, self._w_cross,
+                             self._scr_since, self._touched, self._ahead, self._armed,
+                             self._cross_since, self._was_on, self._mark_box, u)
+            self._mark = float(self._mark_box[0])
         kern["clip_plan"](u, PRE_ACTIVATION, plan, self._act_first, self._held)
         return u
 

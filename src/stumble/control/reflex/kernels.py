@@ -24,6 +24,8 @@ from __future__ import annotations
 import math
 import os
 
+import numpy as np
+
 ENV = "STUMBLE_KERNELS"  # "numpy": the reference code even where Numba is installed
 
 
@@ -108,14 +110,15 @@ def _load():
                 fin[i, c] = f / ib_force + 1.0
 
     @jit
-    def net_push(d, v, p, ib, loads, weight_n, contact, mean, inv_std, buf, slots):
-        """The receptor rates of ticks (n: Ia, II, Ib per muscle, then the load), each
-        standardised, into the ring buffer ``buf`` (slot, 2·n_signals) at ``slots``."""
+    def net_push(d, v, p, ib, loads, weight_n, contact, mean, inv_std, buf, first):
+        """The receptor rates of ticks first, first+1, … (Ia, II, Ib per muscle, then the
+        load), each standardised, into the ring buffer ``buf`` (slot, 2·n_signals)."""
         nm2 = d.shape[1]
         nm = nm2 // 2
         n_sig = buf.shape[1] // 2
+        size = buf.shape[0]
         for i in range(d.shape[0]):
-            row = slots[i]
+            row = (first + i) % size
             for s in range(2):
                 base = s * n_sig
                 for j in range(nm):
@@ -166,11 +169,23 @@ def _load():
                     plan[i, first + q] = ctrl[i, q]
 
     @jit
-    def store_rows(h, buf, slots):
-        """Rows of ``h`` (n, 2, k) into the ring buffer ``buf`` (slots, 2·k)."""
+    def ring_take(buf, first, lag, off, row, size, out):
+        """``out`` (n, 2, L): what ticks first … first+n−1 read of a flat ring buffer of
+        ``size`` slots of ``row`` values, channel ``off[s, j]`` ``lag[j]`` ticks back."""
+        for i in range(out.shape[0]):
+            for j in range(out.shape[2]):
+                base = ((first + i - lag[j]) % size) * row
+                out[i, 0, j] = buf[base + off[0, j]]
+                out[i, 1, j] = buf[base + off[1, j]]
+
+    @jit
+    def store_rows(h, buf, first):
+        """Rows of ``h`` (n, 2, k) into the ring buffer ``buf`` (slots, 2·k) from slot
+        ``first`` on (wrapping)."""
         k = h.shape[2]
+        size = buf.shape[0]
         for i in range(h.shape[0]):
-            r = slots[i]
+            r = (first + i) % size
             for s in range(2):
                 for j in range(k):
                     buf[r, s * k + j] = h[i, s, j]
@@ -192,11 +207,13 @@ def _load():
                 bal_g[i, j] = ticks[i, bal_cols[j]]
 
     @jit
-    def bal_store(g, lean, buf, rows):
+    def bal_store(g, lean, buf, first):
         """``TrunkBalance.sense`` from its gathered columns ``g`` (n, 7) and the lean,
-        into ``buf`` at ``rows``: lean, pitch rate, the feet's loads, the ankles' x."""
+        into the ring buffer ``buf`` from slot ``first`` on: lean, pitch rate, the feet's
+        loads, the ankles' x."""
+        size = buf.shape[0]
         for i in range(g.shape[0]):
-            r = rows[i]
+            r = (first + i) % size
             buf[r, 0] = lean[i]
             buf[r, 1] = g[i, 2]
             buf[r, 2] = -g[i, 3]
@@ -342,6 +359,118 @@ def _load():
                 u[i, leg, i_glu] += on * en
 
     @jit
+    def gh_touch(x, touch0, xt0, load0, xf0, stance_load, hold, vas_after, by_foot,
+                 ahead_m, w_sets, w_any, w_vas, cross, cross_hold, cross_ahead, w_cross,
+                 scr_since, touched_was, ahead_was, armed, cross_since, was_on, mark, u):
+        """``GH2010Controller._stumble`` (and ``_crossing``) added to ``u`` (n, 2·nm), its
+        state carried in the arrays after ``w_cross`` (``mark`` of one element). Every
+        output element gets at most two non-zero terms (a touched leg's own sets, the
+        other leg's set): their sum is NumPy's einsum's in any order."""
+        n = x.shape[0]
+        nm = w_vas.shape[2]
+        last0 = -1
+        last1 = -1
+        first0 = -1
+        first1 = -1
+        prev0 = touched_was[0]
+        prev1 = touched_was[1]
+        ahead0 = ahead_was[0]
+        ahead1 = ahead_was[1]
+        since0 = 0.0
+        since1 = 0.0
+        was0 = was_on[0]
+        was1 = was_on[1]
+        out = np.zeros((2, nm))
+        for i in range(n):
+            t0 = x[i, touch0] > 0.0
+            t1 = x[i, touch0 + 1] > 0.0
+            if t0:
+                last0 = i
+            if t1:
+                last1 = i
+            since0 = float(i - last0) if last0 >= 0 else scr_since[0] + 1.0 + float(i)
+            since1 = float(i - last1) if last1 >= 0 else scr_since[1] + 1.0 + float(i)
+            on0 = 1.0 if since0 < hold else 0.0
+            on1 = 1.0 if since1 < hold else 0.0
+            late0 = 1.0 if (since0 >= vas_after and since0 < vas_after + hold) else 0.0
+            late1 = 1.0 if (since1 >= vas_after and since1 < vas_after + hold) else 0.0
+            s0 = t0 and not prev0
+            s1 = t1 and not prev1
+            prev0 = t0
+            prev1 = t1
+            if by_foot:
+                if s0:
+                    first0 = i
+                if s1:
+                    first1 = i
+                if first0 >= 0:
+                    f = x[first0, xt0]
+                    ahead0 = f - x[first0, xt0 + 1] > ahead_m
+                if first1 >= 0:
+                    f = x[first1, xt0 + 1]
+                    ahead1 = f - x[first1, xt0] > ahead_m
+            for leg in range(2):
+                for j in range(nm):
+                    if by_foot:
+                        a = 0.0
+                        for t in range(2):
+                            on_t = on0 if t == 0 else on1
+                            ah = ahead0 if t == 0 else ahead1
+                            g0 = on_t * (0.0 if ah else 1.0)
+                            g1 = on_t * (1.0 if ah else 0.0)
+                            a += g0 * w_sets[0, t, leg, j]
+                            a += g1 * w_sets[1, t, leg, j]
+                            a += on_t * w_sets[2, t, leg, j]
+                    else:
+                        a = on0 * w_any[0, leg, j] + on1 * w_any[1, leg, j]
+                    out[leg, j] = a + (late0 * w_vas[0, leg, j] + late1 * w_vas[1, leg, j])
+            if cross:
+                if s0 or s1:
+                    if s0 and s1:
+                        mx = max(x[i, xt0], x[i, xt0 + 1])
+                    elif s0:
+                        mx = x[i, xt0]
+                    else:
+                        mx = x[i, xt0 + 1]
+                    mark[0] = mx + cross_ahead
+                if t0 or t1:
+                    armed[0] = True
+                    armed[1] = True
+                l0 = x[i, load0] > stance_load
+                l1 = x[i, load0 + 1] > stance_load
+                land0 = l0 and not was0
+                land1 = l1 and not was1
+                was0 = l0
+                was1 = l1
+                if land0 and armed[1]:
+                    armed[1] = False
+                    if x[i, xf0 + 1] < mark[0]:
+                        cross_since[1] = 0
+                if land1 and armed[0]:
+                    armed[0] = False
+                    if x[i, xf0] < mark[0]:
+                        cross_since[0] = 0
+                c0 = 1.0 if cross_since[0] < cross_hold else 0.0
+                c1 = 1.0 if cross_since[1] < cross_hold else 0.0
+                cross_since[0] += 1
+                cross_since[1] += 1
+                for j in range(nm):
+                    out[0, j] += c0 * w_cross[j]
+                    out[1, j] += c1 * w_cross[j]
+            for leg in range(2):
+                for j in range(nm):
+                    u[i, leg * nm + j] += out[leg, j]
+        scr_since[0] = since0
+        scr_since[1] = since1
+        touched_was[0] = prev0
+        touched_was[1] = prev1
+        ahead_was[0] = ahead0
+        ahead_was[1] = ahead1
+        if cross:
+            was_on[0] = was0
+            was_on[1] = was1
+
+    @jit
     def clip_plan(u, lo, plan, first, held):
         """``u`` (n, k) clipped to lo-1 in place; when ``plan`` has rows, each is ``held``
         (the controls now) with columns ``first``… set to ``u``."""
@@ -360,9 +489,10 @@ def _load():
     return {"iir2": iir2, "balance_cols": balance_cols, "net_pre": net_pre,
             "net_push": net_push, "net_drive": net_drive, "net_out": net_out,
             "net_observe": net_observe, "bal_store": bal_store, "store_rows": store_rows,
+            "ring_take": ring_take,
             "gh_channels": gh_channels, "gh_place_in": gh_place_in,
             "gh_features": gh_features, "gh_select": gh_select, "gh_lean": gh_lean,
-            "gh_place": gh_place, "clip_plan": clip_plan}
+            "gh_place": gh_place, "gh_touch": gh_touch, "clip_plan": clip_plan}
 
 
 _KERNELS: dict | bool | None = False  # False: not looked for yet
