@@ -100,6 +100,33 @@ def test_the_track_weight_scales_the_tracking_term_and_is_recorded_in_the_comman
         fit_gh2010(track_weight=float("nan"))
 
 
+def test_the_knee_weight_charges_hyperextension_and_is_recorded_in_the_command():
+    """``--knee-weight W``: W per degree of the knees' mean extension beyond straight
+    (off in every shipped fit); a walk's summary carries the measure."""
+    from stumble.control.reflex.fit_walk import _fit_command, fit_gh2010
+
+    locked = {**_summary(), "knee_hyperextension_deg": 2.5}
+    cost0, off = walk_cost(locked, effort=0.0)
+    cost2, two = walk_cost(locked, effort=0.0, knee_weight=2.0)
+    assert "knee" not in off and two["knee"] == pytest.approx(5.0)
+    assert cost2 == pytest.approx(cost0 + 5.0)
+    walk = ((110, 15.0, ()),)
+    assert "--knee-weight" not in _fit_command("gh2010", False, walk, None, 1)
+    assert "--knee-weight 2 " in _fit_command("gh2010", False, walk, None, 1,
+                                               knee_weight=2.0)
+    with pytest.raises(ValueError, match="knee_weight"):
+        fit_gh2010(knee_weight=-1.0)
+
+
+def test_a_walk_measures_its_knees_beyond_straight():
+    """The shipped walker stands its stance knees on the +5° stop: a mean of 1-4° beyond
+    straight over the walk (people: 0)."""
+    from stumble.pipeline import simulate_walk
+
+    s = simulate_walk("gh2010", 3.0).summary
+    assert 1.0 < s["knee_hyperextension_deg"] < 4.0
+
+
 def test_the_stride_time_term_charges_strides_outside_the_band():
     from stumble.control.reflex.fit_walk import _fit_command
 
@@ -405,7 +432,8 @@ def test_shipped_gh2010_fits_score_today_what_they_scored_in_their_fit(name):
                    float(fit.get("stance_weight", 1.0)),
                    recovery_cost=float(fit.get("recovery_cost", 0.0)),
                    placement=fit.get("placement", False), pushes=bool(fit.get("pushes")),
-                   track_weight=float(fit.get("track_weight", 1.0)))
+                   track_weight=float(fit.get("track_weight", 1.0)),
+                   knee_weight=float(fit.get("knee_weight", 0.0)))
     cost, _terms = evaluate_walk(np.array([getattr(p, n) for n in space.names]))
     assert cost == pytest.approx(fit["cost"], rel=1e-6)
 

@@ -367,7 +367,8 @@ def walk_metrics(rec: Recording, model: mujoco.MjModel, reference: dict[str, np.
     joint-angle RMSE (deg) of every complete right stride against ``reference`` (the
     recorded stride, 101 points per ``<joint>_<side>``, rad), averaged over strides;
     where ``reference`` has ``foot_angle_<side>`` (``foot_angles``), the foot's angle
-    RMSE (deg) too, averaged over both feet; ``stride_s``, the mean right stride (s)."""
+    RMSE (deg) too, averaged over both feet; ``stride_s``, the mean right stride (s);
+    ``knee_hyperextension_deg``, the knees' mean extension beyond straight (deg)."""
     t = rec.time_s
     ev = contact_events(t, rec.foot_on_floor)
     hs = ev["r"]["heel_strike_s"]
@@ -397,6 +398,10 @@ def walk_metrics(rec: Recording, model: mujoco.MjModel, reference: dict[str, np.
             rmse[name] = float(np.degrees(np.sqrt((err ** 2).mean(axis=1))).mean())
     per_joint = {j: float(np.mean([rmse[f"{j}_{s}"] for s in SIDES])) for j in WALK_JOINTS
                  } if rmse else {}
+    # the knees beyond straight (deg; 0 in people, whose knees do not hyperextend in gait;
+    # the model's stop is at +5°, ``joints.JOINTS_3D``): mean over the walk and both knees
+    knees = np.concatenate([angles[f"knee_angle_{s}"] for s in SIDES])
+    hyper = float(np.degrees(np.maximum(knees, 0.0)).mean()) if len(knees) else 0.0
     feet = [rmse.pop(f"foot_angle_{s}") for s in SIDES if f"foot_angle_{s}" in rmse]
     foot = float(np.mean(feet)) if feet else None
     walked = float(t[-1]) if len(t) else 0.0
@@ -413,6 +418,7 @@ def walk_metrics(rec: Recording, model: mujoco.MjModel, reference: dict[str, np.
         "rmse_deg": {k: round(v, 3) for k, v in per_joint.items()},
         "rmse_deg_by_side": {k: round(v, 3) for k, v in rmse.items()},
         "foot_angle_rmse_deg": None if foot is None else round(foot, 3),
+        "knee_hyperextension_deg": round(hyper, 3),
         "events": ev,
     }
 

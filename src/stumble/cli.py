@@ -283,6 +283,10 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument("--track-weight", type=float, default=None, metavar="W",
                    help="gh2010: the objective's tracking term's weight (default 1, every "
                    "shipped fit's)")
+    f.add_argument("--knee-weight", type=float, default=None, metavar="W",
+                   help="gh2010: the objective's knee term, per degree of the knees' mean "
+                   "extension beyond straight (default 0, every shipped fit's; ours: the "
+                   "fitted walkers stand their stance knee on the model's +5° stop)")
     f.add_argument("--pushes", action="store_true",
                    help="gh2010: every candidate also walks 10 s with two backward pushes "
                    "on the pelvis (200 N for 0.2 s at 3 and 6.5 s), the part not walked "
@@ -661,6 +665,7 @@ def cmd_reflex_fit_gh2010(args) -> int:
         SEED003_STAGES,
         TRIP_SETS,
         TRIP_STAGES,
+        W_KNEE,
         W_STANCE,
         W_TRACK,
         fit_gh2010,
@@ -711,6 +716,12 @@ def cmd_reflex_fit_gh2010(args) -> int:
     track_weight = W_TRACK if args.track_weight is None else args.track_weight
     if not (math.isfinite(track_weight) and track_weight >= 0):
         raise InputError(f"--track-weight must be a number >= 0, got {args.track_weight}")
+    knee_weight = W_KNEE if args.knee_weight is None else args.knee_weight
+    if not (math.isfinite(knee_weight) and knee_weight >= 0):
+        raise InputError(f"--knee-weight must be a number >= 0, got {args.knee_weight}")
+    if knee_weight and args.touch_only:
+        raise InputError("--knee-weight weighs the walk: it refits the walk, so not with "
+                         "--touch-only")
     stance_weight = W_STANCE if args.stance_weight is None else args.stance_weight
     if not (math.isfinite(stance_weight) and stance_weight >= 0):
         raise InputError(f"--stance-weight must be a number >= 0, got {args.stance_weight}")
@@ -741,7 +752,8 @@ def cmd_reflex_fit_gh2010(args) -> int:
                      load_from=args.load_from, stride_time=args.stride_time,
                      stance_weight=stance_weight, touch_only=args.touch_only,
                      recovery_cost=recovery_cost, placement=args.placement,
-                     pushes=args.pushes, track_weight=track_weight)
+                     pushes=args.pushes, track_weight=track_weight,
+                     knee_weight=knee_weight)
     bar.done()
     written, walk = write_gh2010_fit(out, res)
     s = walk.summary
@@ -762,11 +774,12 @@ def cmd_reflex(args) -> int:
             or args.recovery_cost is not None or args.placement or args.pushes
             or args.foot_angle or args.load_from is not None or args.stride_time
             or args.stance_weight is not None or args.touch_only
-            or args.track_weight is not None):
+            or args.track_weight is not None or args.knee_weight is not None):
         raise InputError("--trips, --params, --trip-set, --scr-phase, --strategy-cost, "
                          "--recovery-cost, --crossing, --touch-only, --load-from, "
                          "--foot-angle, --stride-time, --stance-weight, --track-weight, "
-                         "--placement, --pushes and --ta-bound are for --controller gh2010")
+                         "--knee-weight, --placement, --pushes and --ta-bound are for "
+                         "--controller gh2010")
     from stumble.control.reflex.identify import ITERATIONS, REFINE_ITERATIONS, fit
     from stumble.outputs import prepare_dir, write_fit
 

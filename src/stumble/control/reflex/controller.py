@@ -31,6 +31,7 @@ from stumble.control.reflex.receptors import (
     IA_STRETCH_GAIN,
     IA_VELOCITY_EXPONENT,
     IA_VELOCITY_GAIN,
+    IB_FORCE_N,
     IB_GAIN,
     II_BASE,
     II_STRETCH_GAIN,
@@ -41,6 +42,8 @@ from stumble.errors import InputError
 from stumble.sim import Context
 
 SIDES = ("r", "l")
+# the spindles' constants in the order the compiled receptors take them (``kernels``)
+_RATE_GAINS = (IA_VELOCITY_GAIN, IA_STRETCH_GAIN, IA_BASE, II_BASE, II_STRETCH_GAIN)
 
 
 class TrunkBalance:
@@ -367,13 +370,13 @@ class ReflexController:
         """``_rates`` then ``_push_signals`` of the block's n sensed ticks, compiled where
         elementwise (``kernels``; NumPy's power, log and SciPy's filter): the same numbers."""
         d, v, absv, fin = (a[:n] for a in self._scratch[:4])
-        kern["net_pre"](self.sensed[:n], self.k_mm, self.l_ref, d, v, absv, fin)
+        kern["net_pre"](self.sensed[:n], self.k_mm, self.l_ref, IB_FORCE_N, d, v, absv, fin)
         p = absv ** IA_VELOCITY_EXPONENT
         ib = self._scratch[4][:n]
         kern["iir2"](self.gto.b, self.gto.a, IB_GAIN * np.log(fin), self.gto.z, ib)
         kern["net_push"](d, v, p, ib, self.loads[:n], self.body_weight_n, self.contact,
                          self.net.mean, self.inv_std, self.sig_buf.reshape(self.n_buf, -1),
-                         first)
+                         first, _RATE_GAINS)
 
     def _next_block_compiled(self, kern: dict) -> None:
         """``_next_block`` with its elementwise steps compiled (``kernels``)."""

@@ -57,6 +57,13 @@ W_FOOT = 1.0  # the foot-angle term's weight by default (``--foot-angle``; a joi
 # played-back walk's strides at 1.0-1.3 m/s last 1.30-1.07 s (subject01, scaled with
 # speed); trip stages without it grew the strides to 1.5-1.6 s (README)
 W_STRIDE = 1.0
+# the knee term (``knee_weight``, ``--knee-weight``; 0, off, in the shipped fits): per
+# degree of the knees' mean extension beyond straight (``knee_hyperextension_deg``). Our
+# addition: every fitted walker stands its stance knee on the model's +5° stop, where
+# people flex it about 20° after heel strike (the knee's 15.5° RMSE); a stop carries the
+# body for no muscle effort, so the effort term pays for it. SCONE's gait objectives
+# penalise such joint-limit loads likewise.
+W_KNEE = 0.0
 # ``--pushes`` (ours; off unless asked; the pushed sets, ``pushed-walk`` and the default
 # ``pushed`` on it, were fitted with it): each candidate also walks PUSH_WALK_S from
 # the same start with two backward pushes on the pelvis, PUSHES ((start s, duration s,
@@ -79,14 +86,16 @@ def _outside(v: float, band: tuple[float, float]) -> float:
 def walk_cost(summary: dict, effort: float, foot_angle: float = 0.0,
               stride_time: bool = False,
               stance_weight: float = W_STANCE,
-              track_weight: float = W_TRACK) -> tuple[float, dict]:
+              track_weight: float = W_TRACK,
+              knee_weight: float = W_KNEE) -> tuple[float, dict]:
     """The objective J of a walk's summary (``walk_metrics``) and its mean
     F_max-weighted squared activation; returns J and its terms; ``foot_angle``: the
     foot-angle term's weight (0: none; ``W_FOOT``, 1, a joint's; on the summary's
     ``foot_angle_rmse_deg``); ``stride_time``: with the stride-time term (``W_STRIDE``,
     ``STRIDE_BAND``; the summary's ``stride_s``); ``stance_weight``: the stance term's
     weight (``W_STANCE``, 1, in every shipped fit); ``track_weight``: the tracking term's
-    (``W_TRACK``, 1, in every shipped fit)."""
+    (``W_TRACK``, 1, in every shipped fit); ``knee_weight``: the knee term's, per degree
+    of ``knee_hyperextension_deg`` (``W_KNEE``, 0: none, in every shipped fit)."""
     T = summary["duration_s"]
     walked = min(summary["walked_s"] / T,
                  max(summary.get("distance_m", T * SPEED_BAND[0]), 0.0) / (SPEED_BAND[0] * T))
@@ -103,6 +112,8 @@ def walk_cost(summary: dict, effort: float, foot_angle: float = 0.0,
         f = summary.get("foot_angle_rmse_deg")
         terms["foot"] = float(foot_angle) * (10.0 if f is None else
                                   f / 10.0 + max(f - TRACK_HINGE_DEG, 0.0) / 2.0)
+    if knee_weight:
+        terms["knee"] = float(knee_weight) * summary.get("knee_hyperextension_deg", 0.0)
     if stride_time:
         st = summary.get("stride_s")
         terms["stride"] = W_STRIDE * (4.0 if st is None else
@@ -341,7 +352,8 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                    foot_angle: float = 0.0, stride_time: bool = False,
                    stance_weight: float = W_STANCE, touch_only: bool = False,
                    recovery_cost: float = 0.0, placement: bool = False,
-                   pushes: bool = False, track_weight: float = W_TRACK) -> None:
+                   pushes: bool = False, track_weight: float = W_TRACK,
+                   knee_weight: float = W_KNEE) -> None:
     """Worker set-up: what ``evaluate_walk`` simulates: a walk, and the obstacle trips
     ``trips`` ((swing fraction, speed) pairs) the walker must walk on from; GH2010
     candidates in ``gh2010_space(stumble_reflex=...)``; ``strategy_cost``: what a trip in
@@ -353,7 +365,8 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
     recovered costs on top of its time term (``trip_terms``); ``placement``: candidates
     with the swing-leg placement (``gh2010_space(placement=True)``); ``pushes``: each
     candidate also walks ``PUSH_WALK_S`` with the pelvis pushes ``PUSHES`` (``push_term``);
-    ``track_weight``: the tracking term's weight (``walk_cost``)."""
+    ``track_weight``, ``knee_weight``: the tracking and knee terms' weights
+    (``walk_cost``)."""
     from stumble.pipeline import WalkInCache
 
     _EVAL.pop("walk", None)
@@ -364,7 +377,8 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                  strategy_cost=float(strategy_cost), crossing=crossing,
                  foot_angle=foot_angle, stride_time=stride_time,
                  stance_weight=float(stance_weight), recovery_cost=float(recovery_cost),
-                 placement=placement, pushes=pushes, track_weight=float(track_weight))
+                 placement=placement, pushes=pushes, track_weight=float(track_weight),
+                 knee_weight=float(knee_weight))
 
 
 def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
@@ -398,7 +412,8 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
     cost, terms = walk_cost(r.summary, effort_of(r), _EVAL.get("foot_angle", 0.0),
                             _EVAL.get("stride_time", False),
                             _EVAL.get("stance_weight", W_STANCE),
-                            _EVAL.get("track_weight", W_TRACK))
+                            _EVAL.get("track_weight", W_TRACK),
+                            _EVAL.get("knee_weight", W_KNEE))
     terms["walked_s"] = r.summary["walked_s"]
     terms["speed_m_per_s"] = r.summary["speed_m_per_s"]
     if _EVAL.get("pushes"):  # a walker that falls unpushed falls pushed: not run again
@@ -561,7 +576,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                load_from: str | None = None, stride_time: bool = False,
                stance_weight: float = W_STANCE, touch_only: bool = False,
                recovery_cost: float = 0.0, placement: bool = False,
-               pushes: bool = False, track_weight: float = W_TRACK) -> FitResult:
+               pushes: bool = False, track_weight: float = W_TRACK,
+               knee_weight: float = W_KNEE) -> FitResult:
     """Optimise the GH2010 gains in closed loop: per stage (generations, walk s, obstacle
     trips), CMA-ES on ``walk_cost`` plus, for each trip, ``W_TRIP`` times the part of the
     3 s after it not walked on. ``wiring`` ``gh2010`` starts from the paper's values
@@ -600,7 +616,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     with ``touch_only``: it is a walking law); ``pushes``: every candidate also walks with
     the pelvis pushes ``PUSHES`` (``push_term``), in every stage; ``track_weight``: the
     tracking term's weight (``W_TRACK``; a trip stage weighs each lost trip as 20 to 40
-    degrees of joint RMSE beyond 8°, and trades the gait for trips). Writes
+    degrees of joint RMSE beyond 8°, and trades the gait for trips); ``knee_weight``:
+    the knee term's (``W_KNEE``, per degree of hyperextension; 0 in the shipped fits). Writes
     ``gh2010.json`` to ``out`` (the best parameters and the fit's figures) when given."""
     if strategy_cost < 0 or not math.isfinite(strategy_cost):
         raise ValueError(f"strategy_cost must be a finite number >= 0, got {strategy_cost}")
@@ -616,6 +633,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
         raise ValueError(f"stance_weight must be a finite number >= 0, got {stance_weight}")
     if not (math.isfinite(track_weight) and track_weight >= 0):
         raise ValueError(f"track_weight must be a finite number >= 0, got {track_weight}")
+    if not (math.isfinite(knee_weight) and knee_weight >= 0):
+        raise ValueError(f"knee_weight must be a finite number >= 0, got {knee_weight}")
     if load_from is not None and not trips:
         raise ValueError("load_from is for the trip stage (trips=True)")
     if touch_only and not trips:
@@ -673,7 +692,7 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                                 else {"wiring": wiring}, trips,
                                 with_trips, strategy_cost, crossing, foot_angle,
                                 stride_time, stance_weight, touch_only, recovery_cost,
-                                placement, pushes, track_weight),
+                                placement, pushes, track_weight, knee_weight),
                       first_generation=total, stage="walk" if not trips else "walk+trips",
                       fixed=fixed)
         params = replace(params, **dict(zip(space.names, map(float, res.best_theta),
@@ -714,6 +733,7 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                     "stride_time": stride_time,
                     "stance_weight": stance_weight,
                     "track_weight": track_weight,
+                    "knee_weight": knee_weight,
                     "touch_only": touch_only,
                     "recovery_cost": recovery_cost,
                     "placement": placement,
@@ -723,7 +743,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                                             foot_angle, load_from, stride_time,
                                             stance_weight, touch_only, recovery_cost,
                                             placement, pushes, track_weight,
-                                            (start_from or {}).get("params"))}})
+                                            (start_from or {}).get("params"),
+                                            knee_weight)}})
     return res
 
 
@@ -734,7 +755,7 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
                  stance_weight: float = W_STANCE, touch_only: bool = False,
                  recovery_cost: float = 0.0, placement: bool = False,
                  pushes: bool = False, track_weight: float = W_TRACK,
-                 params: str | None = None) -> str:
+                 params: str | None = None, knee_weight: float = W_KNEE) -> str:
     """The ``stumble reflex fit`` command of a GH2010 fit (``params``: what ``--params``
     named, None: none given)."""
     opts = ["--trips"] if trips else []
@@ -748,6 +769,8 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
         opts.append(f"--stance-weight {stance_weight:g}")
     if track_weight != W_TRACK:
         opts.append(f"--track-weight {track_weight:g}")
+    if knee_weight != W_KNEE:
+        opts.append(f"--knee-weight {knee_weight:g}")
     if foot_angle:
         opts.append("--foot-angle" if foot_angle == W_FOOT else f"--foot-angle {foot_angle:g}")
     if placement:

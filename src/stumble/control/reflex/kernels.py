@@ -37,11 +37,6 @@ def _load():
         import numba
     except ImportError:
         return None
-    from stumble.control.reflex import receptors as rec
-
-    ia_gain, ia_stretch, ia_base = rec.IA_VELOCITY_GAIN, rec.IA_STRETCH_GAIN, rec.IA_BASE
-    ii_base, ii_stretch, ib_force = rec.II_BASE, rec.II_STRETCH_GAIN, rec.IB_FORCE_N
-
     jit = numba.njit(cache=True, error_model="numpy", nogil=True)
 
     @jit
@@ -95,10 +90,10 @@ def _load():
                 out[i, 1, 2] += b1
 
     @jit
-    def net_pre(sensed, k_mm, l_ref, d, v, absv, fin):
+    def net_pre(sensed, k_mm, l_ref, ib_force, d, v, absv, fin):
         """The receptors' first step (``ReflexController._rates``) for ticks of ``sensed``
         (n, 3, m): fibre stretch ``d`` and its rate ``v`` (mm, mm/s), ``|v|``, and the
-        tendon organ's ``max(F, 0)/4 N + 1`` (F pulling positive), each (n, m)."""
+        tendon organ's ``max(F, 0)/ib_force + 1`` (F pulling positive), each (n, m)."""
         for i in range(sensed.shape[0]):
             for c in range(sensed.shape[2]):
                 d[i, c] = k_mm[c] * (sensed[i, 0, c] - l_ref[c])
@@ -110,9 +105,13 @@ def _load():
                 fin[i, c] = f / ib_force + 1.0
 
     @jit
-    def net_push(d, v, p, ib, loads, weight_n, contact, mean, inv_std, buf, first):
+    def net_push(d, v, p, ib, loads, weight_n, contact, mean, inv_std, buf, first, gains):
         """The receptor rates of ticks first, first+1, … (Ia, II, Ib per muscle, then the
-        load), each standardised, into the ring buffer ``buf`` (slot, 2·n_signals)."""
+        load), each standardised, into the ring buffer ``buf`` (slot, 2·n_signals);
+        ``gains``: Ia's velocity gain, stretch gain and base, II's base and stretch gain
+        (``receptors``; arguments, not constants, so that Numba's cache cannot keep old
+        ones)."""
+        ia_gain, ia_stretch, ia_base, ii_base, ii_stretch = gains
         nm2 = d.shape[1]
         nm = nm2 // 2
         n_sig = buf.shape[1] // 2
