@@ -352,4 +352,4 @@ def test_the_help_names_every_shipped_gh2010_set_and_the_default():
     default = next(n for n, f in NAMED.items() if f == SHIPPED["gh2010"])
     assert f"{default} (the default" in GH2010_NAMES
     r = run("reflex", "walk", "--help")
-    assert r.returncode == 0 and "pushed (the default" in " ".join(r.stdout.split())
+    assert r.returncode == 0 and f"{default} (the default" in " ".join(r.stdout.split())

@@ -119,12 +119,15 @@ def test_the_knee_weight_charges_hyperextension_and_is_recorded_in_the_command()
 
 
 def test_a_walk_measures_its_knees_beyond_straight():
-    """The shipped walker stands its stance knees on the +5° stop: a mean of 1-4° beyond
-    straight over the walk (people: 0)."""
+    """The pushed walker stands its stance knees on the +5° stop: a mean of 1-4° beyond
+    straight over the walk (people: 0); the default, refitted from it with the knee term
+    (``--knee-weight 5``), stays within 0.5° of straight."""
+    from stumble.control.reflex.gh2010 import load_params
     from stumble.pipeline import simulate_walk
 
-    s = simulate_walk("gh2010", 3.0).summary
+    s = simulate_walk("gh2010", 3.0, params=load_params("pushed")).summary
     assert 1.0 < s["knee_hyperextension_deg"] < 4.0
+    assert simulate_walk("gh2010", 3.0).summary["knee_hyperextension_deg"] < 0.5
 
 
 def test_the_stride_time_term_charges_strides_outside_the_band():
@@ -241,10 +244,10 @@ def test_the_trip_stage_fits_the_stumbling_reflex_from_the_walking_fit(tmp_path)
     assert all(getattr(fitted, n) == 0.0 for n in SCR_EXTENSION)
     fit = json.loads((tmp_path / "gh2010.json").read_text())["fit"]
     assert "--trips" in fit["command"] and "--params" not in fit["command"]
-    assert fit["from"] == "the shipped walking fit (gh2010_pushed_walk.json)"
-    # it starts from the pushed walking fit the default's touch stages started from
+    assert fit["from"] == "the shipped walking fit (gh2010_knee_walk.json)"
+    # it starts from the walking fit the default's touch stage started from
     start = dict(zip(res.space.names, res.space.start, strict=True))
-    assert all(start[n] == pytest.approx(getattr(load_params("pushed-walk"), n))
+    assert all(start[n] == pytest.approx(getattr(load_params("knee-walk"), n))
                for n in ("g_sol", "g_vas", "l_off_ta"))
     # by the foot's phase: the extension set is fitted too, and the command says so
     res = fit_gh2010(seed=2, stages=((1, 2.0, ((0.1, 1.2),)),), popsize=4, trips=True,
@@ -268,7 +271,7 @@ def test_the_trip_stage_fits_the_stumbling_reflex_from_the_walking_fit(tmp_path)
     with pytest.raises(ValueError, match="crossing is for the trip stage"):
         fit_gh2010(crossing=True)
     # the touch's reflexes alone: the walking gains stay the start's, bit for bit
-    start = load_params("pushed-walk")  # where a trip stage starts by default
+    start = load_params("knee-walk")  # where a trip stage starts by default
     res = fit_gh2010(seed=2, stages=((1, 2.0, ((0.1, 1.2),)),), popsize=4, trips=True,
                      out=tmp_path, crossing=True, touch_only=True)
     assert set(res.space.names) == (set(SCR_BOUNDS) - set(SCR_EXTENSION)) | set(CROSS_BOUNDS)
@@ -402,7 +405,8 @@ def fit_walk_gh2010(**kw):
 
 
 @pytest.mark.parametrize("name", ["gh2010_trip.json", "gh2010_seed003.json",
-                                  "gh2010_pushed_walk.json", "gh2010_pushed.json"])
+                                  "gh2010_pushed_walk.json", "gh2010_pushed.json",
+                                  "gh2010_knee_walk.json", "gh2010_knee.json"])
 def test_shipped_gh2010_fits_score_today_what_they_scored_in_their_fit(name):
     """Reproducibility guard: a shipped fit's own parameters, evaluated by today's
     objective on its last stage's walk and trips, give the cost its fit recorded (on this
@@ -534,8 +538,8 @@ def test_the_pushed_sets_load_by_name_withstand_pushes_and_recover_mid_swing_tri
     """The shipped pushed walking fit (``--params pushed-walk``: ``reflex fit --placement
     --pushes --seed 5``) walks 10 s through two 200 N pushes on the pelvis, as it was
     fitted to, where the earlier trip fit (``--params trip``) falls; the touch stages on it
-    (``--params pushed``, the default since 2026-12-04) recover an obstacle trip at 0.40
-    of swing (1.2 m/s, its own gait) that the earlier trip fit does not."""
+    (``--params pushed``, the default for part of 2026-12-04) recover an obstacle trip at
+    0.40 of swing (1.2 m/s, its own gait) that the earlier trip fit does not."""
     import json
 
     from stumble.control.reflex.fit_walk import PUSHES
@@ -545,8 +549,8 @@ def test_the_pushed_sets_load_by_name_withstand_pushes_and_recover_mid_swing_tri
 
     for name in NAMED:
         assert load_params(name) == load_params(str(named_file(name)))
-    assert load_params("pushed") == shipped_params()  # the default
-    assert load_params("pushed-walk") == shipped_params(walking_only=True)
+    assert load_params("knee") == shipped_params()  # the default
+    assert load_params("knee-walk") == shipped_params(walking_only=True)
     assert named_file("nope") is None
     walk, pushed = load_params("pushed-walk"), load_params("pushed")
     fit = json.loads(named_file("pushed").read_text())["fit"]
@@ -559,7 +563,7 @@ def test_the_pushed_sets_load_by_name_withstand_pushes_and_recover_mid_swing_tri
     assert simulate_walk("gh2010", 10.0, 1.2, params=trip, pushes=PUSHES).summary["fell"]
     sc = Scenario(controller="gh2010", mechanism="obstacle", swing_fraction=0.4,
                   speed_m_per_s=1.2, start="own")
-    a = simulate_trip(sc).summary  # the default
+    a = simulate_trip(sc, gh2010=pushed).summary
     b = simulate_trip(sc, gh2010=trip).summary
     assert a["strategy"] == b["strategy"] == "elevating"
     assert a["recovered"] and not b["recovered"]

@@ -1,5 +1,5 @@
 """Walking and tripping under the shipped Geyer & Herr 2010 reflexes (closed-loop fitted;
-the default ``stumble/control/reflex/data/gh2010_pushed.json``, ``--params pushed``),
+the default ``stumble/control/reflex/data/gh2010_knee.json``, ``--params knee``),
 from the played-back walk and in their own gait, and under the closed-loop network; the
 open-loop network's strategies are tested in test_reflex.py."""
 
@@ -28,9 +28,8 @@ def test_gh2010_takes_the_seeds_strategies_without_being_told(controller, swing,
     from stumble.control.reflex.gh2010 import shipped_params
 
     # the seed's instants of the recording and the same fractions of its own swing, with
-    # the walking fit the default's touch stages started from (``pushed-walk``; the
-    # default takes elevating at 0.56 of its own swing, lowering from 0.60, and neither
-    # at 0.56 from the recording: its foot is not down before the fall)
+    # the walking fit the default's touch stage started from (``knee-walk``; a touch
+    # stage changes what follows a touch, so the strategies are the walker's)
     params = shipped_params(walking_only=True)
     for start in ("playback", "own"):
         r = simulate_trip(Scenario(controller=controller, mechanism="obstacle",
@@ -59,12 +58,12 @@ def test_gh2010_walks_on_untripped_in_its_own_gait_but_not_taking_over_mid_strid
     assert trip["fell"] and trip["fall_time_s"] < 1.0
 
 
-@pytest.mark.parametrize("swing", [0.05, 0.25])
-def test_gh2010_recovers_from_early_swing_trips_in_its_own_gait(swing):
-    """The default set, a 10 cm obstacle, 1.2 m/s start: elevating, still walking 3 s
-    after the trip (README "The strategies emerge": 26 of the 45 trips recover)."""
+@pytest.mark.parametrize(("swing", "speed"), [(0.05, 1.0), (0.25, 1.2)])
+def test_gh2010_recovers_from_early_swing_trips_in_its_own_gait(swing, speed):
+    """The default set, a 10 cm obstacle: elevating, still walking 3 s after the trip
+    (README "The strategies emerge": 26 of the 45 trips recover)."""
     s = simulate_trip(Scenario(controller="gh2010", mechanism="obstacle",
-                               swing_fraction=swing)).summary
+                               swing_fraction=swing, speed_m_per_s=speed)).summary
     assert s["strategy"] == "elevating" and s["recovered"] and not s["fell"]
     assert s["sim_time_s"] == pytest.approx(3.0)
 

@@ -16,9 +16,10 @@ from stumble.jsonio import dumps
 
 # the shipped GH2010 parameter sets by name (gh2010.NAMED; here as text, so that the
 # command line starts without importing the physics)
-GH2010_NAMES = ("pushed (the default: touch stages on pushed-walk), pushed-walk (the "
-                "walking fit with pushes), walk (the first walking fit) or trip (trip "
-                "stages on walk; the default until 2026-12-04)")
+GH2010_NAMES = ("knee (the default: a touch stage on knee-walk), knee-walk (pushed-walk "
+                "refitted with the knee term), pushed (touch stages on pushed-walk), "
+                "pushed-walk (the walking fit with pushes), walk (the first walking fit) "
+                "or trip (trip stages on walk)")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -256,7 +257,7 @@ def _parser() -> argparse.ArgumentParser:
                    "shipped one)")
     f.add_argument("--trips", action="store_true",
                    help="gh2010: the trip stage: from the default's walking fit, "
-                   "pushed-walk (or --params FILE), its gains and the stumbling corrective "
+                   "knee-walk (or --params FILE), its gains and the stumbling corrective "
                    "reflex's on a 10 s walk and four obstacle trips in its own gait (60 "
                    "generations)")
     f.add_argument("--params", type=Path, default=None, metavar="FILE",

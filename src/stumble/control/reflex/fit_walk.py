@@ -64,13 +64,14 @@ W_STRIDE = 1.0
 # body for no muscle effort, so the effort term pays for it. SCONE's gait objectives
 # penalise such joint-limit loads likewise.
 W_KNEE = 0.0
-# ``--pushes`` (ours; off unless asked; the pushed sets, ``pushed-walk`` and the default
-# ``pushed`` on it, were fitted with it): each candidate also walks PUSH_WALK_S from
-# the same start with two backward pushes on the pelvis, PUSHES ((start s, duration s,
-# force N), + forward: 40 N·s each, about −0.57 m/s for 70 kg, a trip's speed loss in
-# part: a trip slows our walker from 1.05 to 0.1 m/s within 0.45 s), and that walk's
-# part not walked costs as a fall does (``W_FALL``): a gait that gets its speed back,
-# after Song & Geyer 2015, whose walker was optimised on rough ground
+# ``--pushes`` (ours; off unless asked; the pushed sets, ``pushed-walk`` and ``pushed``
+# on it, and the default's walk, ``knee-walk``, were fitted with it): each candidate
+# also walks PUSH_WALK_S from the same start with two backward pushes on the pelvis,
+# PUSHES ((start s, duration s, force N), + forward: 40 N·s each, about −0.57 m/s for 70
+# kg, a trip's speed loss in part: a trip slows our walker from 1.05 to 0.1 m/s within
+# 0.45 s), and that walk's part not walked costs as a fall does (``W_FALL``): a gait
+# that gets its speed back, after Song & Geyer 2015, whose walker was optimised on rough
+# ground
 PUSH_WALK_S = 10.0
 PUSHES = ((3.0, 0.2, -200.0), (6.5, 0.2, -200.0))
 STRIDE_BAND = (1.0, 1.3)  # s

@@ -115,12 +115,12 @@ PLACE_FIELDS = ("k_place", "place_a0", "place_cd", "place_cv")
 # reflexes off, so that the leg folds under the body.
 LOAD_SOURCES = ("floor", "any")
 # optimised parameters shipped in stumble/control/reflex/data/, per wiring: for gh2010
-# (the default since 2026-12-04) the touch stages on the pushed walking fit (``pushed``);
-# the network's expert for seed003
-SHIPPED = {"gh2010": "gh2010_pushed.json", "seed003": "gh2010_seed003.json"}
-# the walking fit the shipped GH2010 set's touch stages started from (``--params
-# pushed-walk``), where a trip stage without ``--params`` starts
-SHIPPED_WALKING: dict[str, str] = {"gh2010": "gh2010_pushed_walk.json"}
+# (the default since 2026-12-04, later that day) the touch stage on the knee walking fit
+# (``knee``); the network's expert for seed003
+SHIPPED = {"gh2010": "gh2010_knee.json", "seed003": "gh2010_seed003.json"}
+# the walking fit the shipped GH2010 set's touch stage started from (``--params
+# knee-walk``), where a trip stage without ``--params`` starts
+SHIPPED_WALKING: dict[str, str] = {"gh2010": "gh2010_knee_walk.json"}
 # the walking fit the network's expert (seed003 wiring) was fitted from: the first walking
 # fit, pinned so that the expert's fit starts where it did whatever the default is (its
 # recorded command does not reproduce the shipped expert: README "Reproducing the
@@ -129,9 +129,12 @@ SEED003_START = "gh2010_walk.json"
 # every shipped GH2010 parameter set by the name ``--params`` takes: the first walking fit
 # (``walk``) and the trip fit on it (``trip``, the default until 2026-12-04); the pushed
 # walking fit (``reflex fit --pushes``, ``pushed-walk``) and the touch stages fitted on it
-# (``pushed``, the default)
+# (``pushed``, the default for part of 2026-12-04); the pushed walking fit refitted with
+# the knee term (``--knee-weight 5``, ``knee-walk``) and the touch stage on it (``knee``,
+# the default)
 NAMED = {"walk": SEED003_START, "trip": "gh2010_trip.json",
-         "pushed-walk": SHIPPED_WALKING["gh2010"], "pushed": SHIPPED["gh2010"]}
+         "pushed-walk": "gh2010_pushed_walk.json", "pushed": "gh2010_pushed.json",
+         "knee-walk": SHIPPED_WALKING["gh2010"], "knee": SHIPPED["gh2010"]}
 
 
 @dataclass(frozen=True)
@@ -289,8 +292,9 @@ def file_sha256(path) -> str:
 def load_params(path) -> GH2010Params:
     """Parameters from a ``gh2010.json`` (a fit's result), or a shipped set by name
     (``NAMED``: ``walk``, the first walking fit; ``trip``, the trip stages on it;
-    ``pushed-walk``, the walking fit with pushes; ``pushed``, the touch stages on it, the
-    default); InputError if it is not one."""
+    ``pushed-walk``, the walking fit with pushes; ``pushed``, the touch stages on it;
+    ``knee-walk``, that walking fit refitted with the knee term; ``knee``, the touch stage
+    on it, the default); InputError if it is not one."""
     from pathlib import Path
 
     shipped = named_file(path)
