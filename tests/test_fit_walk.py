@@ -649,7 +649,7 @@ def test_a_walking_fit_from_a_parameter_set_refits_its_walk_and_keeps_its_touch(
     assert "--wiring gh2010 --params pushed --placement --pushes" in _fit_command(
         "gh2010", False, ((1, 1.0, ()),), None, 3, placement=True, pushes=True,
         params="pushed")
-    bad = {"--wiring seed003 --params walk": "is for --wiring gh2010",
+    bad = {"--wiring seed003 --params walk": "is wired gh2010, the fit --wiring seed003",
            "--params src/stumble/control/reflex/data/gh2010_seed003.json":
                "is wired seed003, the fit --wiring gh2010",
            "--expert walk": "are for --controller network",
@@ -669,3 +669,25 @@ def test_a_walking_fit_from_a_parameter_set_refits_its_walk_and_keeps_its_touch(
         err = capsys.readouterr().err
         assert words in err and err.count("\n") == 1, (opts, err)
     assert not (tmp_path / "n").exists()
+
+
+def test_a_seed003_wired_set_refits_its_walk(tmp_path):
+    """``reflex fit --controller gh2010 --wiring seed003 --params FILE`` (a seed003-wired
+    file, as the network's expert) refits that walk from it, not from the first walking
+    fit, and records where it started."""
+    import json
+
+    from stumble.control.reflex.fit_walk import fit_gh2010
+    from stumble.control.reflex.gh2010 import SHIPPED, load_params, named_file, shipped_params
+
+    expert = shipped_params("seed003")
+    res = fit_gh2010(seed=1, stages=((1, 1.0, ()),), popsize=4, wiring="seed003",
+                     start=expert, start_from={"params": "expert.json", "sha256": "x"},
+                     out=tmp_path)
+    start = np.array(res.space.start)
+    assert np.allclose(start, [getattr(expert, n) for n in res.space.names])
+    assert not np.allclose(start, [getattr(load_params("walk"), n) for n in res.space.names])
+    fit = json.loads((tmp_path / "gh2010.json").read_text())["fit"]
+    assert fit["from"]["params"] == "expert.json" and fit["wiring"] == "seed003"
+    assert load_params(tmp_path / "gh2010.json").wiring == "seed003"
+    assert named_file("knee") is not None and SHIPPED["seed003"].endswith("seed003.json")

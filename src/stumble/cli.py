@@ -677,9 +677,6 @@ def cmd_reflex_fit_gh2010(args) -> int:
         raise InputError("--trips is for --wiring gh2010")
     if args.expert is not None or args.closed_loop or args.passes is not None:
         raise InputError("--expert, --closed-loop and --passes are for --controller network")
-    if args.params is not None and args.wiring != "gh2010":
-        raise InputError("--params is for --wiring gh2010 (the network's expert starts from "
-                         "the first walking fit, walk)")
     for flag, given in (("--trip-set", args.trip_set),
                         ("--scr-phase", args.scr_phase),
                         ("--strategy-cost", args.strategy_cost),

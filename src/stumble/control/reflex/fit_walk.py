@@ -670,8 +670,9 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
         stages = stages or TRIP_STAGES
     elif wiring == "gh2010":  # from the paper, or refitting the walk of ``start``
         params, stages = start or GH2010Params(), stages or GH2010_STAGES
-    else:  # the network's expert: from the first walking fit, pinned (SEED003_START)
-        params = replace(load_params("walk"), wiring=wiring)
+    else:  # the network's expert: from the first walking fit, pinned (SEED003_START),
+        # or refitting the walk of a seed003-wired ``start``
+        params = start if start is not None else replace(load_params("walk"), wiring=wiring)
         stages = stages or SEED003_STAGES
     total, evaluations, wall, res = 0, 0, 0.0, None
     history: list[dict] = []
