@@ -68,6 +68,21 @@ def test_gh2010_recovers_from_early_swing_trips_in_its_own_gait(swing, speed):
     assert s["sim_time_s"] == pytest.approx(3.0)
 
 
+def test_the_foot_phase_set_recovers_a_late_swing_trip_by_lowering():
+    """``--params knee-foot`` (the touch's response by the foot's phase, on the default's
+    walk): tripped at 0.60 of its own swing at 1.2 m/s it lowers the tripped foot behind
+    the box, steps over with the other and walks on; the default falls there."""
+    from stumble.control.reflex.gh2010 import load_params
+
+    sc = Scenario(controller="gh2010", mechanism="obstacle", swing_fraction=0.6,
+                  speed_m_per_s=1.2)
+    s = simulate_trip(sc, gh2010=load_params("knee-foot")).summary
+    assert s["strategy"] == "lowering" and s["recovered"] and not s["fell"]
+    assert s["durations_s"]["trip_to_recovery_contact"] < 1.0
+    d = simulate_trip(sc).summary
+    assert d["strategy"] == "lowering" and d["fell"]
+
+
 def test_own_start_trips_at_the_fraction_of_the_walkers_own_swing():
     s = simulate_trip(Scenario(controller="gh2010", mechanism="obstacle",
                                swing_fraction=0.3, walk_in_s=3.0)).summary

@@ -17,7 +17,9 @@ from stumble.jsonio import dumps
 # the shipped GH2010 parameter sets by name (gh2010.NAMED; here as text, so that the
 # command line starts without importing the physics)
 GH2010_NAMES = ("knee (the default: a touch stage on knee-walk), knee-walk (pushed-walk "
-                "refitted with the knee term), pushed (touch stages on pushed-walk), "
+                "refitted with the knee term), knee-foot (a touch stage on knee-walk by "
+                "the foot's phase: recovers some lowering trips), pushed (touch stages "
+                "on pushed-walk), "
                 "pushed-walk (the walking fit with pushes), walk (the first walking fit) "
                 "or trip (trip stages on walk)")
 

@@ -131,10 +131,12 @@ SEED003_START = "gh2010_walk.json"
 # walking fit (``reflex fit --pushes``, ``pushed-walk``) and the touch stages fitted on it
 # (``pushed``, the default for part of 2026-12-04); the pushed walking fit refitted with
 # the knee term (``--knee-weight 5``, ``knee-walk``) and the touch stage on it (``knee``,
-# the default)
+# the default); and a touch stage on it with the response by the foot's phase
+# (``--scr-phase foot``, ``knee-foot``: the first reflex recoveries by lowering)
 NAMED = {"walk": SEED003_START, "trip": "gh2010_trip.json",
          "pushed-walk": "gh2010_pushed_walk.json", "pushed": "gh2010_pushed.json",
-         "knee-walk": SHIPPED_WALKING["gh2010"], "knee": SHIPPED["gh2010"]}
+         "knee-walk": SHIPPED_WALKING["gh2010"], "knee": SHIPPED["gh2010"],
+         "knee-foot": "gh2010_knee_foot.json"}
 
 
 @dataclass(frozen=True)
@@ -294,7 +296,8 @@ def load_params(path) -> GH2010Params:
     (``NAMED``: ``walk``, the first walking fit; ``trip``, the trip stages on it;
     ``pushed-walk``, the walking fit with pushes; ``pushed``, the touch stages on it;
     ``knee-walk``, that walking fit refitted with the knee term; ``knee``, the touch stage
-    on it, the default); InputError if it is not one."""
+    on it, the default; ``knee-foot``, a touch stage on it by the foot's phase);
+    InputError if it is not one."""
     from pathlib import Path
 
     shipped = named_file(path)
