@@ -3,7 +3,7 @@
 The grid of ``stumble study --controller gh2010 --mechanism obstacle --swing
 0.05:0.75:15 --speed 1.0,1.2,1.4`` (10 cm box, the walker's own gait, 3 s after the
 trip), run by ``simulate_trip`` in this one process, for a ``gh2010.json`` (or ``walk``,
-or nothing: the default set, ``pushed``); ``--start playback`` trips the recording
+or nothing: the default set, ``knee``); ``--start playback`` trips the recording
 instead.
 Prints the strategy map (E elevating, L lowering, - neither, x not set; * recovered),
 the recoveries of 45, the human strategy in the 30 window trips (elevating at

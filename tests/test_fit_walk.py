@@ -102,7 +102,8 @@ def test_the_track_weight_scales_the_tracking_term_and_is_recorded_in_the_comman
 
 def test_the_knee_weight_charges_hyperextension_and_is_recorded_in_the_command():
     """``--knee-weight W``: W per degree of the knees' mean extension beyond straight
-    (off in every shipped fit); a walk's summary carries the measure."""
+    (off by default; ``knee-walk`` was fitted with 5); a walk's summary carries the
+    measure; the Python API refuses it with ``touch_only`` as the command line does."""
     from stumble.control.reflex.fit_walk import _fit_command, fit_gh2010
 
     locked = {**_summary(), "knee_hyperextension_deg": 2.5}
@@ -116,6 +117,8 @@ def test_the_knee_weight_charges_hyperextension_and_is_recorded_in_the_command()
                                                knee_weight=2.0)
     with pytest.raises(ValueError, match="knee_weight"):
         fit_gh2010(knee_weight=-1.0)
+    with pytest.raises(ValueError, match="knee_weight weighs the walk"):
+        fit_gh2010(knee_weight=2.0, trips=True, touch_only=True)
 
 
 def test_a_walk_measures_its_knees_beyond_straight():

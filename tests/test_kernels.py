@@ -32,7 +32,8 @@ def _same_runs(run) -> None:
     """``run()`` gives every recorded array the same, bit for bit, with the compiled
     kernels and with the NumPy code."""
     K.use_numpy(False)
-    assert K.kernels() is not None
+    if K.kernels() is None:
+        pytest.skip(f"{K.ENV}=numpy in the environment")
     fast = _arrays(run())
     K.use_numpy(True)
     try:
@@ -96,7 +97,7 @@ def test_network_walk_and_trips_compiled_equal_numpy():
 
 
 @pytest.mark.parametrize("variant", [
-    {},  # the default set: placement, touch reflexes, crossing step
+    {},  # the `pushed` set: placement, touch reflexes, crossing step
     {"wiring": "seed003"},  # the network's expert wiring (double support via the lean)
     {"load_from": "any", "scr_phase": "foot", "g_scr_ext_glu": 0.5, "g_scr_ext_rf": 0.5,
      "place_cd": 0.2, "place_cv": 0.1, "delay_scale": 1.5},
@@ -125,5 +126,22 @@ def test_numpy_is_forced_by_the_environment(monkeypatch):
         assert K.kernels() is None
     finally:
         monkeypatch.delenv(K.ENV)
+        K.use_numpy(False)
+    assert K.kernels() is not None
+
+
+def test_kernels_that_cannot_be_built_leave_the_numpy_code_with_a_warning(monkeypatch):
+    """If Numba is there but the kernels cannot be built (say, no writable cache), the
+    NumPy code runs, with one warning, rather than every reflex run failing."""
+    def broken(numba):
+        raise RuntimeError("cannot cache function: no locator available")
+
+    monkeypatch.setattr(K, "_compiled", broken)
+    K.use_numpy(False)
+    try:
+        with pytest.warns(RuntimeWarning, match="NumPy code runs"):
+            assert K.kernels() is None
+    finally:
+        monkeypatch.undo()
         K.use_numpy(False)
     assert K.kernels() is not None

@@ -288,7 +288,7 @@ def _parser() -> argparse.ArgumentParser:
                    "shipped fit's)")
     f.add_argument("--knee-weight", type=float, default=None, metavar="W",
                    help="gh2010: the objective's knee term, per degree of the knees' mean "
-                   "extension beyond straight (default 0, every shipped fit's; ours: the "
+                   "extension beyond straight (default 0; 5 in knee-walk's fit; ours: the "
                    "fitted walkers stand their stance knee on the model's +5° stop)")
     f.add_argument("--pushes", action="store_true",
                    help="gh2010: every candidate also walks 10 s with two backward pushes "

@@ -57,7 +57,8 @@ W_FOOT = 1.0  # the foot-angle term's weight by default (``--foot-angle``; a joi
 # played-back walk's strides at 1.0-1.3 m/s last 1.30-1.07 s (subject01, scaled with
 # speed); trip stages without it grew the strides to 1.5-1.6 s (README)
 W_STRIDE = 1.0
-# the knee term (``knee_weight``, ``--knee-weight``; 0, off, in the shipped fits): per
+# the knee term (``knee_weight``, ``--knee-weight``; 0, off, but in ``knee-walk``, the
+# default's walk, fitted with 5): per
 # degree of the knees' mean extension beyond straight (``knee_hyperextension_deg``). Our
 # addition: every fitted walker stands its stance knee on the model's +5° stop, where
 # people flex it about 20° after heel strike (the knee's 15.5° RMSE); a stop carries the
@@ -96,7 +97,7 @@ def walk_cost(summary: dict, effort: float, foot_angle: float = 0.0,
     ``STRIDE_BAND``; the summary's ``stride_s``); ``stance_weight``: the stance term's
     weight (``W_STANCE``, 1, in every shipped fit); ``track_weight``: the tracking term's
     (``W_TRACK``, 1, in every shipped fit); ``knee_weight``: the knee term's, per degree
-    of ``knee_hyperextension_deg`` (``W_KNEE``, 0: none, in every shipped fit)."""
+    of ``knee_hyperextension_deg`` (``W_KNEE``, 0: none; 5 in ``knee-walk``'s fit)."""
     T = summary["duration_s"]
     walked = min(summary["walked_s"] / T,
                  max(summary.get("distance_m", T * SPEED_BAND[0]), 0.0) / (SPEED_BAND[0] * T))
@@ -293,7 +294,8 @@ CROSS_BOUNDS = {"g_cross_flex": (0.0, 1.0), "g_cross_ham": (0.0, 1.0),
                 "g_cross_ta": (0.0, 1.0), "g_cross_gas": (0.0, 1.0),
                 "cross_hold_s": (0.05, 0.5), "cross_ahead_m": (0.1, 0.5)}
 SCR_MIN_SCALE = 0.15
-# swing-leg placement (``gh2010.PLACE_FIELDS``; off in the shipped fits): fitted only with
+# swing-leg placement (``gh2010.PLACE_FIELDS``; off in the fits before the pushed ones,
+# fitted in ``pushed-walk`` and ``knee-walk``): fitted only with
 # ``placement``; its gain restarts at PLACE_START where the start has it off (0)
 PLACE_BOUNDS = {"k_place": (0.0, 5.0), "place_a0": (0.1, 0.6), "place_cd": (0.0, 2.0),
                 "place_cv": (0.0, 1.0)}
@@ -618,7 +620,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     the pelvis pushes ``PUSHES`` (``push_term``), in every stage; ``track_weight``: the
     tracking term's weight (``W_TRACK``; a trip stage weighs each lost trip as 20 to 40
     degrees of joint RMSE beyond 8°, and trades the gait for trips); ``knee_weight``:
-    the knee term's (``W_KNEE``, per degree of hyperextension; 0 in the shipped fits). Writes
+    the knee term's (``W_KNEE``, per degree of hyperextension; 5 in ``knee-walk``'s fit, 0
+    in the others). Writes
     ``gh2010.json`` to ``out`` (the best parameters and the fit's figures) when given."""
     if strategy_cost < 0 or not math.isfinite(strategy_cost):
         raise ValueError(f"strategy_cost must be a finite number >= 0, got {strategy_cost}")
@@ -636,6 +639,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
         raise ValueError(f"track_weight must be a finite number >= 0, got {track_weight}")
     if not (math.isfinite(knee_weight) and knee_weight >= 0):
         raise ValueError(f"knee_weight must be a finite number >= 0, got {knee_weight}")
+    if knee_weight and touch_only:
+        raise ValueError("knee_weight weighs the walk: not with touch_only")
     if load_from is not None and not trips:
         raise ValueError("load_from is for the trip stage (trips=True)")
     if touch_only and not trips:

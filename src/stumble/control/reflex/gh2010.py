@@ -132,7 +132,7 @@ SEED003_START = "gh2010_walk.json"
 # (``pushed``, the default for part of 2026-12-04); the pushed walking fit refitted with
 # the knee term (``--knee-weight 5``, ``knee-walk``) and the touch stage on it (``knee``,
 # the default); and a touch stage on it with the response by the foot's phase
-# (``--scr-phase foot``, ``knee-foot``: the first reflex recoveries by lowering)
+# (``--scr-phase foot``, ``knee-foot``: the first shipped set that recovers by lowering)
 NAMED = {"walk": SEED003_START, "trip": "gh2010_trip.json",
          "pushed-walk": "gh2010_pushed_walk.json", "pushed": "gh2010_pushed.json",
          "knee-walk": SHIPPED_WALKING["gh2010"], "knee": SHIPPED["gh2010"],
@@ -419,6 +419,8 @@ class GH2010Controller:
         lumbar = m.joint("lumbar_extension")  # the upper body held as at the start
         ctx.data.ctrl[m.actuator("lumbar_extension").id] = ctx.data.qpos[lumbar.qposadr[0]]
         self._no_plan = np.empty((0, m.nu))
+        # the plan's first muscle column, when the muscles are one slice (else the plan is
+        # filled by NumPy, and the kernel gets a plan of no rows and this 0)
         self._act_first = (self._act_cols.start if isinstance(self._act_cols, slice)
                            else None)
         self._ungated_b = self._ungated.astype(np.bool_)
@@ -742,7 +744,7 @@ class GH2010Controller:
                              self._scr_since, self._touched, self._ahead, self._armed,
                              self._cross_since, self._was_on, self._mark_box, u)
             self._mark = float(self._mark_box[0])
-        kern["clip_plan"](u, PRE_ACTIVATION, plan, self._act_first, self._held)
+        kern["clip_plan"](u, PRE_ACTIVATION, plan, self._act_first or 0, self._held)
         return u
 
     def _excitations(self, x: np.ndarray, plan: np.ndarray | None = None) -> np.ndarray:

@@ -37,6 +37,18 @@ def _load():
         import numba
     except ImportError:
         return None
+    try:
+        return _compiled(numba)
+    except Exception as e:  # e.g. no writable cache: the NumPy code runs
+        import warnings
+
+        warnings.warn(f"stumble: the compiled reflex kernels are off ({e}); the NumPy code "
+                      "runs, with the same numbers", RuntimeWarning, stacklevel=2)
+        return None
+
+
+def _compiled(numba) -> dict:
+    """Every kernel, compiled (lazily, cached by Numba) by ``numba``."""
     jit = numba.njit(cache=True, error_model="numpy", nogil=True)
 
     @jit
