@@ -1,6 +1,8 @@
 """DAgger's building blocks (stumble.control.reflex.dagger): the mixed controller's
 episodes, labelled by the expert whoever drives, and training on them."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -69,3 +71,45 @@ def test_each_pass_is_written_as_it_ends(tmp_path, monkeypatch):
     best = Network.load(tmp_path / "best_network.npz")
     assert np.array_equal(best.pack(), res.network.pack())  # pass 0's, the best
     assert not list(tmp_path.glob(".*tmp*"))
+
+
+def test_the_balance_carries_the_experts_placement():
+    """An expert with swing-leg placement hands it to the network's addition
+    (``balance_of``): the addition senses what the expert's placement law senses, from
+    the same sensor rows, and drives the flexor and GLU by the same law."""
+    import mujoco
+
+    from stumble.body.build import build
+    from stumble.control.reflex.controller import TrunkBalance
+    from stumble.control.reflex.dagger import balance_of
+    from stumble.control.reflex.gh2010 import GH2010Controller, load_params
+    from stumble.sim import Context, Sensors
+
+    params = replace(load_params("knee-walk"), wiring="seed003")
+    assert params.k_place > 0.1
+    bal = balance_of(params)
+    info = bal.to_info()
+    assert (info["k_place"], info["place_a0"]) == (params.k_place, params.place_a0)
+    again = TrunkBalance.from_info({"balance": info})
+    assert (again.k_place, again.place_cd) == (params.k_place, params.place_cd)
+    assert "k_place" not in TrunkBalance().to_info()  # files without it stay as they were
+    # the same senses as the expert's, on a body mid-stride
+    body = build(planar=True, actuation="muscles", muscle_set="hfl")
+    m = body.model
+    d = mujoco.MjData(m)
+    d.qpos[m.jnt_qposadr[m.joint("hip_flexion_r").id]] = 0.4
+    d.qpos[m.jnt_qposadr[m.joint("hip_flexion_l").id]] = -0.2
+    mujoco.mj_forward(m, d)
+    ex = GH2010Controller(replace(params, place_cd=0.2, place_cv=0.1))
+    ex.start(Context(m, d, body, Sensors(), 0.0))
+    rows = d.sensordata[None].copy()
+    sensed = bal.place_sense(rows, body.sensors)
+    assert np.allclose(sensed, ex._channels(rows)[0, -5:])
+    assert sensed[0, 0] > 0.2 and sensed[0, 1] < 0.0  # right leg ahead, left behind
+    # the law: a swing leg short of its target flexes, past it extends; stance, behind: 0
+    bal = TrunkBalance(k_place=0.5, place_a0=0.3, stance_load=0.1)
+    placed = np.array([[0.1, 0.4, 0.0, 0.0, 1.2], [0.1, -0.1, 0.0, 0.0, 1.2]])
+    loads = np.array([[0.0, 0.0], [700.0, 0.0]])
+    out = bal.place_cols_drive(placed, loads)
+    assert np.allclose(out[0, 0], [0.0, 0.0, 0.1]) and np.allclose(out[0, 1], [0.05, 0, 0])
+    assert not out[1].any()

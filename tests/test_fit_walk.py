@@ -653,9 +653,8 @@ def test_a_walking_fit_from_a_parameter_set_refits_its_walk_and_keeps_its_touch(
     assert "--wiring gh2010 --params pushed --placement --pushes" in _fit_command(
         "gh2010", False, ((1, 1.0, ()),), None, 3, placement=True, pushes=True,
         params="pushed")
-    bad = {"--wiring seed003 --params walk": "is wired gh2010, the fit --wiring seed003",
-           "--params src/stumble/control/reflex/data/gh2010_seed003.json":
-               "is wired seed003, the fit --wiring gh2010",
+    bad = {"--trips --params src/stumble/control/reflex/data/gh2010_seed003.json":
+               "is wired seed003: the trip stage starts from a gh2010-wired set",
            "--expert walk": "are for --controller network",
            "--closed-loop": "are for --controller network"}
     capsys.readouterr()
@@ -695,3 +694,25 @@ def test_a_seed003_wired_set_refits_its_walk(tmp_path):
     assert fit["from"]["params"] == "expert.json" and fit["wiring"] == "seed003"
     assert load_params(tmp_path / "gh2010.json").wiring == "seed003"
     assert named_file("knee") is not None and SHIPPED["seed003"].endswith("seed003.json")
+
+
+def test_a_set_of_the_other_wiring_starts_a_walking_fit(tmp_path, capsys):
+    """``--wiring seed003 --params knee-walk`` (a gh2010-wired set) starts a seed003-wired
+    walking fit from the same gains, says so in one note, and records it: the written
+    command rewires it again."""
+    import json
+
+    from stumble.cli import main
+    from stumble.control.reflex.gh2010 import load_params
+
+    assert main(["reflex", "fit", "--controller", "gh2010", "--wiring", "seed003",
+                 "--params", "knee-walk", "--generations", "1", "--workers", "1",
+                 "--no-video", "--out", str(tmp_path)]) == 0
+    err = capsys.readouterr().err
+    assert "note: --params knee-walk is wired gh2010: its gains start a seed003-wired" in err
+    fit = json.loads((tmp_path / "gh2010.json").read_text())["fit"]
+    assert fit["from"]["rewired_from"] == "gh2010" and fit["wiring"] == "seed003"
+    assert "--wiring seed003 --params knee-walk" in fit["command"]
+    fitted, start = load_params(tmp_path / "gh2010.json"), load_params("knee-walk")
+    assert fitted.wiring == "seed003" and start.wiring == "gh2010"
+    assert fitted.k_place == start.k_place  # not fitted without --placement

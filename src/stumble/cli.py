@@ -691,16 +691,24 @@ def cmd_reflex_fit_gh2010(args) -> int:
     start = start_fit = start_from = None
     if args.params is not None:
         import json
+        from dataclasses import replace
 
         from stumble.control.reflex.gh2010 import file_sha256, load_params, named_file
 
-        start = load_params(args.params)
-        if start.wiring != args.wiring:
-            raise InputError(f"--params {args.params} is wired {start.wiring}, the fit "
-                             f"--wiring {args.wiring}")
+        start, rewired = load_params(args.params), None
+        if start.wiring != args.wiring and args.trips:
+            raise InputError(f"--params {args.params} is wired {start.wiring}: the trip "
+                             f"stage starts from a {args.wiring}-wired set")
+        if start.wiring != args.wiring:  # the same gains on the other wiring's paths
+            _notes([f"--params {args.params} is wired {start.wiring}: its gains start a "
+                    f"{args.wiring}-wired walking fit"])
+            rewired = start.wiring
+            start = replace(start, wiring=args.wiring)
         src = named_file(args.params) or args.params
         start_fit = json.loads(src.read_text()).get("fit")
         start_from = {"params": str(args.params), "sha256": file_sha256(args.params)}
+        if rewired is not None:  # recorded with the fit: the command rewires it again
+            start_from["rewired_from"] = rewired
     stages = (TRIP_STAGES if args.trips else GH2010_STAGES if args.wiring == "gh2010"
               else SEED003_STAGES)
     if args.trip_set is not None:

@@ -59,11 +59,17 @@ class TrunkBalance:
     for the hip flexor, k_lean (θ − θ_ref), to a leg whose load is below ``stance_load``
     body weights, and ``k_bw`` their double-support law: on the rear leg while both are
     loaded, GLU −k_bw and the flexor +k_bw times the front leg's load in body weights.
+    With ``k_place`` not 0 it also carries the expert's swing-leg placement
+    (``GH2010Params.k_place``, our addition after Song & Geyer 2015): on a leg below
+    ``stance_load`` whose leg (pelvis to ankle) is ahead of vertical by α, the flexor
+    k_place·[α_tgt − α]+ and GLU k_place·[α − α_tgt]+, α_tgt = place_a0 + place_cd·d +
+    place_cv·v (d the centre of mass ahead of the other ankle, v its forward speed).
     Defaults: k_p 1.91 /rad, k_d 0.2 s/rad, θ_ref 0.105 rad as reported in
     reimplementations of Geyer & Herr 2010 (not re-checked against the paper's table),
-    unrectified, no swing or double-support term; a closed-loop-refined network carries
-    its own (``from_info``). Lean, pitch rate, loads and feet arrive through one
-    vestibulospinal latency (``delay_s``, our choice 20 ms).
+    unrectified, no swing, double-support or placement term; a closed-loop-refined
+    network carries its own (``from_info``). Lean, pitch rate, loads, feet, pelvis and
+    centre of mass arrive through one vestibulospinal latency (``delay_s``, our choice
+    20 ms).
     """
 
     DELAY_S = 0.02  # vestibulospinal latency (our choice)
@@ -71,10 +77,14 @@ class TrunkBalance:
     def __init__(self, kp_per_rad: float = 1.91, kd_s_per_rad: float = 0.2,
                  lean_ref_rad: float = 0.105, delay_s: float = DELAY_S,
                  rate_hz: float = 1000.0, rectified: bool = False, k_lean: float = 0.0,
-                 stance_load: float = 0.1, k_bw: float = 0.0):
+                 stance_load: float = 0.1, k_bw: float = 0.0, k_place: float = 0.0,
+                 place_a0: float = 0.35, place_cd: float = 0.0, place_cv: float = 0.0):
         self.kp, self.kd, self.ref = kp_per_rad, kd_s_per_rad, lean_ref_rad
         self.rectified, self.k_lean, self.stance_load = rectified, k_lean, stance_load
         self.k_bw = k_bw
+        self.k_place, self.place_a0 = k_place, place_a0  # per rad, rad
+        self.place_cd, self.place_cv = place_cd, place_cv  # rad/m, rad per m/s
+        self._place_lay = self._place_cols = None
         self.lag = max(1, round(delay_s * rate_hz))
         self.weight_n = 686.7  # set by ``bind``
         self._lay = self._cols = None  # the sensor layout ``sense`` reads, its columns
@@ -82,9 +92,13 @@ class TrunkBalance:
 
     def to_info(self) -> dict:
         """The gains, for a network file's ``info`` (the delay is the caller's)."""
-        return {"kp_per_rad": self.kp, "kd_s_per_rad": self.kd, "lean_ref_rad": self.ref,
+        info = {"kp_per_rad": self.kp, "kd_s_per_rad": self.kd, "lean_ref_rad": self.ref,
                 "rectified": self.rectified, "k_lean": self.k_lean,
                 "stance_load": self.stance_load, "k_bw": self.k_bw}
+        if self.k_place:  # (files without placement stay as they were)
+            info.update(k_place=self.k_place, place_a0=self.place_a0,
+                        place_cd=self.place_cd, place_cv=self.place_cv)
+        return info
 
     @classmethod
     def from_info(cls, info: dict | None, delay_s: float = DELAY_S,
@@ -127,6 +141,33 @@ class TrunkBalance:
         out[:, 1] = g[:, 2]  # pitch rate about +y
         out[:, 2:4] = -g[:, 3:5]  # vertical loads
         out[:, 4:6] = g[:, 5:7]
+        return out
+
+    def place_sense(self, rows: np.ndarray, lay) -> np.ndarray:
+        """(n, 5) each leg's angle from vertical α (rad, pelvis to ankle, forward +), the
+        centre of mass ahead of the other leg's ankle (m, 2) and its forward speed (m/s),
+        from sensor rows (n, nsensordata): the placement's senses."""
+        if self._place_lay is not lay:
+            self._place_lay, self._place_cols = lay, np.concatenate([
+                lay.pelvis[[0, 2]], lay.foot_pos[:, 0], lay.foot_pos[:, 2],
+                [lay.com[0], lay.com_vel[0]]])
+        r = rows[:, self._place_cols]  # pelvis x, z, ankle x (2), ankle z (2), COM x, vx
+        out = np.empty((len(rows), 5))
+        np.arctan2(r[:, 2:4] - r[:, :1], r[:, 1:2] - r[:, 4:6], out=out[:, 0:2])
+        np.subtract(r[:, 6:7], r[:, 3:1:-1], out=out[:, 2:4])
+        out[:, 4] = r[:, 7]
+        return out
+
+    def place_cols_drive(self, placed: np.ndarray, loads: np.ndarray) -> np.ndarray:
+        """The placement's drive of GLU, HAMS and the flexor (n, 2, 3) from the delayed
+        ``place_sense`` rows (n, 5) and feet's loads (n, 2, N)."""
+        alpha = placed[:, 0:2]
+        e = self.k_place * (self.place_a0 + self.place_cd * placed[:, 2:4]
+                            + self.place_cv * placed[:, 4:5] - alpha)
+        on = (loads < self.stance_load * self.weight_n) & (alpha > 0.0)
+        out = np.zeros((len(placed), 2, 3))
+        out[:, :, 2] = on * np.maximum(e, 0.0)
+        out[:, :, 0] = on * np.maximum(-e, 0.0)
         return out
 
     def drive(self, sensed: np.ndarray) -> np.ndarray:
@@ -277,6 +318,9 @@ class ReflexController:
         self.block_start = 0
         if self.balance is not None:
             self.bal_buf = np.zeros((self.balance.lag + self.block + 1, 6))
+        # the placement's senses (``TrunkBalance.k_place``), rows as the balance's
+        self.place_buf = (np.zeros((len(self.bal_buf), 5)) if self.balance is not None
+                          and self.balance.k_place else None)
         # the compiled block's (``_next_block_compiled``) scratch and constants
         self._scratch = tuple(np.empty((self.block, 2 * self.nm)) for _ in range(5))
         self._no_balance = np.zeros((0, 2, 3))
@@ -390,9 +434,15 @@ class ReflexController:
         t = hid @ self.mv
         kern["net_drive"](t, self.c)
         e = np.exp(t, out=t)
-        bal = (self.balance.drive_cols(self.bal_buf.take(
-            (k - self.balance.lag + self._nb_ticks) % len(self.bal_buf), axis=0))
-               if self.balance is not None else self._no_balance)
+        if self.balance is not None:
+            rows = (k - self.balance.lag + self._nb_ticks) % len(self.bal_buf)
+            sensed = self.bal_buf.take(rows, axis=0)
+            bal = self.balance.drive_cols(sensed)
+            if self.place_buf is not None:
+                bal += self.balance.place_cols_drive(self.place_buf.take(rows, axis=0),
+                                                     sensed[:, 2:4])
+        else:
+            bal = self._no_balance
         self.exc_block = np.empty((nb, 2, self.nm))
         self.ctrl_block = np.empty((nb, 2 * self.nm))
         # the plan's rows too, when a tick is a step and the muscles are one slice
@@ -417,7 +467,11 @@ class ReflexController:
             sensed = self.bal_buf[self._bal_rows(k - self.balance.lag, nb)]
             if self.trace is not None:
                 self.trace["balance"].append((k, self.balance.drive(sensed)))
-            self.exc_block[:, :, self.balance.cols] += self.balance.drive_cols(sensed)
+            bal = self.balance.drive_cols(sensed)
+            if self.place_buf is not None:
+                bal += self.balance.place_cols_drive(
+                    self.place_buf[self._bal_rows(k - self.balance.lag, nb)], sensed[:, 2:4])
+            self.exc_block[:, :, self.balance.cols] += bal
         self.ctrl_block = np.minimum(np.maximum(self.exc_block.reshape(nb, -1), 0.01), 1.0)
         self.block_start = k
 
@@ -467,6 +521,9 @@ class ReflexController:
             ctx.data.act[act] = np.clip(self.excitation, 0.01, 1.0)
         if self.balance is not None:  # before the trip: the lean and loads of this instant
             self.bal_buf[:] = self.balance.sense(ctx.data.sensordata[None], self.lay)[0]
+        if self.place_buf is not None:
+            self.place_buf[:] = self.balance.place_sense(ctx.data.sensordata[None],
+                                                         self.lay)[0]
         self.block_start = self.k
         self.lumbar_target = float(ctx.data.qpos[self.lumbar_q])
         ctx.data.ctrl[self.lumbar] = self.lumbar_target
@@ -503,6 +560,9 @@ class ReflexController:
                                 else self._obs_cols[:0], g)
             if bal:
                 kern["bal_store"](g, np.arctan2(g[:, 0], g[:, 1]), self.bal_buf, k0)
+            if self.place_buf is not None:
+                self.place_buf[self._bal_rows(k0, n)] = self.balance.place_sense(ticks,
+                                                                                 self.lay)
             self.k = k0 + n
             return
         g = ticks[:, self._obs_cols]  # muscle lengths, velocities, forces; feet's loads
@@ -511,6 +571,8 @@ class ReflexController:
             self.loads[:n] = -g[:, self._n_mus3:]
         if self.balance is not None:
             self.bal_buf[self._bal_rows(k0, n)] = self.balance.sense(ticks, self.lay)
+        if self.place_buf is not None:
+            self.place_buf[self._bal_rows(k0, n)] = self.balance.place_sense(ticks, self.lay)
         self.k = k0 + n
 
     def state(self) -> str:

@@ -115,7 +115,9 @@ def balance_of(params: GH2010Params, delay_s: float = TrunkBalance.DELAY_S) -> T
     return TrunkBalance(params.kp_trunk, params.kd_trunk, params.lean_ref, delay_s,
                         rectified=True, k_lean=params.k_lean,
                         stance_load=params.stance_load,
-                        k_bw=params.k_bw if params.wiring == "seed003" else 0.0)
+                        k_bw=params.k_bw if params.wiring == "seed003" else 0.0,
+                        k_place=params.k_place, place_a0=params.place_a0,
+                        place_cd=params.place_cd, place_cv=params.place_cv)
 
 
 def collect(net: Network, params: GH2010Params, beta: float, seed: int,

@@ -722,6 +722,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                                else [GH2010_SIGMA, GH2010_SIGMA_TRIPS]),
                     "from": ({"params": (start_from or {}).get("params", "--params"),
                               **({"sha256": start_from["sha256"]} if start_from else {}),
+                              **({"rewired_from": start_from["rewired_from"]}
+                                 if "rewired_from" in (start_from or {}) else {}),
                               "its_fit": start_fit} if start is not None else
                              f"the shipped walking fit ({SHIPPED_WALKING['gh2010']})"
                              if with_trips else
