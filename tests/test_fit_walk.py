@@ -716,3 +716,38 @@ def test_a_set_of_the_other_wiring_starts_a_walking_fit(tmp_path, capsys):
     fitted, start = load_params(tmp_path / "gh2010.json"), load_params("knee-walk")
     assert fitted.wiring == "seed003" and start.wiring == "gh2010"
     assert fitted.k_place == start.k_place  # not fitted without --placement
+
+
+def test_other_starts_cost_what_they_do_not_walk(capsys, tmp_path):
+    """``starts``: a candidate also walks 10 s from each other played-back walk, the part
+    not walked costing as a fall; knee-walk's gains in the seed003 wiring walk on from
+    the 1.0 m/s walk and fall within 1.5 s of taking over from the 1.3 m/s one."""
+    from dataclasses import replace
+
+    from stumble.cli import main
+    from stumble.control.reflex.fit_walk import (
+        W_FALL,
+        evaluate_walk,
+        gh2010_space,
+        init_walk_eval,
+    )
+    from stumble.control.reflex.gh2010 import load_params
+
+    params = replace(load_params("knee-walk"), wiring="seed003")
+    space = gh2010_space(params)
+    theta = np.array([getattr(params, n) for n in space.names])
+    fixed = {n: v for n, v in params.to_json().items() if n not in space.names}
+    init_walk_eval("gh2010", 1.0, 1.2, fixed, starts=(1.0, 1.3))
+    cost, terms = evaluate_walk(theta)
+    assert terms["fall"] == 0.0 and terms["start_1"] == 0.0
+    assert 0.8 * W_FALL < terms["start_1.3"] < W_FALL  # fell within 2 s of the 10
+    init_walk_eval("gh2010", 1.0, 1.2, fixed)
+    alone, others = evaluate_walk(theta)
+    assert "start_1.3" not in others and cost == pytest.approx(alone + terms["start_1.3"])
+    for bad in ("2.0", "1.0,x", ""):
+        assert main(["reflex", "fit", "--controller", "gh2010", "--starts", bad,
+                     "--out", str(tmp_path / "s")]) == 2
+        err = capsys.readouterr().err
+        assert "--starts takes speeds of 0.7-1.6 m/s" in err and err.count("\n") == 1
+    assert main(["reflex", "fit", "--starts", "1.0", "--out", str(tmp_path / "s")]) == 2
+    assert "--starts and --ta-bound are for --controller gh2010" in capsys.readouterr().err

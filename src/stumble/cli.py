@@ -295,6 +295,11 @@ def _parser() -> argparse.ArgumentParser:
                    "on the pelvis (200 N for 0.2 s at 3 and 6.5 s), the part not walked "
                    "costing as a fall: a gait that gets its speed back (ours; not with "
                    "--touch-only)")
+    f.add_argument("--starts", default=None, metavar="V[,V...]",
+                   help="gh2010: every candidate also walks 10 s from the walk played back "
+                   "at each of these speeds (m/s, 0.7-1.6), the part not walked costing "
+                   "as a fall: a walker that takes over from other walks (ours; not with "
+                   "--touch-only)")
     f.add_argument("--recovery-cost", type=float, default=None, metavar="W",
                    help="gh2010 --trips: each of the stage's trips not recovered costs W "
                    "more, on top of its time term (default 0: the time walked on alone, "
@@ -380,6 +385,28 @@ def cmd_model(args) -> int:
         for name, mass in d["segments"].items():
             print(f"  {name:14s} {mass:7.3f} kg")
     return 0
+
+
+def _start_speeds(text: str | None) -> tuple[float, ...]:
+    """``--starts V[,V...]``: walking speeds (m/s) of the reference walk's range."""
+    import math
+
+    from stumble.gait.reference import SPEED_RANGE_M_PER_S
+
+    if text is None:
+        return ()
+    lo, hi = SPEED_RANGE_M_PER_S
+    out = []
+    for part in text.split(","):
+        try:
+            v = float(part)
+        except ValueError:
+            v = math.nan
+        if not (math.isfinite(v) and lo <= v <= hi):
+            raise InputError(f"--starts takes speeds of {lo:g}-{hi:g} m/s separated by "
+                             f"commas, got {text!r}")
+        out.append(v)
+    return tuple(out)
 
 
 def _notes(notes) -> None:
@@ -738,6 +765,10 @@ def cmd_reflex_fit_gh2010(args) -> int:
     if args.placement and args.touch_only:
         raise InputError("--placement is a walking law: it refits the walk, so not with "
                          "--touch-only")
+    starts = _start_speeds(args.starts)
+    if starts and args.touch_only:
+        raise InputError("--starts tests the walk: it refits the walk, so not with "
+                         "--touch-only")
     if args.pushes and args.touch_only:
         raise InputError("--pushes tests the walk: it refits the walk, so not with "
                          "--touch-only")
@@ -760,7 +791,7 @@ def cmd_reflex_fit_gh2010(args) -> int:
                      load_from=args.load_from, stride_time=args.stride_time,
                      stance_weight=stance_weight, touch_only=args.touch_only,
                      recovery_cost=recovery_cost, placement=args.placement,
-                     pushes=args.pushes, track_weight=track_weight,
+                     pushes=args.pushes, track_weight=track_weight, starts=starts,
                      knee_weight=knee_weight)
     bar.done()
     written, walk = write_gh2010_fit(out, res)
@@ -780,13 +811,15 @@ def cmd_reflex(args) -> int:
     if (args.trips or args.params is not None or args.trip_set or args.scr_phase
             or args.ta_bound != "wide" or args.strategy_cost is not None or args.crossing
             or args.recovery_cost is not None or args.placement or args.pushes
+            or args.starts is not None
             or args.foot_angle or args.load_from is not None or args.stride_time
             or args.stance_weight is not None or args.touch_only
             or args.track_weight is not None or args.knee_weight is not None):
         raise InputError("--trips, --params, --trip-set, --scr-phase, --strategy-cost, "
                          "--recovery-cost, --crossing, --touch-only, --load-from, "
                          "--foot-angle, --stride-time, --stance-weight, --track-weight, "
-                         "--knee-weight, --placement, --pushes and --ta-bound are for "
+                         "--knee-weight, --placement, --pushes, --starts and --ta-bound "
+                         "are for "
                          "--controller gh2010")
     from stumble.control.reflex.identify import ITERATIONS, REFINE_ITERATIONS, fit
     from stumble.outputs import prepare_dir, write_fit

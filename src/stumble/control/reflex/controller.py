@@ -465,12 +465,14 @@ class ReflexController:
         self.exc_block = self._motor(k, nb)
         if self.balance is not None:
             sensed = self.bal_buf[self._bal_rows(k - self.balance.lag, nb)]
-            if self.trace is not None:
-                self.trace["balance"].append((k, self.balance.drive(sensed)))
             bal = self.balance.drive_cols(sensed)
             if self.place_buf is not None:
                 bal += self.balance.place_cols_drive(
                     self.place_buf[self._bal_rows(k - self.balance.lag, nb)], sensed[:, 2:4])
+            if self.trace is not None:
+                full = np.zeros((nb, 2, self.nm))
+                full[:, :, self.balance.cols] = bal
+                self.trace["balance"].append((k, full))
             self.exc_block[:, :, self.balance.cols] += bal
         self.ctrl_block = np.minimum(np.maximum(self.exc_block.reshape(nb, -1), 0.01), 1.0)
         self.block_start = k

@@ -75,6 +75,10 @@ W_KNEE = 0.0
 # ground
 PUSH_WALK_S = 10.0
 PUSHES = ((3.0, 0.2, -200.0), (6.5, 0.2, -200.0))
+# ``--starts V,...`` (ours; none unless asked): each candidate also walks PUSH_WALK_S from
+# the walk played back at each of these speeds (m/s), the part not walked costing as a
+# fall (``push_term``): a walker that takes over from slower and faster walks, as the
+# network's expert must (DAgger's episodes start from 1.0-1.3 m/s walks)
 STRIDE_BAND = (1.0, 1.3)  # s
 SPEED_BAND = (1.0, 1.3)  # m/s
 STANCE_BAND = (0.57, 0.68)
@@ -356,7 +360,7 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                    stance_weight: float = W_STANCE, touch_only: bool = False,
                    recovery_cost: float = 0.0, placement: bool = False,
                    pushes: bool = False, track_weight: float = W_TRACK,
-                   knee_weight: float = W_KNEE) -> None:
+                   knee_weight: float = W_KNEE, starts: tuple = ()) -> None:
     """Worker set-up: what ``evaluate_walk`` simulates: a walk, and the obstacle trips
     ``trips`` ((swing fraction, speed) pairs) the walker must walk on from; GH2010
     candidates in ``gh2010_space(stumble_reflex=...)``; ``strategy_cost``: what a trip in
@@ -369,7 +373,8 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
     with the swing-leg placement (``gh2010_space(placement=True)``); ``pushes``: each
     candidate also walks ``PUSH_WALK_S`` with the pelvis pushes ``PUSHES`` (``push_term``);
     ``track_weight``, ``knee_weight``: the tracking and knee terms' weights
-    (``walk_cost``)."""
+    (``walk_cost``); ``starts``: each candidate also walks ``PUSH_WALK_S`` from the walk
+    played back at each of these speeds (m/s; ``push_term``)."""
     from stumble.pipeline import WalkInCache
 
     _EVAL.pop("walk", None)
@@ -381,7 +386,7 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                  foot_angle=foot_angle, stride_time=stride_time,
                  stance_weight=float(stance_weight), recovery_cost=float(recovery_cost),
                  placement=placement, pushes=pushes, track_weight=float(track_weight),
-                 knee_weight=float(knee_weight))
+                 knee_weight=float(knee_weight), starts=tuple(map(float, starts)))
 
 
 def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
@@ -427,6 +432,13 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
                                 pushes=PUSHES).summary)
         terms["push"] = push_term(pushed)
         cost += terms["push"]
+    for v in _EVAL.get("starts", ()):  # the other starts (a fall costs them all)
+        other = (None if terms["fall"] else
+                 simulate_walk(kind, PUSH_WALK_S, v,
+                               params=params if kind == "gh2010" else None,
+                               network=net if kind == "network" else None).summary)
+        terms[f"start_{v:g}"] = push_term(other)
+        cost += terms[f"start_{v:g}"]
     trips = _EVAL.get("trips") or ()
     w_strategy = _EVAL.get("strategy_cost", 0.0)
     if trips and terms["fall"] == 0.0:  # trips only once it walks: they cost 3 s each
@@ -580,7 +592,7 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                stance_weight: float = W_STANCE, touch_only: bool = False,
                recovery_cost: float = 0.0, placement: bool = False,
                pushes: bool = False, track_weight: float = W_TRACK,
-               knee_weight: float = W_KNEE) -> FitResult:
+               knee_weight: float = W_KNEE, starts: tuple = ()) -> FitResult:
     """Optimise the GH2010 gains in closed loop: per stage (generations, walk s, obstacle
     trips), CMA-ES on ``walk_cost`` plus, for each trip, ``W_TRIP`` times the part of the
     3 s after it not walked on. ``wiring`` ``gh2010`` starts from the paper's values
@@ -621,7 +633,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     tracking term's weight (``W_TRACK``; a trip stage weighs each lost trip as 20 to 40
     degrees of joint RMSE beyond 8°, and trades the gait for trips); ``knee_weight``:
     the knee term's (``W_KNEE``, per degree of hyperextension; 5 in ``knee-walk``'s fit, 0
-    in the others). Writes
+    in the others); ``starts``: every candidate also walks from the walks played back at
+    these speeds (m/s; ``init_walk_eval``), in every stage. Writes
     ``gh2010.json`` to ``out`` (the best parameters and the fit's figures) when given."""
     if strategy_cost < 0 or not math.isfinite(strategy_cost):
         raise ValueError(f"strategy_cost must be a finite number >= 0, got {strategy_cost}")
@@ -649,6 +662,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
         raise ValueError("placement is a walking law: not with touch_only")
     if pushes and touch_only:
         raise ValueError("pushes test the walk: not with touch_only")
+    if starts and touch_only:
+        raise ValueError("starts test the walk: not with touch_only")
     from dataclasses import replace
 
     from stumble.control.reflex.gh2010 import (
@@ -699,7 +714,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                                 else {"wiring": wiring}, trips,
                                 with_trips, strategy_cost, crossing, foot_angle,
                                 stride_time, stance_weight, touch_only, recovery_cost,
-                                placement, pushes, track_weight, knee_weight),
+                                placement, pushes, track_weight, knee_weight,
+                                tuple(starts)),
                       first_generation=total, stage="walk" if not trips else "walk+trips",
                       fixed=fixed)
         params = replace(params, **dict(zip(space.names, map(float, res.best_theta),
@@ -747,13 +763,14 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                     "recovery_cost": recovery_cost,
                     "placement": placement,
                     "pushes": [list(q) for q in PUSHES] if pushes else [],
+                    "starts": [float(v) for v in starts],
                     "command": _fit_command(wiring, with_trips, stages, scr_phase, seed,
                                             ta_bound, strategy_cost, crossing,
                                             foot_angle, load_from, stride_time,
                                             stance_weight, touch_only, recovery_cost,
                                             placement, pushes, track_weight,
                                             (start_from or {}).get("params"),
-                                            knee_weight)}})
+                                            knee_weight, starts)}})
     return res
 
 
@@ -764,7 +781,8 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
                  stance_weight: float = W_STANCE, touch_only: bool = False,
                  recovery_cost: float = 0.0, placement: bool = False,
                  pushes: bool = False, track_weight: float = W_TRACK,
-                 params: str | None = None, knee_weight: float = W_KNEE) -> str:
+                 params: str | None = None, knee_weight: float = W_KNEE,
+                 starts: tuple = ()) -> str:
     """The ``stumble reflex fit`` command of a GH2010 fit (``params``: what ``--params``
     named, None: none given)."""
     opts = ["--trips"] if trips else []
@@ -786,6 +804,8 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
         opts.append("--placement")
     if pushes:
         opts.append("--pushes")
+    if starts:
+        opts.append("--starts " + ",".join(f"{v:g}" for v in starts))
     if trips:
         named = [k for k, v in TRIP_SETS.items() if all(t == v for _g, _w, t in stages)]
         if named and named[0] != "four":
