@@ -94,9 +94,9 @@ def test_network_walk_and_trips_compiled_equal_numpy():
     open_loop = default_network("open-loop")
     _same_runs(lambda: simulate_trip(sc.with_(swing_fraction=0.56),
                                      network=open_loop).recording)
-    placing = default_network("closed-loop")  # the balance carrying a placement law
-    placing.info["balance"] = dict(placing.info["balance"], k_place=0.5, place_a0=0.15,
-                                   place_cd=0.1, place_cv=0.05)
+    net = default_network("closed-loop")  # a copy whose balance carries a placement law
+    placing = replace(net, info={**net.info, "balance": dict(
+        net.info["balance"], k_place=0.5, place_a0=0.15, place_cd=0.1, place_cv=0.05)})
     _same_runs(lambda: simulate_walk("network", 1.0, network=placing).recording)
 
 

@@ -166,3 +166,40 @@ def test_the_default_network_is_the_closed_loop_one_and_walks(tmp_path):
                  "--no-video", "--out", str(tmp_path / "o")]) == 0
     o = json.loads((tmp_path / "o" / "summary.json").read_text())
     assert o["fell"] and o["walked_s"] < 1.0
+
+
+@pytest.mark.parametrize("speed", [1.0, 1.4])
+def test_the_placing_expert_walks_from_slow_and_fast_starts(speed):
+    """``expert-placement`` (seed003-wired, fitted with ``--starts 1.0,1.4``): 5 s from
+    the 1.0 and 1.4 m/s walks, no fall, the knees straight at most (README "The seed's
+    network in closed loop": 20 s from each of 1.0-1.4 m/s, RMSE 7.1/11.1/7.5°)."""
+    from stumble.control.reflex.gh2010 import load_params
+
+    p = load_params("expert-placement")
+    assert p.wiring == "seed003" and p.k_place > 0.1
+    s = simulate_walk("gh2010", 5.0, speed_m_per_s=speed, params=p).summary
+    assert not s["fell"] and s["walked_s"] == pytest.approx(5.0)
+    assert 1.1 <= s["speed_m_per_s"] <= 1.3 and s["knee_hyperextension_deg"] < 0.1
+    assert max(s["rmse_deg"].values()) < 12.0
+
+
+def test_the_placement_network_walks_closer_to_the_recording(tmp_path):
+    """``--network placement``: DAgger from the placing expert, whose placement law the
+    network's addition carries; 10 s from the recording's walk, no fall, hip and ankle
+    RMSE within 10°, every joint closer than the default network's (15.5/22.0/9.1°)."""
+    import json
+
+    from stumble.cli import main
+    from stumble.control.reflex.gh2010 import load_params
+    from stumble.control.reflex.identify import default_network
+
+    net, expert = default_network("placement"), load_params("expert-placement")
+    bal = net.info["balance"]
+    assert (bal["k_place"], bal["place_a0"]) == (expert.k_place, expert.place_a0)
+    assert main(["reflex", "walk", "--network", "placement", "--duration", "10",
+                 "--no-video", "--out", str(tmp_path / "w")]) == 0
+    s = json.loads((tmp_path / "w" / "summary.json").read_text())
+    assert not s["fell"] and s["walked_s"] == pytest.approx(10.0)
+    r = s["rmse_deg"]
+    assert r["hip_flexion"] < 10.0 and r["ankle_angle"] < 10.0 and r["knee_angle"] < 21.0
+    assert 0.55 <= s["stance_fraction"] <= 0.70 and 0.9 <= s["speed_m_per_s"] <= 1.4

@@ -20,8 +20,9 @@ GH2010_NAMES = ("knee (the default: a touch stage on knee-walk), knee-walk (push
                 "refitted with the knee term), knee-foot (a touch stage on knee-walk by "
                 "the foot's phase: recovers some lowering trips), pushed (touch stages "
                 "on pushed-walk), "
-                "pushed-walk (the walking fit with pushes), walk (the first walking fit) "
-                "or trip (trip stages on walk)")
+                "pushed-walk (the walking fit with pushes), walk (the first walking fit), "
+                "trip (trip stages on walk) or expert-placement (seed003-wired: the "
+                "placement network's expert)")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -145,8 +146,9 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--network", type=Path, metavar="FILE",
                    help="reflex controller: a network.npz from `stumble reflex fit`, or a "
                    "shipped network: closed-loop (the default: the identification refined "
-                   "in closed loop, which walks) or open-loop (seed 003's identification "
-                   "alone)")
+                   "in closed loop, which walks), placement (refined from a placing "
+                   "expert: walks closer to the recording) or open-loop (seed 003's "
+                   "identification alone)")
     t.add_argument("--no-trunk-balance", action="store_true",
                    help="reflex controller: without the stance hips' trunk-lean reflex "
                    "(our addition to seed 003; see the README)")
@@ -353,8 +355,9 @@ def _parser() -> argparse.ArgumentParser:
                     "Herr 2010's reflexes")
     rw.add_argument("--network", type=Path, metavar="FILE",
                     help="network controller: a network.npz, or a shipped network: "
-                    "closed-loop (the default, which walks) or open-loop (seed 003's "
-                    "identification alone, which falls after 0.8 s)")
+                    "closed-loop (the default, which walks), placement (refined from a "
+                    "placing expert) or open-loop (seed 003's identification alone, which "
+                    "falls after 0.8 s)")
     rw.add_argument("--params", type=Path, metavar="FILE",
                     help="gh2010 controller: a gh2010.json from `stumble reflex fit "
                     f"--controller gh2010`, or a shipped set by name: {GH2010_NAMES}")
@@ -561,7 +564,7 @@ def cmd_walk(args) -> int:
 
 
 def _network_arg(path: Path):
-    """The network of ``--network``: a file, or ``closed-loop``/``open-loop`` (shipped)."""
+    """The network of ``--network``: a file, or a shipped one by name (``NETWORK_NAMES``)."""
     from stumble.control.reflex.identify import NETWORK_NAMES, default_network
     from stumble.control.reflex.network import Network
 

@@ -136,7 +136,10 @@ SEED003_START = "gh2010_walk.json"
 NAMED = {"walk": SEED003_START, "trip": "gh2010_trip.json",
          "pushed-walk": "gh2010_pushed_walk.json", "pushed": "gh2010_pushed.json",
          "knee-walk": SHIPPED_WALKING["gh2010"], "knee": SHIPPED["gh2010"],
-         "knee-foot": "gh2010_knee_foot.json"}
+         "knee-foot": "gh2010_knee_foot.json",
+         # seed003-wired: the placing expert of the ``placement`` network, reproducible
+         # (README "The seed's network in closed loop"; since 2026-12-04, later that day)
+         "expert-placement": "gh2010_seed003_placement.json"}
 
 
 @dataclass(frozen=True)

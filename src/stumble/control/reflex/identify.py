@@ -61,7 +61,14 @@ SHIPPED = "network.npz"  # fitted network shipped in stumble/control/reflex/data
 # 1.0-1.3 m/s walks; 24 min on the 2-core machine of 2026-12-02). It walks 20 s from
 # every played-back walk of 1.0-1.4 m/s (README "The seed's network in closed loop").
 SHIPPED_CLOSED_LOOP = "network_closed_loop.npz"
-NETWORK_NAMES = {"open-loop": SHIPPED, "closed-loop": SHIPPED_CLOSED_LOOP}
+# DAgger from a reproducible expert that places its swing leg, the placement carried by
+# the network's addition (``controller.TrunkBalance``; since 2026-12-04, later that day):
+# `stumble reflex fit --closed-loop --seed 0 --expert expert-placement` (README "The
+# seed's network in closed loop"); it walks closer to the recording than
+# ``closed-loop`` and recovers fewer trips, so it is not the default
+SHIPPED_PLACEMENT = "network_placement.npz"
+NETWORK_NAMES = {"open-loop": SHIPPED, "closed-loop": SHIPPED_CLOSED_LOOP,
+                 "placement": SHIPPED_PLACEMENT}
 # the network a reflex controller runs when none is given: the closed-loop refinement,
 # which walks (since 2026-12-04; the open-loop identification, seed 003's own method, falls
 # after 0.8 s and stays ``--network open-loop`` for comparison). The identification's own
@@ -327,8 +334,9 @@ def fit(seed: int = 0, iterations: int = ITERATIONS,
 
 def default_network(name: str | None = None) -> Network:
     """A network shipped with the package: ``closed-loop`` (the default,
-    ``DEFAULT_NETWORK``; ``stumble reflex fit --closed-loop``, seed 0) or ``open-loop``
-    (seed 003's identification alone, ``stumble reflex fit``, seed 0); loaded once."""
+    ``DEFAULT_NETWORK``; ``stumble reflex fit --closed-loop``, seed 0), ``placement``
+    (DAgger from the placing expert ``expert-placement``, seed 0) or ``open-loop`` (seed
+    003's identification alone, ``stumble reflex fit``, seed 0); loaded once."""
     return _shipped_network(name or DEFAULT_NETWORK)
 
 
