@@ -111,14 +111,15 @@ def test_the_shipped_closed_loop_network_walks_from_every_start(speed):
     assert 0.55 <= s["stance_fraction"] <= 0.70
 
 
+@pytest.mark.parametrize("name", ["closed-loop", "placement"])
 @pytest.mark.parametrize(("swing", "strategy"), [(0.13, "elevating"), (0.56, "lowering")])
-def test_the_closed_loop_network_takes_the_seeds_strategies(swing, strategy):
+def test_the_closed_loop_network_takes_the_seeds_strategies(swing, strategy, name):
     """Seed 003's CASE 1 and CASE 2 (obstacle, 1.2 m/s, from the recording, the seed's
-    way) under the closed-loop network: never switched."""
+    way) under the closed-loop networks: never switched."""
     from stumble.control.reflex.identify import default_network
 
     r = simulate_trip(Scenario(controller="reflex", mechanism="obstacle", swing_fraction=swing,
-                               speed_m_per_s=1.2), network=default_network("closed-loop"))
+                               speed_m_per_s=1.2), network=default_network(name))
     assert r.summary["start"] == "playback" and r.summary["strategy"] == strategy
     assert [st["name"] for st in r.summary["states"]] == ["reflex"]
 
@@ -201,5 +202,5 @@ def test_the_placement_network_walks_closer_to_the_recording(tmp_path):
     s = json.loads((tmp_path / "w" / "summary.json").read_text())
     assert not s["fell"] and s["walked_s"] == pytest.approx(10.0)
     r = s["rmse_deg"]
-    assert r["hip_flexion"] < 10.0 and r["ankle_angle"] < 10.0 and r["knee_angle"] < 21.0
+    assert r["hip_flexion"] < 10.0 and r["ankle_angle"] < 10.0 and r["knee_angle"] < 20.0
     assert 0.55 <= s["stance_fraction"] <= 0.70 and 0.9 <= s["speed_m_per_s"] <= 1.4
