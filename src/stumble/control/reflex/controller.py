@@ -160,7 +160,7 @@ class TrunkBalance:
 
     def place_cols_drive(self, placed: np.ndarray, loads: np.ndarray) -> np.ndarray:
         """The placement's drive of GLU, HAMS and the flexor (n, 2, 3) from the delayed
-        ``place_sense`` rows (n, 5) and feet's loads (n, 2, N)."""
+        ``place_sense`` rows (n, 5) and the feet's loads (n, 2; N)."""
         alpha = placed[:, 0:2]
         e = self.k_place * (self.place_a0 + self.place_cd * placed[:, 2:4]
                             + self.place_cv * placed[:, 4:5] - alpha)
