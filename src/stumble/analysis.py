@@ -111,7 +111,7 @@ class StopRule:
         if self.landing_s is None:
             self.landing_s = self._landing(s)
         self._com_x.append((s.t, float(s.com[0])))
-        if s.t < self.walk_on_s:
+        if s.t < self.walk_on_s - 1e-9:  # (time summed step by step: 1500 × 2 ms < 3 s)
             return ""
         t_back = s.t - 1.0
         x_back = next(x for t, x in self._com_x if t >= t_back - 1e-9)
