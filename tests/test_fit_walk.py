@@ -750,4 +750,21 @@ def test_other_starts_cost_what_they_do_not_walk(capsys, tmp_path):
         err = capsys.readouterr().err
         assert "--starts takes speeds of 0.7-1.6 m/s" in err and err.count("\n") == 1
     assert main(["reflex", "fit", "--starts", "1.0", "--out", str(tmp_path / "s")]) == 2
-    assert "--starts and --ta-bound are for --controller gh2010" in capsys.readouterr().err
+    assert "--starts, --timestep and --ta-bound are for --controller gh2010" in \
+        capsys.readouterr().err
+
+
+def test_the_fits_time_step_is_recorded_in_the_command_and_checked(capsys, tmp_path):
+    """``--timestep S``: every walk and trip of the fit at S, recorded in the command and
+    in the set (``GH2010Params.timestep_s``); out of range, one line and exit 2."""
+    from stumble.cli import main
+    from stumble.control.reflex.fit_walk import _fit_command
+
+    walk = ((110, 15.0, ()),)
+    assert "--timestep" not in _fit_command("gh2010", False, walk, None, 1)
+    assert "--timestep 0.002 " in _fit_command("gh2010", False, walk, None, 1,
+                                               timestep_s=0.002)
+    assert main(["reflex", "fit", "--controller", "gh2010", "--timestep", "0.05",
+                 "--out", str(tmp_path / "f")]) == 2
+    err = capsys.readouterr().err
+    assert "--timestep must be 0.0002-0.005 s, got 0.05" in err and err.count("\n") == 1

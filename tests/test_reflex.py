@@ -421,6 +421,37 @@ def test_tendon_organ_steady_state_is_exact():
     assert np.abs(signal.lfilter(g.b, g.a, x[600:], axis=0, zi=z)[0] - y[600:]).max() < 1e-9
 
 
+def test_block_evaluation_at_2ms_equals_two_ticks_at_a_time(monkeypatch):
+    """At a 2 ms step the network still ticks every 1 ms, each tick sensing its step's
+    one row and each step holding its first tick's excitations: evaluated two ticks (one
+    step) at a time or a block at a time, the same run."""
+    from stumble.control.reflex import controller as C
+
+    orig = C.ReflexController.__init__
+    runs = {}
+    for b in (None, 2):
+        def init(self, *args, _block=b, **kwargs):
+            orig(self, *args, **{**kwargs, "block": _block})
+        monkeypatch.setattr(C.ReflexController, "__init__", init)
+        r = simulate_trip(Scenario(controller="reflex", swing_fraction=0.3,
+                                   mechanism="obstacle", duration_after_trip_s=0.5,
+                                   timestep_s=0.002))
+        runs[b] = r
+    assert runs[2].recording.steps == 250  # 0.5 s of 2 ms steps
+    assert np.abs(runs[2].recording.qpos - runs[None].recording.qpos).max() < 1e-9
+
+
+def test_network_tick_ratio():
+    from stumble.control.reflex.network import tick_ratio
+
+    assert tick_ratio(0.001) == (1, 1)
+    assert tick_ratio(0.0005) == (2, 1)  # two steps a tick
+    assert tick_ratio(0.002) == (1, 2)  # two ticks a step
+    assert tick_ratio(0.003) == (1, 3)
+    with pytest.raises(InputError, match=r"\(1\.5 ms\)"):
+        tick_ratio(0.0015)
+
+
 def test_reflex_time_step_must_divide_a_network_tick():
     with pytest.raises(InputError, match="must divide"):
         simulate_trip(Scenario(controller="reflex", mechanism="obstacle",

@@ -302,6 +302,10 @@ def _parser() -> argparse.ArgumentParser:
                    "at each of these speeds (m/s, 0.7-1.6), the part not walked costing "
                    "as a fall: a walker that takes over from other walks (ours; not with "
                    "--touch-only)")
+    f.add_argument("--timestep", type=float, default=None, metavar="S",
+                   help="gh2010: the physics step (s) of every walk and trip of the fit, "
+                   "recorded with the result, whose runs then take it (default: the "
+                   "--params set's, 0.001 for the paper's)")
     f.add_argument("--recovery-cost", type=float, default=None, metavar="W",
                    help="gh2010 --trips: each of the stage's trips not recovered costs W "
                    "more, on top of its time term (default 0: the time walked on alone, "
@@ -366,6 +370,10 @@ def _parser() -> argparse.ArgumentParser:
     rw.add_argument("--speed", type=float, default=None, metavar="V",
                     help="speed of the walk played back before (0.7-1.6 m/s; default the "
                     "subject's 1.10); the controller then walks at its own speed")
+    rw.add_argument("--timestep", type=float, default=None, metavar="S",
+                    help="physics step (s; default the controller's: 0.001 for the network, "
+                    "for gh2010 the step its set was fitted at; the network also runs at "
+                    "whole numbers of its 1 ms tick, gh2010 at steps that divide its set's)")
     rw.add_argument("--no-video", action="store_true", help="skip walk.mp4")
     return p
 
@@ -659,6 +667,8 @@ def cmd_trip(args) -> int:
 
 def cmd_reflex_walk(args) -> int:
     """``stumble reflex walk``: walk under a reflex controller and write its files."""
+    import math
+
     from stumble.outputs import prepare_dir, write_reflex_walk
     from stumble.pipeline import simulate_walk
 
@@ -674,8 +684,11 @@ def cmd_reflex_walk(args) -> int:
 
         params = load_params(args.params)
     out = prepare_dir(args.out)
+    if args.timestep is not None and not (math.isfinite(args.timestep)
+                                          and 0.0002 <= args.timestep <= 0.005):
+        raise InputError(f"--timestep must be 0.0002-0.005 s, got {args.timestep}")
     result = simulate_walk(args.controller, args.duration, args.speed, params=params,
-                           network=network)
+                           network=network, timestep_s=args.timestep)
     written = write_reflex_walk(out, result, not args.no_video, sys.stderr.isatty())
     s = result.summary
     rm = s["rmse_deg"]
@@ -778,6 +791,9 @@ def cmd_reflex_fit_gh2010(args) -> int:
     recovery_cost = args.recovery_cost or 0.0
     if not (math.isfinite(recovery_cost) and recovery_cost >= 0):
         raise InputError(f"--recovery-cost must be a number >= 0, got {args.recovery_cost}")
+    if args.timestep is not None and not (math.isfinite(args.timestep)
+                                          and 0.0002 <= args.timestep <= 0.005):
+        raise InputError(f"--timestep must be 0.0002-0.005 s, got {args.timestep}")
     gens = sum(g for g, _w, _t in stages)
     workers = args.workers or os.cpu_count() or 1
     if workers < 1:
@@ -795,7 +811,7 @@ def cmd_reflex_fit_gh2010(args) -> int:
                      stance_weight=stance_weight, touch_only=args.touch_only,
                      recovery_cost=recovery_cost, placement=args.placement,
                      pushes=args.pushes, track_weight=track_weight, starts=starts,
-                     knee_weight=knee_weight)
+                     knee_weight=knee_weight, timestep_s=args.timestep)
     bar.done()
     written, walk = write_gh2010_fit(out, res)
     s = walk.summary
@@ -814,14 +830,15 @@ def cmd_reflex(args) -> int:
     if (args.trips or args.params is not None or args.trip_set or args.scr_phase
             or args.ta_bound != "wide" or args.strategy_cost is not None or args.crossing
             or args.recovery_cost is not None or args.placement or args.pushes
-            or args.starts is not None
+            or args.starts is not None or args.timestep is not None
             or args.foot_angle or args.load_from is not None or args.stride_time
             or args.stance_weight is not None or args.touch_only
             or args.track_weight is not None or args.knee_weight is not None):
         raise InputError("--trips, --params, --trip-set, --scr-phase, --strategy-cost, "
                          "--recovery-cost, --crossing, --touch-only, --load-from, "
                          "--foot-angle, --stride-time, --stance-weight, --track-weight, "
-                         "--knee-weight, --placement, --pushes, --starts and --ta-bound "
+                         "--knee-weight, --placement, --pushes, --starts, --timestep and "
+                         "--ta-bound "
                          "are for "
                          "--controller gh2010")
     from stumble.control.reflex.identify import ITERATIONS, REFINE_ITERATIONS, fit

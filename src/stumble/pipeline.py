@@ -49,6 +49,7 @@ from stumble.gait.reference import load_reference
 from stumble.gait.walk_cache import walk_cached
 from stumble.sim import Context, Recording, Sensors, run
 from stumble.trip import (
+    DEFAULT_TIMESTEP_S,
     MUSCLE_CONTROLLERS,
     OBSTACLE_DEPTH_M,
     OBSTACLE_GAP_M,
@@ -163,7 +164,8 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     trip of an earlier trip whose parameters differed only in the touch's reflexes (the
     same numbers as walking it again).
     """
-    sc = scenario.validated()
+    sc = scenario.validated(_gh2010_step(gh2010) if scenario.controller == "gh2010"
+                            else None)
     reflex = sc.controller in MUSCLE_CONTROLLERS
     # the shipped set for the strength model and the recovery rule when none is given
     # (``fsm_params.DEFAULT_SETS``: upright on fixed limits, the sets tuned on human strength)
@@ -502,17 +504,33 @@ def reference_stride(pb: Playback) -> dict[str, np.ndarray]:
     return {n: c.mean(axis=0) for n, c in curves.items()}
 
 
+def _gh2010_step(params) -> float:
+    """The step (s) a GH2010 set was fitted at (default: the shipped default set's)."""
+    from stumble.control.reflex.gh2010 import shipped_params
+
+    return (params or shipped_params()).timestep_s
+
+
 def simulate_walk(controller: str = "gh2010", duration_s: float = 20.0,
                   speed_m_per_s: float | None = None, params=None, network=None,
                   delay_scale: float = 1.0, trunk_balance: bool = True,
-                  timestep_s: float = 0.001, pushes=()) -> WalkResult:
+                  timestep_s: float | None = None, pushes=()) -> WalkResult:
     """Walk under a reflex controller (``gh2010`` or ``network``) from the played-back
     walk at right heel strike, for ``duration_s`` or until a fall; the summary gives time
     walked, strides, speed, stance fraction and joint RMSE against the recorded stride.
-    ``pushes``: (start s, duration s, force N) on the pelvis, + forward (``PelvisPushes``;
-    none by default)."""
+    ``timestep_s``: the physics step (s; default the controller's, as a trip's: for
+    ``gh2010`` the step its set was fitted at). ``pushes``: (start s, duration s,
+    force N) on the pelvis, + forward (``PelvisPushes``; none by default)."""
     from stumble.analysis import WalkStop, walk_metrics
     from stumble.gait.reference import check_speed
+    from stumble.trip import check_gh2010_timestep
+
+    if controller == "gh2010":
+        fitted = _gh2010_step(params)
+        timestep_s = fitted if timestep_s is None else timestep_s
+        check_gh2010_timestep(timestep_s, fitted)
+    elif timestep_s is None:
+        timestep_s = DEFAULT_TIMESTEP_S["reflex"]
 
     speed = load_reference().speed_m_per_s if speed_m_per_s is None else speed_m_per_s
     check_speed(speed)

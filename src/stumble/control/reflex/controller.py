@@ -288,6 +288,9 @@ class ReflexController:
         if self.balance is not None:
             longest = min(longest, self.balance.lag)
         self.block = max(1, min(self.block_request or longest, longest))
+        per_step = getattr(self, "per_step", 1)  # ticks a physics step holds (``start``)
+        if per_step > 1:
+            self.block = max(per_step, self.block - self.block % per_step)
         self.n_buf = t.max_lag + 2 * self.block + self.a_min + 2
         # flat ring buffers (slot, side, channel) and the offsets of what each reads
         self.sig_buf = np.zeros(self.n_buf * 2 * n_sig)
@@ -490,6 +493,12 @@ class ReflexController:
     # ---- Controller protocol ---------------------------------------------------------
     def start(self, ctx: Context) -> None:
         """Bind to the model, fill the buffers with the walk before the trip."""
+        from stumble.control.reflex.network import tick_ratio
+
+        # steps per tick (a step that divides the 1 ms tick) or ticks per step (a step of
+        # whole ticks; the block then a whole number of steps, ``_bind_network``)
+        self.every, self.per_step = tick_ratio(ctx.model.opt.timestep,
+                                               self.net.topology.rate_hz)
         self._bind(ctx)
         self.lay = lay = ctx.body.sensors
         self._obs_cols = np.concatenate([lay.muscle_length, lay.muscle_velocity,
@@ -497,10 +506,8 @@ class ReflexController:
         self._n_mus3 = 3 * len(lay.muscle_length)
         self._bal_sense_cols = (self.balance.sense_cols(lay) if self.balance is not None
                                 else None)
-        self._bal_g = np.empty((self.block * max(1, round(1.0 / (
-            self.net.topology.rate_hz * ctx.model.opt.timestep))), 7))
-        self.every = max(1, round(1.0 / (self.net.topology.rate_hz * ctx.model.opt.timestep)))
-        self.period_steps = self.block * self.every
+        self._bal_g = np.empty((self.block * self.every, 7))
+        self.period_steps = self.block * self.every // self.per_step
         if self.history is not None:
             hist, gto_state = self.history
             ib = hist[:, :, self.ib_cols].reshape(len(hist), -1)  # (N, 2·nm): r, then l
@@ -531,7 +538,8 @@ class ReflexController:
         ctx.data.ctrl[self.lumbar] = self.lumbar_target
         self.plan = np.empty((self.period_steps, ctx.model.nu))
         self._no_plan = np.empty((0, ctx.model.nu))
-        self._plan_in_kernel = self.every == 1 and isinstance(self.act_slice, slice)
+        self._plan_in_kernel = (self.every == 1 and self.per_step == 1
+                                and isinstance(self.act_slice, slice))
         self._act_first = self.act_slice.start if self._plan_in_kernel else 0
         self.log.append(("reflex", 0.0))
 
@@ -544,13 +552,20 @@ class ReflexController:
         if self._plan_done:
             return self.plan
         self.plan[:] = ctx.data.ctrl
-        self.plan[:, self.act_slice] = (self.ctrl_block if self.every == 1
-                                        else np.repeat(self.ctrl_block, self.every, axis=0))
+        if self.per_step > 1:  # each step holds its first tick's excitations
+            self.plan[:, self.act_slice] = self.ctrl_block[::self.per_step]
+        else:
+            self.plan[:, self.act_slice] = (self.ctrl_block if self.every == 1
+                                            else np.repeat(self.ctrl_block, self.every,
+                                                           axis=0))
         return self.plan
 
     def observe(self, rows: np.ndarray) -> None:
         """Store the muscle states (and loads, lean) sensed at each tick of the block."""
-        ticks = rows[::self.every] if self.every > 1 else rows
+        if self.per_step > 1:  # the ticks of a step sense its row
+            ticks = np.repeat(rows, self.per_step, axis=0)
+        else:
+            ticks = rows[::self.every] if self.every > 1 else rows
         n = len(ticks)
         k0 = self.k
         kern = kernels()

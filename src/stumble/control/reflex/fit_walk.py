@@ -592,7 +592,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                stance_weight: float = W_STANCE, touch_only: bool = False,
                recovery_cost: float = 0.0, placement: bool = False,
                pushes: bool = False, track_weight: float = W_TRACK,
-               knee_weight: float = W_KNEE, starts: tuple = ()) -> FitResult:
+               knee_weight: float = W_KNEE, starts: tuple = (),
+               timestep_s: float | None = None) -> FitResult:
     """Optimise the GH2010 gains in closed loop: per stage (generations, walk s, obstacle
     trips), CMA-ES on ``walk_cost`` plus, for each trip, ``W_TRIP`` times the part of the
     3 s after it not walked on. ``wiring`` ``gh2010`` starts from the paper's values
@@ -634,7 +635,9 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     degrees of joint RMSE beyond 8°, and trades the gait for trips); ``knee_weight``:
     the knee term's (``W_KNEE``, per degree of hyperextension; 5 in ``knee-walk``'s fit, 0
     in the others); ``starts``: every candidate also walks from the walks played back at
-    these speeds (m/s; ``init_walk_eval``), in every stage. Writes
+    these speeds (m/s; ``init_walk_eval``), in every stage; ``timestep_s``: the physics
+    step of every walk and trip of the fit, recorded in the result
+    (``GH2010Params.timestep_s``; default ``start``'s, 1 ms for the paper's). Writes
     ``gh2010.json`` to ``out`` (the best parameters and the fit's figures) when given."""
     if strategy_cost < 0 or not math.isfinite(strategy_cost):
         raise ValueError(f"strategy_cost must be a finite number >= 0, got {strategy_cost}")
@@ -694,6 +697,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
         # or refitting the walk of a seed003-wired ``start``
         params = start if start is not None else replace(load_params("walk"), wiring=wiring)
         stages = stages or SEED003_STAGES
+    if timestep_s is not None:
+        params = replace(params, timestep_s=float(timestep_s))
     total, evaluations, wall, res = 0, 0, 0.0, None
     history: list[dict] = []
     with_trips = trips
@@ -711,7 +716,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                       initializer=init_walk_eval,
                       initargs=("gh2010", walk_s, GH2010_SPEED_M_PER_S,
                                 fixed if with_trips or start is not None
-                                else {"wiring": wiring}, trips,
+                                else {"wiring": wiring, "timestep_s": params.timestep_s},
+                                trips,
                                 with_trips, strategy_cost, crossing, foot_angle,
                                 stride_time, stance_weight, touch_only, recovery_cost,
                                 placement, pushes, track_weight, knee_weight,
@@ -764,13 +770,14 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                     "placement": placement,
                     "pushes": [list(q) for q in PUSHES] if pushes else [],
                     "starts": [float(v) for v in starts],
+                    "timestep_s": params.timestep_s,
                     "command": _fit_command(wiring, with_trips, stages, scr_phase, seed,
                                             ta_bound, strategy_cost, crossing,
                                             foot_angle, load_from, stride_time,
                                             stance_weight, touch_only, recovery_cost,
                                             placement, pushes, track_weight,
                                             (start_from or {}).get("params"),
-                                            knee_weight, starts)}})
+                                            knee_weight, starts, timestep_s)}})
     return res
 
 
@@ -782,7 +789,7 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
                  recovery_cost: float = 0.0, placement: bool = False,
                  pushes: bool = False, track_weight: float = W_TRACK,
                  params: str | None = None, knee_weight: float = W_KNEE,
-                 starts: tuple = ()) -> str:
+                 starts: tuple = (), timestep_s: float | None = None) -> str:
     """The ``stumble reflex fit`` command of a GH2010 fit (``params``: what ``--params``
     named, None: none given)."""
     opts = ["--trips"] if trips else []
@@ -806,6 +813,8 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
         opts.append("--pushes")
     if starts:
         opts.append("--starts " + ",".join(f"{v:g}" for v in starts))
+    if timestep_s is not None:
+        opts.append(f"--timestep {timestep_s:g}")
     if trips:
         named = [k for k, v in TRIP_SETS.items() if all(t == v for _g, _w, t in stages)]
         if named and named[0] != "four":

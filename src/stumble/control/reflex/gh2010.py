@@ -224,12 +224,16 @@ class GH2010Params:
     delay_scale: float = 1.0  # every delay multiplied by this
     wiring: str = "gh2010"  # "gh2010" or "seed003" (see GH2010Controller)
     load_from: str = "floor"  # "floor" or "any" (``LOAD_SOURCES``)
+    # the physics step (s) the gains were fitted at (``reflex fit --timestep``): runs take
+    # it unless told a step that divides it (``trip.check_gh2010_timestep``); every set
+    # fitted before 2026-12-04's step option was fitted at 1 ms, its files without it
+    timestep_s: float = 0.001
 
     def free(self) -> list[str]:
         """Names of the gains a closed-loop fit may change (not the delays, the wiring)."""
         return [f.name for f in fields(self)
                 if f.name not in ("delay_scale", "wiring", "scr_latency_s", "scr_phase",
-                                  "load_from")]
+                                  "load_from", "timestep_s")]
 
     @property
     def stumble_reflex(self) -> bool:
@@ -251,8 +255,10 @@ class GH2010Params:
         return replace(self, **{n: float(v) for n, v in zip(self.free(), x, strict=True)})
 
     def to_json(self) -> dict:
-        """Plain numbers and the wiring (for the shipped file and fit reports)."""
-        return {k: v if isinstance(v, str) else float(v) for k, v in asdict(self).items()}
+        """Plain numbers and the wiring (for the shipped file and fit reports; the fitted
+        step only when not 1 ms, as the files before it)."""
+        return {k: v if isinstance(v, str) else float(v) for k, v in asdict(self).items()
+                if k != "timestep_s" or v != 0.001}
 
     @classmethod
     def from_json(cls, obj: dict) -> GH2010Params:
@@ -272,6 +278,8 @@ class GH2010Params:
                 continue
             if not isinstance(v, int | float) or isinstance(v, bool) or not np.isfinite(v):
                 raise InputError(f"GH2010 parameter {k} must be a finite number, got {v!r}")
+            if k == "timestep_s" and not 0.0002 <= v <= 0.005:
+                raise InputError(f"GH2010 timestep_s {v!r} is outside 0.0002-0.005 s")
             if k.endswith("_s") and v < 0:  # latencies, holds, onsets (s)
                 raise InputError(f"GH2010 parameter {k} is a time and must be >= 0, got {v!r}")
             vals[k] = float(v)

@@ -145,14 +145,26 @@ class Topology:
                 + max(lag for *_x, lag in self.connections()))
 
 
-def steps_per_tick(timestep_s: float, rate_hz: float = RATE_HZ) -> int:
-    """Physics steps per network tick; InputError unless the time step divides a tick
-    (the nerve delays are counted in ticks)."""
-    every = max(1, round(1.0 / (rate_hz * timestep_s)))
-    if abs(every * timestep_s * rate_hz - 1.0) > 1e-6:
+def tick_ratio(timestep_s: float, rate_hz: float = RATE_HZ) -> tuple[int, int]:
+    """(physics steps per network tick, network ticks per physics step): one of them is 1.
+    InputError unless the time step divides a tick or is a whole number of ticks (the
+    nerve delays are counted in ticks). With several ticks a step, the ticks of a step
+    sense the step's one sensor row and the step holds its first tick's excitations
+    (our choice: MuJoCo holds a control over a step)."""
+    ratio = 1.0 / (rate_hz * timestep_s)
+    every, per_step = max(1, round(ratio)), max(1, round(1.0 / ratio))
+    if abs(every * timestep_s * rate_hz - 1.0) > 1e-6 and abs(
+            timestep_s * rate_hz - per_step) > 1e-6:
         raise InputError(f"the reflex network ticks every {1e3 / rate_hz:g} ms: the time step "
-                         f"({1e3 * timestep_s:g} ms) must divide it")
-    return every
+                         f"({1e3 * timestep_s:g} ms) must divide it or be a whole number "
+                         f"of ticks")
+    return (every, 1) if ratio >= 1.0 - 1e-9 else (1, per_step)
+
+
+def steps_per_tick(timestep_s: float, rate_hz: float = RATE_HZ) -> int:
+    """Physics steps per network tick (1 when a step holds several ticks, ``tick_ratio``);
+    InputError unless the time step divides a tick or is a whole number of ticks."""
+    return tick_ratio(timestep_s, rate_hz)[0]
 
 
 @dataclass
