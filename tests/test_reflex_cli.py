@@ -97,13 +97,13 @@ def test_a_network_whose_tick_the_time_step_does_not_divide(tmp_path, capsys):
 
     t = default_network("open-loop").topology
     n = default_network("open-loop")
-    # a 1 ms step is neither a divisor nor a whole number of a 0.667 ms tick
-    fast = Network(Topology(1500.0, t.hidden, t.contact), n.w, n.b, n.v, n.c, n.mean, n.std,
+    # the default 2 ms step is neither a divisor nor a whole number of a 0.833 ms tick
+    fast = Network(Topology(1200.0, t.hidden, t.contact), n.w, n.b, n.v, n.c, n.mean, n.std,
                    n.info, n.walk_rates)
     fast.save(tmp_path / "fast.npz")
     assert main(["trip", "--controller", "reflex", "--network", str(tmp_path / "fast.npz"),
                  "--out", str(tmp_path / "o")]) == 2
-    assert ("ticks every 0.666667 ms: the time step (1 ms) must divide it or be a whole "
+    assert ("ticks every 0.833333 ms: the time step (2 ms) must divide it or be a whole "
             "number of ticks") in capsys.readouterr().err
 
 

@@ -62,7 +62,7 @@ def test_trip_time_is_the_requested_fraction_of_swing():
 
 def test_each_controller_has_its_default_step_and_the_state_machines_refuse_unstable_ones():
     assert Scenario().validated().timestep_s == 0.002
-    assert Scenario(controller="reflex", mechanism="obstacle").validated().timestep_s == 0.001
+    assert Scenario(controller="reflex", mechanism="obstacle").validated().timestep_s == 0.002
     assert Scenario(controller="gh2010", mechanism="obstacle").validated().timestep_s == 0.001
     with pytest.raises(InputError, match="not stable for the fsm controller"):
         Scenario(timestep_s=0.003).validated()

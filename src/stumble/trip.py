@@ -59,9 +59,13 @@ MUSCLE_CONTROLLERS = ("reflex", "gh2010")  # on the planar musculoskeletal body
 MAX_SEED = 2**63 - 1  # seeds are stored as 64-bit integers (study results)
 # Physics step (s) when a scenario names none. The state machines: 2 ms gives the 1 ms
 # outcome (recovered or fell) in all 48 trips of the grid and the same strategy, variant
-# and outcome in 45 (README "Trips"); the reflex controllers keep 1 ms (the network
-# ticks at 1 kHz; GH2010's gains were fitted at 1 ms).
-DEFAULT_TIMESTEP_S = {"fsm": 0.002, "reflex": 0.001, "gh2010": 0.001}
+# and outcome in 45 (README "Trips"). The seed's network: 2 ms (its 1 ms ticks two to a
+# step, ``network.tick_ratio``) gives the 1 ms strategy and outcome in all 45 trips of
+# the strategy map from the recording and in 42 of the 45 in its own gait (0.5 ms: 43),
+# and its walks within 0.3 deg RMSE (README "Speed"); its fits keep 1 ms
+# (``fit_walk.FIT_TIMESTEP_S``). GH2010: the step its set was fitted at
+# (``GH2010Params.timestep_s``), 1 ms for the shipped default.
+DEFAULT_TIMESTEP_S = {"fsm": 0.002, "reflex": 0.002, "gh2010": 0.001}
 TIMESTEP_RANGE_S = (0.0002, 0.005)  # any controller
 # The largest step at which each controller is stable (s). The state machines: on four
 # trips the support ankle peaks at 5.7 rad/s at 1 ms, 12 at 2 ms, 48 at 3 ms (chatter;

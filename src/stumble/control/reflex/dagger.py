@@ -125,6 +125,7 @@ def collect(net: Network, params: GH2010Params, beta: float, seed: int,
     """One episode of walking under the mixture, from the played-back walk."""
     from stumble.analysis import FALL_PELVIS_FRACTION, WalkStop
     from stumble.body.contact import rest_support_foot
+    from stumble.control.reflex.fit_walk import FIT_TIMESTEP_S
     from stumble.control.reflex.identify import history_before
     from stumble.gait.playback import stride_phase
     from stumble.pipeline import (
@@ -135,8 +136,8 @@ def collect(net: Network, params: GH2010Params, beta: float, seed: int,
     )
     from stumble.sim import Sensors, run
 
-    body, pb = _walk(1.75, 70.0, "male", DEFAULT_CONTACT, round(speed_m_per_s, 4), 0.001,
-                     True, net.muscle_set)
+    body, pb = _walk(1.75, 70.0, "male", DEFAULT_CONTACT, round(speed_m_per_s, 4),
+                     FIT_TIMESTEP_S, True, net.muscle_set)
     m = body.model
     import mujoco
 
@@ -227,12 +228,12 @@ def judge(net: Network, speeds: tuple[float, ...] = JUDGE_SPEEDS) -> dict:
     """The walking objective of the network on its own (``fit_walk.walk_cost``), from
     each start speed of ``speeds`` (m/s): the mean cost, the figures of the first and
     the time walked from each."""
-    from stumble.control.reflex.fit_walk import effort_of, walk_cost
+    from stumble.control.reflex.fit_walk import FIT_TIMESTEP_S, effort_of, walk_cost
     from stumble.pipeline import simulate_walk
 
     rows = []
     for v in speeds:
-        r = simulate_walk("network", EVAL_S, v, network=net)
+        r = simulate_walk("network", EVAL_S, v, network=net, timestep_s=FIT_TIMESTEP_S)
         cost, terms = walk_cost(r.summary, effort_of(r))
         rows.append((cost, terms, r.summary))
     cost, terms, s = rows[0]

@@ -47,6 +47,10 @@ from pathlib import Path
 
 import numpy as np
 
+# the physics step (s) of the network's closed-loop fits and DAgger's judging (every
+# shipped network was refined at it; runs default to 2 ms, ``trip.DEFAULT_TIMESTEP_S``);
+# GH2010 fits take their set's (``GH2010Params.timestep_s``, ``--timestep``)
+FIT_TIMESTEP_S = 0.001
 W_FALL = 100.0
 W_TRACK = 1.0
 W_EFFORT = 1.0
@@ -414,7 +418,8 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
         from stumble.control.reflex.network import Network
 
         net = network_with(Network.load(_EVAL["base"]["network"]), theta)
-        r = simulate_walk("network", _EVAL["duration_s"], _EVAL["speed"], network=net)
+        r = simulate_walk("network", _EVAL["duration_s"], _EVAL["speed"], network=net,
+                          timestep_s=FIT_TIMESTEP_S)
     else:
         raise ValueError(kind)
     cost, terms = walk_cost(r.summary, effort_of(r), _EVAL.get("foot_angle", 0.0),
@@ -429,14 +434,16 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
                   simulate_walk(kind, PUSH_WALK_S, _EVAL["speed"],
                                 params=params if kind == "gh2010" else None,
                                 network=net if kind == "network" else None,
-                                pushes=PUSHES).summary)
+                                pushes=PUSHES, timestep_s=r.body.model.opt.timestep
+                                ).summary)
         terms["push"] = push_term(pushed)
         cost += terms["push"]
     for v in _EVAL.get("starts", ()):  # the other starts (a fall costs them all)
         other = (None if terms["fall"] else
                  simulate_walk(kind, PUSH_WALK_S, v,
                                params=params if kind == "gh2010" else None,
-                               network=net if kind == "network" else None).summary)
+                               network=net if kind == "network" else None,
+                               timestep_s=r.body.model.opt.timestep).summary)
         terms[f"start_{v:g}"] = push_term(other)
         cost += terms[f"start_{v:g}"]
     trips = _EVAL.get("trips") or ()
@@ -532,7 +539,8 @@ def trip_outcome(kind: str, swing: float, speed: float, params=None, network=Non
 
     sc = Scenario(controller="reflex" if kind == "network" else kind, mechanism="obstacle",
                   swing_fraction=swing, speed_m_per_s=speed, start=start,
-                  duration_after_trip_s=WALK_ON_TRIP_S)
+                  duration_after_trip_s=WALK_ON_TRIP_S,
+                  timestep_s=FIT_TIMESTEP_S if kind == "network" else None)
     try:
         r = simulate_trip(sc, network=network, gh2010=params, walk_in_cache=walk_in_cache)
     except TripNotSet:  # the toe is over the obstacle at that instant of its own swing
