@@ -10,7 +10,9 @@ times the whole ``sim.run`` loop and a bare loop that replays the recorded contr
 the same model from the same state after the controller's start, doing nothing else
 (``mj_step`` per control row): the physical limit of this engine for that motion. CPU
 time of this process, best of N, so that other work on the machine matters less.
-Prints per run: steps, simulated seconds, µs per 1 ms step of each, their ratio (the
+Prints per run: steps (of 1 or 2 ms: the network runs at 2 ms by default since
+2026-12-04, at 1 ms for comparison; ``knee-2ms`` is the GH2010 set fitted at 2 ms),
+simulated seconds, µs per step of each, their ratio (the
 issue's targets: at most 1.5× for the network) and the speed-up over real time (10 s
 walk and trip: 50×; 20 s walk: 25×), beside the bare replay's own: the most this engine
 allows for that motion.
@@ -34,9 +36,10 @@ def _logged(*a, **k):
     return sim_run(*a, **k)
 
 
-def replay_cpu_s(result) -> float:
-    """CPU seconds of a bare loop replaying the recorded controls."""
-    rec, m = result.recording, result.body.model
+def replay_cpu_s(result, rec=None) -> float:
+    """CPU seconds of a bare loop replaying the recorded controls (of ``rec``, default the
+    result's recording)."""
+    rec, m = rec or result.recording, result.body.model
     d = mujoco.MjData(m)
     mujoco.mj_setState(m, d, rec.initial_state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
     ends = [*[s for s, _c, _g in rec.controls][1:], rec.steps]
@@ -65,11 +68,36 @@ def measure(label: str, make, repeats: int) -> None:
     rec = result.recording
     sim_s = float(rec.time_s[-1])
     loop = result.recording.wall_time_s  # for reference (wall, the last run)
-    print(f"{label:34s} {rec.steps:6d} steps {sim_s:5.2f} s simulated | run "
+    dt_ms = 1e3 * result.body.model.opt.timestep
+    print(f"{label:40s} {rec.steps:6d} steps of {dt_ms:g} ms {sim_s:5.2f} s simulated | run "
           f"{1e6 * best_run / rec.steps:6.1f} us/step, bare replay "
           f"{1e6 * best_raw / rec.steps:6.1f} us/step, ratio {best_run / best_raw:4.2f} | "
           f"{sim_s / best_run:5.1f}x real time, the bare replay {sim_s / best_raw:5.1f}x "
           f"(loop wall {loop:.2f} s)")
+
+
+def measure_own(label: str, make, repeats: int) -> None:
+    """Best-of-N CPU time of a whole own-gait trip (``simulate_trip``: the walk to the trip
+    and the trip, set-up included) against the bare replay of both runs."""
+    pipeline.run = _logged
+    best_run = best_raw = float("inf")
+    result = None
+    for _ in range(repeats):
+        t0 = time.process_time()
+        result = make()
+        best_run = min(best_run, time.process_time() - t0)
+        best_raw = min(best_raw, replay_cpu_s(result, result.walk_recording)
+                       + replay_cpu_s(result))
+    pipeline.run = sim_run
+    rec, walk = result.recording, result.walk_recording
+    sim_s = float(rec.time_s[-1]) + float(walk.time_s[-1])
+    steps = rec.steps + walk.steps
+    dt_ms = 1e3 * result.body.model.opt.timestep
+    print(f"{label:40s} {steps:6d} steps of {dt_ms:g} ms {sim_s:5.2f} s simulated | run "
+          f"{1e6 * best_run / steps:6.1f} us/step, bare replay "
+          f"{1e6 * best_raw / steps:6.1f} us/step, ratio {best_run / best_raw:4.2f} | "
+          f"{sim_s / best_run:5.1f}x real time, the bare replay {sim_s / best_raw:5.1f}x "
+          f"({'recovered' if result.summary['recovered'] else 'not recovered'})")
 
 
 def main() -> None:
@@ -82,6 +110,10 @@ def main() -> None:
                   speed_m_per_s=1.2, duration_after_trip_s=3.0)
     pipeline.simulate_trip(sc)  # warm the walk cache
     measure("reflex trip (network), CASE 1", lambda: pipeline.simulate_trip(sc), args.repeats)
+    at1 = sc.with_(timestep_s=0.001)
+    pipeline.simulate_trip(at1)
+    measure("reflex trip (network, 1 ms), CASE 1", lambda: pipeline.simulate_trip(at1),
+            args.repeats)
     from stumble.control.reflex.identify import default_network
 
     open_loop = default_network("open-loop")
@@ -93,13 +125,37 @@ def main() -> None:
     gh = sc.with_(controller="gh2010", start="playback")
     pipeline.simulate_trip(gh)
     measure("reflex trip (gh2010), CASE 1", lambda: pipeline.simulate_trip(gh), args.repeats)
+    # the set fitted at 2 ms (``knee-2ms``), at its own step
+    from stumble.control.reflex.gh2010 import load_params
+
+    fast = load_params("knee-2ms")
+    pipeline.simulate_trip(gh, gh2010=fast)
+    measure("reflex trip (gh2010 knee-2ms), CASE 1",
+            lambda: pipeline.simulate_trip(gh, gh2010=fast), args.repeats)
+    # whole trips in the walker's own gait (GH2010's default start): the walk to the trip
+    # (4 s and the swing) and 3 s after it, 0.10 of swing at 1.2 m/s
+    own = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.10,
+                   speed_m_per_s=1.2, start="own")
+    for label, sc_own, kw in (("own-gait trip (network)", own, {}),
+                              ("own-gait trip (gh2010)", own.with_(controller="gh2010"), {}),
+                              ("own-gait trip (gh2010 knee-2ms)",
+                               own.with_(controller="gh2010"), {"gh2010": fast})):
+        pipeline.simulate_trip(sc_own, **kw)
+        measure_own(label, lambda s=sc_own, k=kw: pipeline.simulate_trip(s, **k),
+                    args.repeats)
     # the walks: GH2010 from the recording's speed; the network closed-loop, from the
-    # 1.2 m/s walk it walks from (the open-loop network falls within a second)
+    # 1.2 m/s walk it walks from (the open-loop network falls within a second), at its
+    # default step (2 ms) and at 1 ms, the step before 2026-12-04
     net = default_network("closed-loop")
-    for kind, kw in (("network", {"network": net, "speed_m_per_s": 1.2}), ("gh2010", {})):
+    for kind, label, kw in (
+            ("network", "network", {"network": net, "speed_m_per_s": 1.2}),
+            ("network", "network, 1 ms", {"network": net, "speed_m_per_s": 1.2,
+                                          "timestep_s": 0.001}),
+            ("gh2010", "gh2010", {}),
+            ("gh2010", "gh2010 knee-2ms", {"params": fast})):
         pipeline.simulate_walk(kind, 1.0, **kw)
         for dur in (10.0, 20.0):
-            measure(f"{dur:.0f} s walk ({kind})",
+            measure(f"{dur:.0f} s walk ({label})",
                     lambda k=kind, t=dur, kw=kw: pipeline.simulate_walk(k, t, **kw),
                     args.repeats)
 

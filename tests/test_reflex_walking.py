@@ -85,6 +85,23 @@ def test_the_foot_phase_set_recovers_a_late_swing_trip_by_lowering():
     assert d["strategy"] == "lowering" and d["fell"]
 
 
+def test_the_2ms_set_runs_at_2ms_and_recovers_an_early_trip_the_default_falls_from():
+    """``--params knee-2ms`` (``knee``'s touch stage refitted at a 2 ms step) runs at its
+    own step, and at 0.10 of swing, 1.2 m/s, it walks on where the default falls
+    (README "Speed": 30 of the 45 against 26)."""
+    from stumble.control.reflex.gh2010 import load_params
+
+    p = load_params("knee-2ms")
+    assert p.timestep_s == 0.002
+    sc = Scenario(controller="gh2010", mechanism="obstacle", swing_fraction=0.1,
+                  speed_m_per_s=1.2)
+    s = simulate_trip(sc, gh2010=p).summary
+    assert s["steps"] == 1500  # 3 s of 2 ms steps
+    assert s["strategy"] == "elevating" and s["recovered"]
+    d = simulate_trip(sc).summary
+    assert d["steps"] < 3000 and d["fell"]
+
+
 def test_own_start_trips_at_the_fraction_of_the_walkers_own_swing():
     s = simulate_trip(Scenario(controller="gh2010", mechanism="obstacle",
                                swing_fraction=0.3, walk_in_s=3.0)).summary

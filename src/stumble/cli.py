@@ -18,7 +18,8 @@ from stumble.jsonio import dumps
 # command line starts without importing the physics)
 GH2010_NAMES = ("knee (the default: a touch stage on knee-walk), knee-walk (pushed-walk "
                 "refitted with the knee term), knee-foot (a touch stage on knee-walk by "
-                "the foot's phase: recovers some lowering trips), pushed (touch stages "
+                "the foot's phase: recovers some lowering trips), knee-2ms (knee's touch "
+                "stage refitted at a 2 ms step: runs at 2 ms), pushed (touch stages "
                 "on pushed-walk), "
                 "pushed-walk (the walking fit with pushes), walk (the first walking fit), "
                 "trip (trip stages on walk) or expert-placement (seed003-wired: the "

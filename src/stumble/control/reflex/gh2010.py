@@ -137,6 +137,9 @@ NAMED = {"walk": SEED003_START, "trip": "gh2010_trip.json",
          "pushed-walk": "gh2010_pushed_walk.json", "pushed": "gh2010_pushed.json",
          "knee-walk": SHIPPED_WALKING["gh2010"], "knee": SHIPPED["gh2010"],
          "knee-foot": "gh2010_knee_foot.json",
+         # the touch stage of ``knee`` refitted at a 2 ms step (``--timestep 0.002``): runs
+         # at 2 ms, twice as fast (README "Speed"; since 2026-12-04, later that day)
+         "knee-2ms": "gh2010_knee_2ms.json",
          # seed003-wired: the placing expert of the ``placement`` network, reproducible
          # (README "The seed's network in closed loop"; since 2026-12-04, later that day)
          "expert-placement": "gh2010_seed003_placement.json"}
@@ -307,8 +310,9 @@ def load_params(path) -> GH2010Params:
     (``NAMED``: ``walk``, the first walking fit; ``trip``, the trip stages on it;
     ``pushed-walk``, the walking fit with pushes; ``pushed``, the touch stages on it;
     ``knee-walk``, that walking fit refitted with the knee term; ``knee``, the touch stage
-    on it, the default; ``knee-foot``, a touch stage on it by the foot's phase);
-    InputError if it is not one."""
+    on it, the default; ``knee-foot``, a touch stage on it by the foot's phase;
+    ``knee-2ms``, ``knee``'s touch stage refitted at a 2 ms step); InputError if it is not
+    one."""
     from pathlib import Path
 
     shipped = named_file(path)
