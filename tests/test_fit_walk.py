@@ -768,3 +768,44 @@ def test_the_fits_time_step_is_recorded_in_the_command_and_checked(capsys, tmp_p
                  "--out", str(tmp_path / "f")]) == 2
     err = capsys.readouterr().err
     assert "--timestep must be 0.0002-0.005 s, got 0.05" in err and err.count("\n") == 1
+
+
+def test_the_networks_walking_es_from_the_command_line(tmp_path, capsys):
+    """``reflex fit --controller network --walk-es NETWORK``: one generation writes a
+    network that loads, whose record names its start (with the shipped file's hash) and
+    the command that reproduces it; options of other fits are refused in one line."""
+    import hashlib
+    import json
+    from importlib import resources
+
+    from stumble.cli import main
+    from stumble.control.reflex.identify import NETWORK_NAMES
+    from stumble.control.reflex.network import Network
+
+    out = tmp_path / "es"
+    assert main(["reflex", "fit", "--walk-es", "placement", "--generations", "1",
+                 "--timestep", "0.002", "--knee-weight", "5", "--workers", "1",
+                 "--seed", "3", "--out", str(out)]) == 0
+    net = Network.load(out / "network.npz")
+    fit = net.info["fit"]
+    shipped = (resources.files("stumble.control.reflex") / "data"
+               / NETWORK_NAMES["placement"]).read_bytes()
+    assert fit["from"] == {"network": "placement",
+                           "sha256": hashlib.sha256(shipped).hexdigest()}
+    assert fit["command"] == ("stumble reflex fit --controller network --walk-es placement "
+                              "--knee-weight 5 --timestep 0.002 --generations 1 --seed 3 "
+                              "--out DIR")
+    assert fit["evaluations"] == 15 and len(fit["theta"]) == len(fit["parameters"]) == 44
+    report = json.loads((out / "fit.json").read_text())
+    assert report["walk_20s"]["controller"] == "network"
+    for name in ("history.jsonl", "best.json", "objective.png"):
+        assert (out / name).stat().st_size > 0
+    capsys.readouterr()
+    for argv, words in ((["--walk-es", "placement", "--trips"], "--trips is not for --walk-es"),
+                        (["--walk-es", "no-such.npz"], "no-such.npz"),
+                        (["--controller", "gh2010", "--walk-es", "placement"],
+                         "--walk-es and --interneuron-biases are for --controller network"),
+                        (["--interneuron-biases"], "--interneuron-biases is for --walk-es")):
+        assert main(["reflex", "fit", *argv, "--out", str(tmp_path / "x")]) == 2
+        err = capsys.readouterr().err
+        assert words in err and err.count("\n") == 1, err

@@ -254,6 +254,15 @@ def _parser() -> argparse.ArgumentParser:
                       help="network: then refine it in closed loop by DAgger with the "
                       "seed003-wired GH2010 expert (shipped as --network closed-loop, the "
                       "default network)")
+    loop.add_argument("--walk-es", default=None, metavar="NETWORK",
+                      help="network: refine a shipped (closed-loop, placement, ...) or saved "
+                      "network in closed loop by CMA-ES on a documented subset of its "
+                      "weights (motor-neuron gains and biases, contact afferents, trunk "
+                      "balance; fit_walk.network_space) on the walking objective, with "
+                      "--knee-weight, --track-weight, --starts, --timestep, --generations "
+                      "(default 150) and --interneuron-biases (ours)")
+    f.add_argument("--interneuron-biases", action="store_true",
+                   help="network, --walk-es: the interneurons' biases join the subset")
     f.add_argument("--passes", type=int, default=None, metavar="N",
                    help="network, --closed-loop: DAgger passes (default 8)")
     f.add_argument("--expert", type=Path, default=None, metavar="FILE",
@@ -822,12 +831,111 @@ def cmd_reflex_fit_gh2010(args) -> int:
     return 0
 
 
+def cmd_reflex_fit_network_es(args) -> int:
+    """``stumble reflex fit --controller network --walk-es NETWORK``: CMA-ES on a documented
+    subset of a network's weights (``fit_walk.fit_network_es``)."""
+    import math
+    import os
+
+    from stumble.control.reflex.fit_walk import (
+        NETWORK_ES_GENERATIONS,
+        W_KNEE,
+        W_TRACK,
+        fit_network_es,
+    )
+    from stumble.jsonio import write_json
+    from stumble.outputs import prepare_dir
+    from stumble.pipeline import simulate_walk
+    from stumble.viz.reflex_plots import plot_objective
+
+    for flag, given in (("--trips", args.trips or None), ("--params", args.params),
+                        ("--trip-set", args.trip_set), ("--scr-phase", args.scr_phase),
+                        ("--strategy-cost", args.strategy_cost),
+                        ("--recovery-cost", args.recovery_cost),
+                        ("--crossing", args.crossing or None),
+                        ("--touch-only", args.touch_only or None),
+                        ("--load-from", args.load_from), ("--placement", args.placement or None),
+                        ("--pushes", args.pushes or None), ("--expert", args.expert),
+                        ("--passes", args.passes), ("--foot-angle", args.foot_angle or None),
+                        ("--stride-time", args.stride_time or None),
+                        ("--stance-weight", args.stance_weight),
+                        ("--iterations", args.iterations), ("--refine", args.refine),
+                        ("--muscles", args.muscles),
+                        ("--contact-afferents", args.contact_afferents)):
+        if given is not None:
+            raise InputError(f"{flag} is not for --walk-es")
+    start = _network_arg(Path(args.walk_es))
+    import hashlib
+
+    from stumble.control.reflex.identify import NETWORK_NAMES
+
+    src = (Path(args.walk_es) if Path(args.walk_es).exists() or args.walk_es not in NETWORK_NAMES
+           else None)
+    if src is None:
+        from importlib import resources
+
+        data = (resources.files("stumble.control.reflex") / "data"
+                / NETWORK_NAMES[args.walk_es]).read_bytes()
+    else:
+        data = src.read_bytes()
+    start_from = {"network": str(args.walk_es), "sha256": hashlib.sha256(data).hexdigest()}
+    knee = W_KNEE if args.knee_weight is None else args.knee_weight
+    track = W_TRACK if args.track_weight is None else args.track_weight
+    for flag, v in (("--knee-weight", knee), ("--track-weight", track)):
+        if not (math.isfinite(v) and v >= 0):
+            raise InputError(f"{flag} must be a number >= 0, got {v}")
+    gens = NETWORK_ES_GENERATIONS if args.generations is None else args.generations
+    if gens < 1:
+        raise InputError(f"--generations must be at least 1, got {gens}")
+    if args.timestep is not None:
+        from stumble.control.reflex.network import tick_ratio
+
+        if not (math.isfinite(args.timestep) and 0.0002 <= args.timestep <= 0.005):
+            raise InputError(f"--timestep must be 0.0002-0.005 s, got {args.timestep}")
+        tick_ratio(args.timestep, start.topology.rate_hz)
+    starts = _start_speeds(args.starts)
+    workers = args.workers or os.cpu_count() or 1
+    if workers < 1:
+        raise InputError(f"--workers must be at least 1, got {workers}")
+    out = prepare_dir(args.out)
+    bar = _Progress("fitting the network", sys.stderr.isatty())
+    net, res = fit_network_es(start, start_from, seed=args.seed, generations=gens,
+                              workers=workers, out=out,
+                              progress=lambda row: bar(row["generation"] + 1, gens),
+                              knee_weight=knee, track_weight=track, starts=starts,
+                              timestep_s=args.timestep,
+                              interneuron_biases=args.interneuron_biases)
+    bar.done()
+    walk = simulate_walk("network", 20.0, network=net)
+    report = dict(net.info["fit"])
+    report["walk_20s"] = {k: v for k, v in walk.summary.items() if k != "events"}
+    write_json(out / "fit.json", report)
+    plot_objective(out / "objective.png", res.history,
+                   f"Network closed-loop CMA-ES (seed {args.seed}): objective "
+                   f"{res.best_cost:.3f} after {res.evaluations} walks")
+    s = walk.summary
+    rm = s["rmse_deg"] or {}
+    errors = "/".join(f"{rm[j]:.1f}" for j in ("hip_flexion", "knee_angle", "ankle_angle")
+                      if j in rm) or "n/a"
+    print(f"network fitted: objective {res.best_cost:.3f} after {res.evaluations} walks in "
+          f"{res.wall_time_s:.0f} s; a 20 s walk: {s['walked_s']:.1f} s walked at "
+          f"{s['speed_m_per_s']:.2f} m/s, RMSE hip/knee/ankle {errors} deg; wrote "
+          f"network.npz, history.jsonl, best.json, fit.json, objective.png to {out}")
+    return 0
+
+
 def cmd_reflex(args) -> int:
     """``stumble reflex fit``: identify the network and write its files."""
     if args.reflex_command == "walk":
         return cmd_reflex_walk(args)
     if args.controller == "gh2010":
+        if args.walk_es is not None or args.interneuron_biases:
+            raise InputError("--walk-es and --interneuron-biases are for --controller network")
         return cmd_reflex_fit_gh2010(args)
+    if args.walk_es is not None:
+        return cmd_reflex_fit_network_es(args)
+    if args.interneuron_biases:
+        raise InputError("--interneuron-biases is for --walk-es")
     if (args.trips or args.params is not None or args.trip_set or args.scr_phase
             or args.ta_bound != "wide" or args.strategy_cost is not None or args.crossing
             or args.recovery_cost is not None or args.placement or args.pushes

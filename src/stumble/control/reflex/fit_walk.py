@@ -364,7 +364,8 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                    stance_weight: float = W_STANCE, touch_only: bool = False,
                    recovery_cost: float = 0.0, placement: bool = False,
                    pushes: bool = False, track_weight: float = W_TRACK,
-                   knee_weight: float = W_KNEE, starts: tuple = ()) -> None:
+                   knee_weight: float = W_KNEE, starts: tuple = (),
+                   timestep_s: float | None = None) -> None:
     """Worker set-up: what ``evaluate_walk`` simulates: a walk, and the obstacle trips
     ``trips`` ((swing fraction, speed) pairs) the walker must walk on from; GH2010
     candidates in ``gh2010_space(stumble_reflex=...)``; ``strategy_cost``: what a trip in
@@ -378,7 +379,8 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
     candidate also walks ``PUSH_WALK_S`` with the pelvis pushes ``PUSHES`` (``push_term``);
     ``track_weight``, ``knee_weight``: the tracking and knee terms' weights
     (``walk_cost``); ``starts``: each candidate also walks ``PUSH_WALK_S`` from the walk
-    played back at each of these speeds (m/s; ``push_term``)."""
+    played back at each of these speeds (m/s; ``push_term``); ``timestep_s``: the network's
+    physics step (default ``FIT_TIMESTEP_S``; a GH2010 candidate runs at its set's)."""
     from stumble.pipeline import WalkInCache
 
     _EVAL.pop("walk", None)
@@ -390,7 +392,8 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                  foot_angle=foot_angle, stride_time=stride_time,
                  stance_weight=float(stance_weight), recovery_cost=float(recovery_cost),
                  placement=placement, pushes=pushes, track_weight=float(track_weight),
-                 knee_weight=float(knee_weight), starts=tuple(map(float, starts)))
+                 knee_weight=float(knee_weight), starts=tuple(map(float, starts)),
+                 timestep_s=timestep_s)
 
 
 def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
@@ -419,7 +422,7 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
 
         net = network_with(Network.load(_EVAL["base"]["network"]), theta)
         r = simulate_walk("network", _EVAL["duration_s"], _EVAL["speed"], network=net,
-                          timestep_s=FIT_TIMESTEP_S)
+                          timestep_s=_EVAL.get("timestep_s") or FIT_TIMESTEP_S)
     else:
         raise ValueError(kind)
     cost, terms = walk_cost(r.summary, effort_of(r), _EVAL.get("foot_angle", 0.0),
@@ -927,3 +930,82 @@ def network_with(net, theta: np.ndarray):
     bal.setdefault("rectified", True)
     info["balance"] = bal
     return _replace(net, w=w, b=b, v=v, c=c, info=info)
+
+
+# ---- the seed's network: an evolution strategy on a documented subset -----------------
+
+# ``reflex fit --controller network --walk-es NETWORK`` (ours, since 2026-12-04): CMA-ES on
+# ``network_space`` of a shipped or saved network, on the walking objective (``walk_cost``)
+# of a NETWORK_ES_WALK_S walk from the 1.2 m/s recording, with the options of the GH2010
+# walking fits (knee and tracking weights, other starts). Steps of NETWORK_ES_SIGMA in
+# units of each parameter's scale, as the GH2010 trip stages take from a walker.
+NETWORK_ES_GENERATIONS = 150
+NETWORK_ES_WALK_S = 15.0
+NETWORK_ES_SIGMA = 0.3
+
+
+def fit_network_es(start, start_from: dict, seed: int = 0,
+                   generations: int = NETWORK_ES_GENERATIONS, workers: int = 1,
+                   out: Path | None = None, progress=None, knee_weight: float = W_KNEE,
+                   track_weight: float = W_TRACK, starts: tuple = (),
+                   timestep_s: float | None = None, interneuron_biases: bool = False):
+    """CMA-ES on ``network_space(start, interneuron_biases)``: each candidate walks
+    ``NETWORK_ES_WALK_S`` from the 1.2 m/s recording (and 10 s from each of ``starts``) at
+    ``timestep_s`` (default ``FIT_TIMESTEP_S``), costed by ``walk_cost`` with
+    ``knee_weight`` and ``track_weight``. ``start_from``: what was named (``{"network":
+    name or path, "sha256": ...}``), recorded with the result. Returns (the best network,
+    with its fit in ``info["fit"]``, and the ``FitResult``); writes ``network.npz``,
+    ``history.jsonl`` and ``best.json`` to ``out`` when given."""
+    import tempfile
+
+    if not (math.isfinite(knee_weight) and knee_weight >= 0):
+        raise ValueError(f"knee_weight must be a finite number >= 0, got {knee_weight}")
+    if not (math.isfinite(track_weight) and track_weight >= 0):
+        raise ValueError(f"track_weight must be a finite number >= 0, got {track_weight}")
+    space = network_space(start, interneuron_biases=interneuron_biases)
+    step = timestep_s or FIT_TIMESTEP_S
+    with tempfile.TemporaryDirectory() as tmp:  # the workers load the start from a file
+        path = Path(tmp) / "start.npz"
+        start.save(path)
+        res = cma_fit(evaluate_walk, space, seed=seed, generations=generations,
+                      sigma=NETWORK_ES_SIGMA, workers=workers, out=out, progress=progress,
+                      initializer=init_walk_eval,
+                      initargs=("network", NETWORK_ES_WALK_S, GH2010_SPEED_M_PER_S,
+                                {"network": str(path)}, (), False, 0.0, False, 0.0, False,
+                                W_STANCE, False, 0.0, False, False, track_weight,
+                                knee_weight, tuple(starts), step),
+                      stage="walk")
+    net = network_with(start, res.best_theta)
+    opts = []
+    if knee_weight != W_KNEE:
+        opts.append(f"--knee-weight {knee_weight:g}")
+    if track_weight != W_TRACK:
+        opts.append(f"--track-weight {track_weight:g}")
+    if starts:
+        opts.append("--starts " + ",".join(f"{v:g}" for v in starts))
+    if timestep_s is not None:
+        opts.append(f"--timestep {timestep_s:g}")
+    if interneuron_biases:
+        opts.append("--interneuron-biases")
+    if generations != NETWORK_ES_GENERATIONS:
+        opts.append(f"--generations {generations}")
+    command = " ".join(["stumble reflex fit --controller network --walk-es",
+                        str(start_from.get("network")), *opts, f"--seed {seed} --out DIR"])
+    info = dict(net.info)
+    info["fit"] = {"method": "CMA-ES (cmaes package) on fit_walk.network_space",
+                   "seed": seed, "generations": generations,
+                   "population": len(res.history) and res.evaluations // len(res.history),
+                   "evaluations": res.evaluations, "sigma0": NETWORK_ES_SIGMA,
+                   "from": start_from, "parameters": list(space.names),
+                   "theta": [float(x) for x in res.best_theta],
+                   "walk_s": NETWORK_ES_WALK_S, "start_speed_m_per_s": GH2010_SPEED_M_PER_S,
+                   "knee_weight": knee_weight, "track_weight": track_weight,
+                   "starts": [float(v) for v in starts], "timestep_s": step,
+                   "cost": res.best_cost, "terms": res.best_terms,
+                   "wall_time_s": round(res.wall_time_s, 1), "command": command}
+    from dataclasses import replace as _replace
+
+    net = _replace(net, info=info)
+    if out is not None:
+        net.save(out / "network.npz")
+    return net, res
