@@ -130,7 +130,7 @@ def test_the_shipped_closed_loop_network_walks_from_every_start(speed):
     assert 0.55 <= s["stance_fraction"] <= 0.70
 
 
-@pytest.mark.parametrize("name", ["closed-loop", "placement"])
+@pytest.mark.parametrize("name", ["closed-loop", "placement", "placement-es"])
 @pytest.mark.parametrize(("swing", "strategy"), [(0.13, "elevating"), (0.56, "lowering")])
 def test_the_closed_loop_network_takes_the_seeds_strategies(swing, strategy, name):
     """Seed 003's CASE 1 and CASE 2 (obstacle, 1.2 m/s, from the recording, the seed's
@@ -152,6 +152,26 @@ def test_the_closed_loop_network_recovers_an_early_trip_in_its_own_gait():
                                start="own"), network=default_network("closed-loop")).summary
     assert s["strategy"] == "elevating" and s["recovered"] and not s["fell"]
     assert s["sim_time_s"] == pytest.approx(3.0)
+
+
+def test_the_es_refined_network_walks_closest_to_the_recording():
+    """``--network placement-es`` (``placement`` refined by CMA-ES at the 2 ms step): 5 s
+    from the 1.2 m/s recording with hip and ankle within 10 deg of the recorded stride
+    and the knee within 13 (README: 4.8/11.9/8.0 deg over 20 s; ``placement``
+    8.6/19.4/8.9); in its own gait its toe is low in late swing, so a trip at 0.60 of
+    swing is set, and it lowers."""
+    from stumble.control.reflex.identify import default_network
+
+    net = default_network("placement-es")
+    assert net.info["fit"]["command"].startswith(
+        "stumble reflex fit --controller network --walk-es placement")
+    s = simulate_walk("network", 5.0, network=net).summary
+    assert not s["fell"] and 0.55 <= s["stance_fraction"] <= 0.70
+    rm = s["rmse_deg"]
+    assert rm["hip_flexion"] < 6.0 and rm["knee_angle"] < 13.0 and rm["ankle_angle"] < 9.0
+    t = simulate_trip(Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.6,
+                               speed_m_per_s=1.2, start="own"), network=net).summary
+    assert t["toe_height_at_trip_m"] < 0.05 and t["strategy"] == "lowering"
 
 
 def test_cli_names_the_closed_loop_network(tmp_path):

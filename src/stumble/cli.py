@@ -148,7 +148,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="reflex controller: a network.npz from `stumble reflex fit`, or a "
                    "shipped network: closed-loop (the default: the identification refined "
                    "in closed loop, which walks), placement (refined from a placing "
-                   "expert: walks closer to the recording) or open-loop (seed 003's "
+                   "expert: walks closer to the recording), placement-es (placement refined "
+                   "by CMA-ES: closest to the recording) or open-loop (seed 003's "
                    "identification alone)")
     t.add_argument("--no-trunk-balance", action="store_true",
                    help="reflex controller: without the stance hips' trunk-lean reflex "
@@ -370,7 +371,8 @@ def _parser() -> argparse.ArgumentParser:
     rw.add_argument("--network", type=Path, metavar="FILE",
                     help="network controller: a network.npz, or a shipped network: "
                     "closed-loop (the default, which walks), placement (refined from a "
-                    "placing expert) or open-loop (seed 003's identification alone, which "
+                    "placing expert), placement-es (placement refined by CMA-ES) or "
+                    "open-loop (seed 003's identification alone, which "
                     "falls after 0.8 s)")
     rw.add_argument("--params", type=Path, metavar="FILE",
                     help="gh2010 controller: a gh2010.json from `stumble reflex fit "
