@@ -410,7 +410,7 @@ def fit_walk_gh2010(**kw):
 @pytest.mark.parametrize("name", ["gh2010_trip.json", "gh2010_seed003.json",
                                   "gh2010_pushed_walk.json", "gh2010_pushed.json",
                                   "gh2010_knee_walk.json", "gh2010_knee.json",
-                                  "gh2010_knee_foot.json"])
+                                  "gh2010_knee_foot.json", "gh2010_knee_2ms.json"])
 def test_shipped_gh2010_fits_score_today_what_they_scored_in_their_fit(name):
     """Reproducibility guard: a shipped fit's own parameters, evaluated by today's
     objective on its last stage's walk and trips, give the cost its fit recorded (on this
