@@ -264,6 +264,9 @@ def _parser() -> argparse.ArgumentParser:
                       "(default 150) and --interneuron-biases (ours)")
     f.add_argument("--interneuron-biases", action="store_true",
                    help="network, --walk-es: the interneurons' biases join the subset")
+    f.add_argument("--sigma", type=float, default=None, metavar="S",
+                   help="network, --walk-es: CMA-ES's first step in units of each "
+                   "parameter's scale (default 0.3; smaller for a second stage)")
     f.add_argument("--passes", type=int, default=None, metavar="N",
                    help="network, --closed-loop: DAgger passes (default 8)")
     f.add_argument("--expert", type=Path, default=None, metavar="FILE",
@@ -899,6 +902,11 @@ def cmd_reflex_fit_network_es(args) -> int:
     workers = args.workers or os.cpu_count() or 1
     if workers < 1:
         raise InputError(f"--workers must be at least 1, got {workers}")
+    from stumble.control.reflex.fit_walk import NETWORK_ES_SIGMA
+
+    sigma = NETWORK_ES_SIGMA if args.sigma is None else args.sigma
+    if not (math.isfinite(sigma) and 0.0 < sigma <= 5.0):
+        raise InputError(f"--sigma must be a number in (0, 5], got {args.sigma}")
     out = prepare_dir(args.out)
     bar = _Progress("fitting the network", sys.stderr.isatty())
     net, res = fit_network_es(start, start_from, seed=args.seed, generations=gens,
@@ -906,7 +914,7 @@ def cmd_reflex_fit_network_es(args) -> int:
                               progress=lambda row: bar(row["generation"] + 1, gens),
                               knee_weight=knee, track_weight=track, starts=starts,
                               timestep_s=args.timestep,
-                              interneuron_biases=args.interneuron_biases)
+                              interneuron_biases=args.interneuron_biases, sigma=sigma)
     bar.done()
     walk = simulate_walk("network", 20.0, network=net)
     report = dict(net.info["fit"])
@@ -931,13 +939,14 @@ def cmd_reflex(args) -> int:
     if args.reflex_command == "walk":
         return cmd_reflex_walk(args)
     if args.controller == "gh2010":
-        if args.walk_es is not None or args.interneuron_biases:
-            raise InputError("--walk-es and --interneuron-biases are for --controller network")
+        if args.walk_es is not None or args.interneuron_biases or args.sigma is not None:
+            raise InputError("--walk-es, --interneuron-biases and --sigma are for "
+                             "--controller network")
         return cmd_reflex_fit_gh2010(args)
     if args.walk_es is not None:
         return cmd_reflex_fit_network_es(args)
-    if args.interneuron_biases:
-        raise InputError("--interneuron-biases is for --walk-es")
+    if args.interneuron_biases or args.sigma is not None:
+        raise InputError("--interneuron-biases and --sigma are for --walk-es")
     if (args.trips or args.params is not None or args.trip_set or args.scr_phase
             or args.ta_bound != "wide" or args.strategy_cost is not None or args.crossing
             or args.recovery_cost is not None or args.placement or args.pushes

@@ -948,13 +948,16 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    generations: int = NETWORK_ES_GENERATIONS, workers: int = 1,
                    out: Path | None = None, progress=None, knee_weight: float = W_KNEE,
                    track_weight: float = W_TRACK, starts: tuple = (),
-                   timestep_s: float | None = None, interneuron_biases: bool = False):
+                   timestep_s: float | None = None, interneuron_biases: bool = False,
+                   sigma: float = NETWORK_ES_SIGMA):
     """CMA-ES on ``network_space(start, interneuron_biases)``: each candidate walks
     ``NETWORK_ES_WALK_S`` from the 1.2 m/s recording (and 10 s from each of ``starts``) at
     ``timestep_s`` (default ``FIT_TIMESTEP_S``), costed by ``walk_cost`` with
     ``knee_weight`` and ``track_weight``. ``start_from``: what was named (``{"network":
     name or path, "sha256": ...}``), recorded with the result. Returns (the best network,
-    with its fit in ``info["fit"]``, and the ``FitResult``); writes ``network.npz``,
+    with its fit in ``info["fit"]``, and the ``FitResult``); ``sigma``: CMA-ES's first
+    step in units of each parameter's scale (smaller for a second stage from a fitted
+    network); writes ``network.npz``,
     ``history.jsonl`` and ``best.json`` to ``out`` when given."""
     import tempfile
 
@@ -968,7 +971,7 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
         path = Path(tmp) / "start.npz"
         start.save(path)
         res = cma_fit(evaluate_walk, space, seed=seed, generations=generations,
-                      sigma=NETWORK_ES_SIGMA, workers=workers, out=out, progress=progress,
+                      sigma=sigma, workers=workers, out=out, progress=progress,
                       initializer=init_walk_eval,
                       initargs=("network", NETWORK_ES_WALK_S, GH2010_SPEED_M_PER_S,
                                 {"network": str(path)}, (), False, 0.0, False, 0.0, False,
@@ -989,13 +992,15 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
         opts.append("--interneuron-biases")
     if generations != NETWORK_ES_GENERATIONS:
         opts.append(f"--generations {generations}")
+    if sigma != NETWORK_ES_SIGMA:
+        opts.append(f"--sigma {sigma:g}")
     command = " ".join(["stumble reflex fit --controller network --walk-es",
                         str(start_from.get("network")), *opts, f"--seed {seed} --out DIR"])
     info = dict(net.info)
     info["fit"] = {"method": "CMA-ES (cmaes package) on fit_walk.network_space",
                    "seed": seed, "generations": generations,
                    "population": len(res.history) and res.evaluations // len(res.history),
-                   "evaluations": res.evaluations, "sigma0": NETWORK_ES_SIGMA,
+                   "evaluations": res.evaluations, "sigma0": sigma,
                    "from": start_from, "parameters": list(space.names),
                    "theta": [float(x) for x in res.best_theta],
                    "walk_s": NETWORK_ES_WALK_S, "start_speed_m_per_s": GH2010_SPEED_M_PER_S,
