@@ -804,8 +804,12 @@ def test_the_networks_walking_es_from_the_command_line(tmp_path, capsys):
     for argv, words in ((["--walk-es", "placement", "--trips"], "--trips is not for --walk-es"),
                         (["--walk-es", "no-such.npz"], "no-such.npz"),
                         (["--controller", "gh2010", "--walk-es", "placement"],
-                         "--walk-es, --interneuron-biases and --sigma are for --controller network"),
-                        (["--interneuron-biases"], "--interneuron-biases and --sigma are for --walk-es")):
+                         "--walk-es, --interneuron-biases and --sigma are for --controller "
+                         "network"),
+                        (["--interneuron-biases"],
+                         "--interneuron-biases and --sigma are for --walk-es"),
+                        (["--walk-es", "placement", "--sigma", "0"],
+                         "--sigma must be a number in (0, 5], got 0.0")):
         assert main(["reflex", "fit", *argv, "--out", str(tmp_path / "x")]) == 2
         err = capsys.readouterr().err
         assert words in err and err.count("\n") == 1, err

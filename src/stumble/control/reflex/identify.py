@@ -67,13 +67,14 @@ SHIPPED_CLOSED_LOOP = "network_closed_loop.npz"
 # seed's network in closed loop"); it walks closer to the recording than
 # ``closed-loop`` and recovers fewer trips, so it is not the default
 SHIPPED_PLACEMENT = "network_placement.npz"
-# ``placement`` refined by CMA-ES on the documented subset of its weights
+# ``placement`` refined by two CMA-ES stages on the documented subset of its weights
 # (``fit_walk.network_space``, 44 parameters) at the 2 ms step, with the knee term and
 # other starts: `stumble reflex fit --controller network --walk-es placement --knee-weight
-# 5 --track-weight 2 --starts 1,1.4 --timestep 0.002 --seed 0` (11 min, 2 workers; re-run:
-# the same network bit for bit). It walks closest to the recording and takes the human
-# strategy in every window trip, but recovers none of the 45 (README), so it is not the
-# default (since 2026-12-04, later that day)
+# 5 --track-weight 2 --starts 1,1.4 --timestep 0.002 --seed 1 --out es1/`, then `--walk-es
+# es1/network.npz --knee-weight 5 --track-weight 3 --starts 1,1.4 --timestep 0.002 --sigma
+# 0.1 --seed 0` (17 and 10 min, 1 and 2 workers). It walks closest to the recording (the
+# knee within 10 deg) and takes the human strategy in every window trip, but recovers
+# none of the 45 (README), so it is not the default (since 2026-12-04, later that day)
 SHIPPED_PLACEMENT_ES = "network_placement_es.npz"
 NETWORK_NAMES = {"open-loop": SHIPPED, "closed-loop": SHIPPED_CLOSED_LOOP,
                  "placement": SHIPPED_PLACEMENT, "placement-es": SHIPPED_PLACEMENT_ES}
