@@ -260,8 +260,9 @@ def _parser() -> argparse.ArgumentParser:
                       "network in closed loop by CMA-ES on a documented subset of its "
                       "weights (motor-neuron gains and biases, contact afferents, trunk "
                       "balance; fit_walk.network_space) on the walking objective, with "
-                      "--knee-weight, --track-weight, --starts, --timestep, --generations "
-                      "(default 150) and --interneuron-biases (ours)")
+                      "--knee-weight, --track-weight, --starts, --timestep (default 0.002, "
+                      "the network's step), --generations (default 150), --sigma and "
+                      "--interneuron-biases (ours)")
     f.add_argument("--interneuron-biases", action="store_true",
                    help="network, --walk-es: the interneurons' biases join the subset")
     f.add_argument("--sigma", type=float, default=None, metavar="S",

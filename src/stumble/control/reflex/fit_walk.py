@@ -952,7 +952,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    sigma: float = NETWORK_ES_SIGMA):
     """CMA-ES on ``network_space(start, interneuron_biases)``: each candidate walks
     ``NETWORK_ES_WALK_S`` from the 1.2 m/s recording (and 10 s from each of ``starts``) at
-    ``timestep_s`` (default ``FIT_TIMESTEP_S``), costed by ``walk_cost`` with
+    ``timestep_s`` (default the step the network runs at, ``trip.DEFAULT_TIMESTEP_S``:
+    2 ms; DAgger keeps ``FIT_TIMESTEP_S``), costed by ``walk_cost`` with
     ``knee_weight`` and ``track_weight``. ``start_from``: what was named (``{"network":
     name or path, "sha256": ...}``), recorded with the result. Returns (the best network,
     with its fit in ``info["fit"]``, and the ``FitResult``); ``sigma``: CMA-ES's first
@@ -965,8 +966,10 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
         raise ValueError(f"knee_weight must be a finite number >= 0, got {knee_weight}")
     if not (math.isfinite(track_weight) and track_weight >= 0):
         raise ValueError(f"track_weight must be a finite number >= 0, got {track_weight}")
+    from stumble.trip import DEFAULT_TIMESTEP_S
+
     space = network_space(start, interneuron_biases=interneuron_biases)
-    step = timestep_s or FIT_TIMESTEP_S
+    step = timestep_s or DEFAULT_TIMESTEP_S["reflex"]
     with tempfile.TemporaryDirectory() as tmp:  # the workers load the start from a file
         path = Path(tmp) / "start.npz"
         start.save(path)
@@ -986,8 +989,7 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
         opts.append(f"--track-weight {track_weight:g}")
     if starts:
         opts.append("--starts " + ",".join(f"{v:g}" for v in starts))
-    if timestep_s is not None:
-        opts.append(f"--timestep {timestep_s:g}")
+    opts.append(f"--timestep {step:g}")  # always: the default step may change
     if interneuron_biases:
         opts.append("--interneuron-biases")
     if generations != NETWORK_ES_GENERATIONS:
