@@ -121,7 +121,8 @@ def cases(work: Path) -> list[tuple[str, str, list[str], bool]]:
         "rate_hz 0": lambda p: npz(p, rate_hz=np.array(0.0)),
         "rate_hz NaN": lambda p: npz(p, rate_hz=np.array(np.nan)),
         "rate_hz -1000": lambda p: npz(p, rate_hz=np.array(-1000.0)),
-        "rate_hz 3000 (1 ms step does not divide it)": lambda p: npz(p, rate_hz=np.array(3000.0)),
+        "rate_hz 1200 (the 2 ms step neither divides its tick nor is whole ticks)": lambda p: npz(
+            p, rate_hz=np.array(1200.0)),
         "afferent speed 0": lambda p: npz(p, afferent_m_per_s=np.array(0.0)),
         "efferent speed inf": lambda p: npz(p, efferent_m_per_s=np.array(np.inf)),
         "hidden 0": lambda p: npz(p, hidden=np.array(0)),
