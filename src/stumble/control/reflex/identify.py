@@ -72,7 +72,8 @@ SHIPPED_PLACEMENT = "network_placement.npz"
 # other starts: `stumble reflex fit --controller network --walk-es placement --knee-weight
 # 5 --track-weight 2 --starts 1,1.4 --timestep 0.002 --seed 1 --out es1/`, then `--walk-es
 # es1/network.npz --knee-weight 5 --track-weight 3 --starts 1,1.4 --timestep 0.002 --sigma
-# 0.1 --seed 0` (17 and 10 min, 1 and 2 workers). It walks closest to the recording (the
+# 0.1 --seed 0` (17 and 10 min, 1 and 2 workers; re-run: the same weights bit for bit).
+# It walks closest to the recording (the
 # knee within 10 deg) and takes the human strategy in every window trip, but recovers
 # none of the 45 (README), so it is not the default (since 2026-12-04, later that day)
 SHIPPED_PLACEMENT_ES = "network_placement_es.npz"
