@@ -54,8 +54,10 @@ def replay_cpu_s(result, rec=None) -> float:
     return time.process_time() - t0
 
 
-def measure(label: str, make, repeats: int) -> None:
-    """Best-of-N CPU time of a run and of its bare replay."""
+def measure(label: str, make, repeats: int, whole: bool = False) -> None:
+    """Best-of-N CPU time of a run and of its bare replay; ``whole``: an own-gait trip
+    (``simulate_trip``: the walk to the trip and the trip, set-up included) against the
+    bare replay of both runs."""
     pipeline.run = _logged
     best_run = best_raw = float("inf")
     result = None
@@ -63,41 +65,20 @@ def measure(label: str, make, repeats: int) -> None:
         t0 = time.process_time()
         result = make()
         best_run = min(best_run, time.process_time() - t0)
-        best_raw = min(best_raw, replay_cpu_s(result))
+        best_raw = min(best_raw, replay_cpu_s(result) + (
+            replay_cpu_s(result, result.walk_recording) if whole else 0.0))
     pipeline.run = sim_run
-    rec = result.recording
-    sim_s = float(rec.time_s[-1])
-    loop = result.recording.wall_time_s  # for reference (wall, the last run)
+    runs = [result.recording, *([result.walk_recording] if whole else [])]
+    sim_s = sum(float(r.time_s[-1]) for r in runs)
+    steps = sum(r.steps for r in runs)
     dt_ms = 1e3 * result.body.model.opt.timestep
-    print(f"{label:40s} {rec.steps:6d} steps of {dt_ms:g} ms {sim_s:5.2f} s simulated | run "
-          f"{1e6 * best_run / rec.steps:6.1f} us/step, bare replay "
-          f"{1e6 * best_raw / rec.steps:6.1f} us/step, ratio {best_run / best_raw:4.2f} | "
-          f"{sim_s / best_run:5.1f}x real time, the bare replay {sim_s / best_raw:5.1f}x "
-          f"(loop wall {loop:.2f} s)")
-
-
-def measure_own(label: str, make, repeats: int) -> None:
-    """Best-of-N CPU time of a whole own-gait trip (``simulate_trip``: the walk to the trip
-    and the trip, set-up included) against the bare replay of both runs."""
-    pipeline.run = _logged
-    best_run = best_raw = float("inf")
-    result = None
-    for _ in range(repeats):
-        t0 = time.process_time()
-        result = make()
-        best_run = min(best_run, time.process_time() - t0)
-        best_raw = min(best_raw, replay_cpu_s(result, result.walk_recording)
-                       + replay_cpu_s(result))
-    pipeline.run = sim_run
-    rec, walk = result.recording, result.walk_recording
-    sim_s = float(rec.time_s[-1]) + float(walk.time_s[-1])
-    steps = rec.steps + walk.steps
-    dt_ms = 1e3 * result.body.model.opt.timestep
+    last = (("recovered" if result.summary["recovered"] else "not recovered") if whole
+            else f"loop wall {result.recording.wall_time_s:.2f} s")  # (wall, the last run)
     print(f"{label:40s} {steps:6d} steps of {dt_ms:g} ms {sim_s:5.2f} s simulated | run "
           f"{1e6 * best_run / steps:6.1f} us/step, bare replay "
           f"{1e6 * best_raw / steps:6.1f} us/step, ratio {best_run / best_raw:4.2f} | "
           f"{sim_s / best_run:5.1f}x real time, the bare replay {sim_s / best_raw:5.1f}x "
-          f"({'recovered' if result.summary['recovered'] else 'not recovered'})")
+          f"({last})")
 
 
 def main() -> None:
@@ -141,8 +122,8 @@ def main() -> None:
                               ("own-gait trip (gh2010 knee-2ms)",
                                own.with_(controller="gh2010"), {"gh2010": fast})):
         pipeline.simulate_trip(sc_own, **kw)
-        measure_own(label, lambda s=sc_own, k=kw: pipeline.simulate_trip(s, **k),
-                    args.repeats)
+        measure(label, lambda s=sc_own, k=kw: pipeline.simulate_trip(s, **k), args.repeats,
+                whole=True)
     # the walks: GH2010 from the recording's speed; the network closed-loop, from the
     # 1.2 m/s walk it walks from (the open-loop network falls within a second), at its
     # default step (2 ms) and at 1 ms, the step before 2026-12-04

@@ -813,3 +813,23 @@ def test_the_networks_walking_es_from_the_command_line(tmp_path, capsys):
         assert main(["reflex", "fit", *argv, "--out", str(tmp_path / "x")]) == 2
         err = capsys.readouterr().err
         assert words in err and err.count("\n") == 1, err
+
+
+def test_shipped_fit_records_name_no_machine_paths():
+    """The commands and starts recorded in the shipped sets and networks are what a user
+    types (shipped names, or a chain's own run directories), never this machine's paths."""
+    import json
+    import re
+    from importlib import resources
+
+    from stumble.control.reflex.network import Network
+
+    data = resources.files("stumble.control.reflex") / "data"
+    texts = {p.name: p.read_text() for p in data.iterdir() if p.name.endswith(".json")}
+    for p in data.iterdir():
+        if p.name.endswith(".npz"):
+            with resources.as_file(p) as f:
+                texts[p.name] = json.dumps(Network.load(f).info)
+    assert len(texts) >= 14
+    for name, text in texts.items():
+        assert not re.search(r"(^|[\s\"'])/(work|tmp|root|home)/", text), name

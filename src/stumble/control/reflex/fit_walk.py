@@ -812,18 +812,14 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
         opts.append("--stride-time")
     if stance_weight != W_STANCE:
         opts.append(f"--stance-weight {stance_weight:g}")
-    if track_weight != W_TRACK:
-        opts.append(f"--track-weight {track_weight:g}")
-    if knee_weight != W_KNEE:
-        opts.append(f"--knee-weight {knee_weight:g}")
+    opts += _weight_opts(track_weight, knee_weight)
     if foot_angle:
         opts.append("--foot-angle" if foot_angle == W_FOOT else f"--foot-angle {foot_angle:g}")
     if placement:
         opts.append("--placement")
     if pushes:
         opts.append("--pushes")
-    if starts:
-        opts.append("--starts " + ",".join(f"{v:g}" for v in starts))
+    opts += _starts_opts(starts)
     if timestep_s is not None:
         opts.append(f"--timestep {timestep_s:g}")
     if trips:
@@ -849,6 +845,20 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
         opts.append(f"--generations {total}")
     return " ".join(["stumble reflex fit --controller gh2010 --wiring", wiring, *opts,
                      f"--seed {seed} --out DIR"])
+
+
+def _weight_opts(track_weight: float, knee_weight: float,
+                 knee_first: bool = False) -> list[str]:
+    """The command-line options of the objective's tracking and knee weights that differ
+    from their defaults (in the order each command has always written them)."""
+    opts = [*([f"--track-weight {track_weight:g}"] if track_weight != W_TRACK else []),
+            *([f"--knee-weight {knee_weight:g}"] if knee_weight != W_KNEE else [])]
+    return opts[::-1] if knee_first else opts
+
+
+def _starts_opts(starts: tuple) -> list[str]:
+    """``--starts V,...`` when other starts are given."""
+    return ["--starts " + ",".join(f"{v:g}" for v in starts)] if starts else []
 
 
 # ---- the seed's network: a documented subset of its weights ---------------------------
@@ -982,14 +992,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                                 knee_weight, tuple(starts), step),
                       stage="walk")
     net = network_with(start, res.best_theta)
-    opts = []
-    if knee_weight != W_KNEE:
-        opts.append(f"--knee-weight {knee_weight:g}")
-    if track_weight != W_TRACK:
-        opts.append(f"--track-weight {track_weight:g}")
-    if starts:
-        opts.append("--starts " + ",".join(f"{v:g}" for v in starts))
-    opts.append(f"--timestep {step:g}")  # always: the default step may change
+    opts = [*_weight_opts(track_weight, knee_weight, knee_first=True), *_starts_opts(starts),
+            f"--timestep {step:g}"]  # the step always: the default step may change
     if interneuron_biases:
         opts.append("--interneuron-biases")
     if generations != NETWORK_ES_GENERATIONS:
