@@ -804,12 +804,49 @@ def test_the_networks_walking_es_from_the_command_line(tmp_path, capsys):
     for argv, words in ((["--walk-es", "placement", "--trips"], "--trips is not for --walk-es"),
                         (["--walk-es", "no-such.npz"], "no-such.npz"),
                         (["--controller", "gh2010", "--walk-es", "placement"],
-                         "--walk-es, --interneuron-biases and --sigma are for --controller "
-                         "network"),
+                         "--walk-es, --interneuron-biases, --sigma and --touch-afferent are "
+                         "for --controller network"),
                         (["--interneuron-biases"],
-                         "--interneuron-biases and --sigma are for --walk-es"),
+                         "--interneuron-biases, --sigma and --touch-afferent are for "
+                         "--walk-es"),
                         (["--walk-es", "placement", "--sigma", "0"],
                          "--sigma must be a number in (0, 5], got 0.0")):
+        assert main(["reflex", "fit", *argv, "--out", str(tmp_path / "x")]) == 2
+        err = capsys.readouterr().err
+        assert words in err and err.count("\n") == 1, err
+
+
+def test_the_networks_es_with_trips_costs_each_trip_and_records_them(tmp_path, capsys):
+    """``--walk-es ... --trip-set four --trip-start own``: every candidate that walks is
+    tripped four times in its own gait, each trip a ``trip_terms`` term; the record
+    names the trips and the command carries the trip options; trip options without a
+    trip set are refused in one line."""
+    from stumble.cli import main
+    from stumble.control.reflex.fit_walk import TRIP_SETS, W_TRIP
+    from stumble.control.reflex.network import Network
+
+    out = tmp_path / "es"
+    assert main(["reflex", "fit", "--walk-es", "placement-es", "--generations", "1",
+                 "--timestep", "0.002", "--trip-set", "four", "--trip-start", "own",
+                 "--recovery-cost", "10", "--workers", "2", "--seed", "3",
+                 "--out", str(out)]) == 0
+    fit = Network.load(out / "network.npz").info["fit"]
+    assert fit["trips"] == [list(t) for t in TRIP_SETS["four"]]
+    assert fit["trip_start"] == "own" and fit["recovery_cost"] == 10.0
+    assert "--trip-set four --recovery-cost 10 --trip-start own" in fit["command"]
+    terms = fit["terms"]
+    for swing, speed in TRIP_SETS["four"]:
+        t = terms[f"trip_{swing}_{speed}"]
+        assert 0.0 <= t <= W_TRIP  # the part of the 3 s not walked on
+        assert terms[f"unrecovered_{swing}_{speed}"] == (10.0 if t > 0 else 0.0)
+    assert 0 <= terms["trips_recovered"] <= 4
+    capsys.readouterr()
+    for argv, words in ((["--walk-es", "placement", "--recovery-cost", "5"],
+                         "--recovery-cost needs --trip-set"),
+                        (["--walk-es", "placement", "--trip-start", "own"],
+                         "--trip-start needs --trip-set"),
+                        (["--trip-start", "own"],
+                         "--trip-start is for --walk-es (with --trip-set)")):
         assert main(["reflex", "fit", *argv, "--out", str(tmp_path / "x")]) == 2
         err = capsys.readouterr().err
         assert words in err and err.count("\n") == 1, err

@@ -100,6 +100,32 @@ def test_network_walk_and_trips_compiled_equal_numpy():
     _same_runs(lambda: simulate_walk("network", 1.0, network=placing).recording)
 
 
+def test_the_touch_afferent_compiled_equals_numpy_and_is_silent_at_zero():
+    """A network with the touch afferent: with its weights 0 the trip is the network's
+    own, bit for bit; with weights, the same recordings with and without the kernels,
+    and a different trip from the moment the touch arrives."""
+    from stumble.control.reflex.fit_walk import network_space, network_with
+    from stumble.control.reflex.identify import default_network
+    from stumble.pipeline import simulate_trip
+    from stumble.trip import Scenario
+
+    net = default_network("placement-es")
+    sc = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.13,
+                  speed_m_per_s=1.2, duration_after_trip_s=0.6)
+    plain = simulate_trip(sc, network=net).recording
+    silent = simulate_trip(sc, network=net.with_touch()).recording
+    assert np.array_equal(plain.qpos, silent.qpos)
+    space = network_space(net.with_touch(), False)
+    theta = space.start.copy()
+    theta[[n.startswith("touch_") for n in space.names]] = 3.0
+    touched = network_with(net.with_touch(), theta)
+    _same_runs(lambda: simulate_trip(sc, network=touched).recording)
+    rec = simulate_trip(sc, network=touched).recording
+    n = min(len(rec.qpos), len(plain.qpos))
+    differs = np.flatnonzero(np.abs(rec.qpos[:n] - plain.qpos[:n]).max(axis=1) > 0)
+    assert len(differs) and rec.time_s[differs[0]] > 0.02  # after the touch's path
+
+
 @pytest.mark.parametrize("variant", [
     {},  # the `pushed` set: placement, touch reflexes, crossing step
     {"wiring": "seed003"},  # the network's expert wiring (double support via the lean)

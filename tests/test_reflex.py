@@ -109,6 +109,38 @@ def test_contact_afferent_nerves_follow_the_plantar_nerves_roots():
     assert lags == {"L4": 25, "L5": 24, "S1": 23, "S2": 23}
 
 
+def test_touch_afferent_enters_l4_to_s1_after_the_contact_signal(tmp_path):
+    """The touch afferent (``Topology.touch``): one more signal per leg after the foot
+    contact, into L4, L5 and S1 (the superficial peroneal nerve's roots) 25, 24 and 24
+    ticks late at 1 kHz; ``with_touch`` keeps every other weight where it was, its own at
+    0, and a file keeps it (a file without it loads without it)."""
+    from stumble.control.reflex.identify import default_network
+    from stumble.control.reflex.network import TOUCH_NERVE_M
+
+    t = Topology(contact=True, touch=True)
+    assert t.n_signals == 23 and t.touch_signal == 22
+    lags = {t.segments[s]: lag for s, sig, lag in t.inputs() if sig == 22}
+    assert lags == {"L4": 25, "L5": 24, "S1": 24}
+    for seg in TOUCH_NERVE_M:
+        assert TOUCH_NERVE_M[seg] == pytest.approx(NERVE_LENGTH_M["TA"][seg] + 0.35)
+    net = default_network("placement-es")
+    touch = net.with_touch()
+    assert touch.topology.touch and not net.topology.touch
+    old = {(s, sig): row for (s, sig, _l), row in zip(net.topology.inputs(), net.w,
+                                                        strict=True)}
+    for (s, sig, _l), row in zip(touch.topology.inputs(), touch.w, strict=True):
+        want = np.zeros_like(row) if sig == touch.topology.touch_signal else old[(s, sig)]
+        assert np.array_equal(row, want)
+    assert touch.mean[-1] == 0.0 and touch.std[-1] == 1.0
+    assert touch.walk_rates.shape[2] == net.walk_rates.shape[2] + 1
+    assert not touch.walk_rates[:, :, -1].any()
+    touch.save(tmp_path / "t.npz")
+    back = Network.load(tmp_path / "t.npz")
+    assert back.topology == touch.topology and np.array_equal(back.w, touch.w)
+    net.save(tmp_path / "n.npz")
+    assert not Network.load(tmp_path / "n.npz").topology.touch
+
+
 def test_a_signal_reaches_a_muscle_exactly_after_its_path_delay():
     """A spike in SOL's tendon organ reaches SOL through S2 after 22 + 24 ms, TA through
     S1 after 22 + 20 ms, GLU through S2 after 22 + 9 ms, never earlier; RF and VAS

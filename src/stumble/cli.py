@@ -265,6 +265,10 @@ def _parser() -> argparse.ArgumentParser:
                       "--interneuron-biases (ours)")
     f.add_argument("--interneuron-biases", action="store_true",
                    help="network, --walk-es: the interneurons' biases join the subset")
+    f.add_argument("--touch-afferent", action="store_true",
+                   help="network, --walk-es: give the network a touch afferent first (the "
+                   "foot touched by anything but the floor, into segments L4-S1; ours), "
+                   "whose weights join the subset from 0")
     f.add_argument("--sigma", type=float, default=None, metavar="S",
                    help="network, --walk-es: CMA-ES's first step in units of each "
                    "parameter's scale (default 0.3; smaller for a second stage)")
@@ -321,6 +325,10 @@ def _parser() -> argparse.ArgumentParser:
                    help="gh2010: the physics step (s) of every walk and trip of the fit, "
                    "recorded with the result, whose runs then take it (default: the "
                    "--params set's, 0.001 for the paper's)")
+    f.add_argument("--trip-start", choices=("own", "playback"), default=None,
+                   help="network, --walk-es with --trip-set: the trips start in the "
+                   "network's own gait (own) or from the recording at the trip "
+                   "(playback, the network's default)")
     f.add_argument("--recovery-cost", type=float, default=None, metavar="W",
                    help="gh2010 --trips: each of the stage's trips not recovered costs W "
                    "more, on top of its time term (default 0: the time walked on alone, "
@@ -855,9 +863,7 @@ def cmd_reflex_fit_network_es(args) -> int:
     from stumble.viz.reflex_plots import plot_objective
 
     for flag, given in (("--trips", args.trips or None), ("--params", args.params),
-                        ("--trip-set", args.trip_set), ("--scr-phase", args.scr_phase),
-                        ("--strategy-cost", args.strategy_cost),
-                        ("--recovery-cost", args.recovery_cost),
+                        ("--scr-phase", args.scr_phase),
                         ("--crossing", args.crossing or None),
                         ("--touch-only", args.touch_only or None),
                         ("--load-from", args.load_from), ("--placement", args.placement or None),
@@ -903,7 +909,21 @@ def cmd_reflex_fit_network_es(args) -> int:
     workers = args.workers or os.cpu_count() or 1
     if workers < 1:
         raise InputError(f"--workers must be at least 1, got {workers}")
-    from stumble.control.reflex.fit_walk import NETWORK_ES_SIGMA
+    from stumble.control.reflex.fit_walk import NETWORK_ES_SIGMA, TRIP_SETS
+
+    trips = TRIP_SETS[args.trip_set] if args.trip_set else ()
+    costs = {}
+    for flag, v in (("--strategy-cost", args.strategy_cost),
+                    ("--recovery-cost", args.recovery_cost),
+                    ("--trip-start", args.trip_start)):
+        if v is not None and not trips:
+            raise InputError(f"{flag} needs --trip-set")
+    for flag, key, v in (("--strategy-cost", "strategy_cost", args.strategy_cost),
+                         ("--recovery-cost", "recovery_cost", args.recovery_cost)):
+        v = 0.0 if v is None else v
+        if not (math.isfinite(v) and v >= 0):
+            raise InputError(f"{flag} must be a number >= 0, got {v}")
+        costs[key] = v
 
     sigma = NETWORK_ES_SIGMA if args.sigma is None else args.sigma
     if not (math.isfinite(sigma) and 0.0 < sigma <= 5.0):
@@ -915,7 +935,9 @@ def cmd_reflex_fit_network_es(args) -> int:
                               progress=lambda row: bar(row["generation"] + 1, gens),
                               knee_weight=knee, track_weight=track, starts=starts,
                               timestep_s=args.timestep,
-                              interneuron_biases=args.interneuron_biases, sigma=sigma)
+                              interneuron_biases=args.interneuron_biases, sigma=sigma,
+                              trips=trips, trip_start=args.trip_start,
+                              touch=args.touch_afferent, **costs)
     bar.done()
     walk = simulate_walk("network", 20.0, network=net)
     report = dict(net.info["fit"])
@@ -939,15 +961,19 @@ def cmd_reflex(args) -> int:
     """``stumble reflex fit``: identify the network and write its files."""
     if args.reflex_command == "walk":
         return cmd_reflex_walk(args)
+    if args.trip_start is not None and args.walk_es is None:
+        raise InputError("--trip-start is for --walk-es (with --trip-set)")
     if args.controller == "gh2010":
-        if args.walk_es is not None or args.interneuron_biases or args.sigma is not None:
-            raise InputError("--walk-es, --interneuron-biases and --sigma are for "
-                             "--controller network")
+        if (args.walk_es is not None or args.interneuron_biases or args.sigma is not None
+                or args.touch_afferent):
+            raise InputError("--walk-es, --interneuron-biases, --sigma and --touch-afferent "
+                             "are for --controller network")
         return cmd_reflex_fit_gh2010(args)
     if args.walk_es is not None:
         return cmd_reflex_fit_network_es(args)
-    if args.interneuron_biases or args.sigma is not None:
-        raise InputError("--interneuron-biases and --sigma are for --walk-es")
+    if args.interneuron_biases or args.sigma is not None or args.touch_afferent:
+        raise InputError("--interneuron-biases, --sigma and --touch-afferent are for "
+                         "--walk-es")
     if (args.trips or args.params is not None or args.trip_set or args.scr_phase
             or args.ta_bound != "wide" or args.strategy_cost is not None or args.crossing
             or args.recovery_cost is not None or args.placement or args.pushes

@@ -313,9 +313,11 @@ class ReflexController:
         self.gto = GTOFilter(1.0 / t.rate_hz, 2 * nm)
         self.ib_cols = slice(2, 3 * nm, 3)
         self.contact = t.contact
+        self.touch_sig = t.touch_signal  # the touch afferent's signal, or None
         # per-tick sensed state of the current block, and the block's excitations
         self.sensed = np.zeros((self.block, 3, 2 * nm))  # length, velocity, force
         self.loads = np.zeros((self.block, 2))
+        self.touches = np.zeros((self.block, 2))  # each foot touched (1) or not (0)
         self.exc_block = np.zeros((self.block, 2, nm))
         self._nb_ticks = np.arange(self.block)
         self.block_start = 0
@@ -411,6 +413,8 @@ class ReflexController:
         out[:, :, 2:nm3:3] = ib.reshape(n, 2, -1)
         if self.contact:
             out[:, :, nm3] = loads / self.body_weight_n
+        if self.touch_sig is not None:
+            out[:, :, self.touch_sig] = self.touches[:n]
         return out
 
     def _rates_push_compiled(self, kern: dict, first: int, n: int) -> None:
@@ -424,6 +428,13 @@ class ReflexController:
         kern["net_push"](d, v, p, ib, self.loads[:n], self.body_weight_n, self.contact,
                          self.net.mean, self.inv_std, self.sig_buf.reshape(self.n_buf, -1),
                          first, _RATE_GAINS)
+        if self.touch_sig is not None:  # (the numbers of ``_push_signals``)
+            q, n_sig = self.touch_sig, self.net.topology.n_signals
+            z = (self.touches[:n] - self.net.mean[q]) * self.inv_std[q]
+            buf = self.sig_buf.reshape(self.n_buf, -1)
+            slots = self._slots(first, n)
+            buf[slots, q] = z[:, 0]
+            buf[slots, n_sig + q] = z[:, 1]
 
     def _next_block_compiled(self, kern: dict) -> None:
         """``_next_block`` with its elementwise steps compiled (``kernels``)."""
@@ -504,6 +515,9 @@ class ReflexController:
         self._obs_cols = np.concatenate([lay.muscle_length, lay.muscle_velocity,
                                          lay.muscle_force, lay.foot_force[:, 2]])
         self._n_mus3 = 3 * len(lay.muscle_length)
+        # the feet's obstacle contacts (a model without an obstacle: never touched)
+        self._touch_cols = (lay.obstacle_found if self.touch_sig is not None
+                            and lay.obstacle_found is not None else None)
         self._bal_sense_cols = (self.balance.sense_cols(lay) if self.balance is not None
                                 else None)
         self._bal_g = np.empty((self.block * self.every, 7))
@@ -568,6 +582,8 @@ class ReflexController:
             ticks = rows[::self.every] if self.every > 1 else rows
         n = len(ticks)
         k0 = self.k
+        if self._touch_cols is not None:
+            np.minimum(ticks[:, self._touch_cols], 1.0, out=self.touches[:n])
         kern = kernels()
         if kern is not None:  # the same numbers, compiled where elementwise (``kernels``)
             bal = self.balance is not None

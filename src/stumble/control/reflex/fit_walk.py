@@ -365,7 +365,7 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                    recovery_cost: float = 0.0, placement: bool = False,
                    pushes: bool = False, track_weight: float = W_TRACK,
                    knee_weight: float = W_KNEE, starts: tuple = (),
-                   timestep_s: float | None = None) -> None:
+                   timestep_s: float | None = None, trip_start: str | None = None) -> None:
     """Worker set-up: what ``evaluate_walk`` simulates: a walk, and the obstacle trips
     ``trips`` ((swing fraction, speed) pairs) the walker must walk on from; GH2010
     candidates in ``gh2010_space(stumble_reflex=...)``; ``strategy_cost``: what a trip in
@@ -380,7 +380,8 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
     ``track_weight``, ``knee_weight``: the tracking and knee terms' weights
     (``walk_cost``); ``starts``: each candidate also walks ``PUSH_WALK_S`` from the walk
     played back at each of these speeds (m/s; ``push_term``); ``timestep_s``: the network's
-    physics step (default ``FIT_TIMESTEP_S``; a GH2010 candidate runs at its set's)."""
+    physics step (default ``FIT_TIMESTEP_S``; a GH2010 candidate runs at its set's);
+    ``trip_start``: where the trips start (``Scenario.start``; default the controller's)."""
     from stumble.pipeline import WalkInCache
 
     _EVAL.pop("walk", None)
@@ -393,7 +394,7 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                  stance_weight=float(stance_weight), recovery_cost=float(recovery_cost),
                  placement=placement, pushes=pushes, track_weight=float(track_weight),
                  knee_weight=float(knee_weight), starts=tuple(map(float, starts)),
-                 timestep_s=timestep_s)
+                 timestep_s=timestep_s, trip_start=trip_start)
 
 
 def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
@@ -457,7 +458,9 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
             t_walked, strategy = trip_outcome(kind, swing, speed,
                                               params if kind == "gh2010" else None,
                                               net if kind == "network" else None,
-                                              walk_in_cache=_EVAL.get("walk_ins"))
+                                              walk_in_cache=_EVAL.get("walk_ins"),
+                                              start=_EVAL.get("trip_start"),
+                                              timestep_s=_EVAL.get("timestep_s"))
             terms.update(trip_terms(swing, speed, t_walked, strategy, w_strategy,
                                     _EVAL.get("recovery_cost", 0.0)))
             ok += t_walked >= WALK_ON_TRIP_S
@@ -530,12 +533,13 @@ def trip_walked_s(kind: str, swing: float, speed: float, params=None, network=No
 
 
 def trip_outcome(kind: str, swing: float, speed: float, params=None, network=None,
-                 start: str | None = None,
-                 walk_in_cache=None) -> tuple[float, str | None]:
+                 start: str | None = None, walk_in_cache=None,
+                 timestep_s: float | None = None) -> tuple[float, str | None]:
     """``trip_walked_s`` and the strategy read from the motion (the trip summary's
     ``strategy``: elevating, lowering, or None when the tripped foot never came down, the
     trip could not be set or the walker fell before it). ``walk_in_cache``: a
-    ``pipeline.WalkInCache`` (fits of the touch's reflexes alone)."""
+    ``pipeline.WalkInCache`` (fits of the touch's reflexes alone); ``timestep_s``: the
+    network's step (default ``FIT_TIMESTEP_S``; a GH2010 set runs at its own)."""
     from stumble.errors import TripNotSet
     from stumble.pipeline import simulate_trip
     from stumble.trip import Scenario
@@ -543,7 +547,7 @@ def trip_outcome(kind: str, swing: float, speed: float, params=None, network=Non
     sc = Scenario(controller="reflex" if kind == "network" else kind, mechanism="obstacle",
                   swing_fraction=swing, speed_m_per_s=speed, start=start,
                   duration_after_trip_s=WALK_ON_TRIP_S,
-                  timestep_s=FIT_TIMESTEP_S if kind == "network" else None)
+                  timestep_s=(timestep_s or FIT_TIMESTEP_S) if kind == "network" else None)
     try:
         r = simulate_trip(sc, network=network, gh2010=params, walk_in_cache=walk_in_cache)
     except TripNotSet:  # the toe is over the obstacle at that instant of its own swing
@@ -871,9 +875,10 @@ def network_space(net, interneuron_biases: bool = True) -> Space:
     per muscle a motor-neuron gain (a factor on its summed input, ``gain_<M>``, start 1)
     and bias (``bias_<M>``, an offset on c); per interneuron an offset on its bias
     (``b_<seg>_<k>``; with ``interneuron_biases``): where each works on its tanh; the
-    foot-contact afferents' weights onto the interneurons of S1 and S2
-    (``contact_<seg>_<k>``, offsets); and the trunk-lean addition's gains
-    (``TrunkBalance``: k_p, k_d, θ_ref, k_lean)."""
+    foot-contact afferents' weights onto the interneurons of their segments
+    (``contact_<seg>_<k>``, offsets); the touch afferent's (``touch_<seg>_<k>``, offsets
+    from 0, when the network has it: ``Network.with_touch``); and the trunk-lean
+    addition's gains (``TrunkBalance``: k_p, k_d, θ_ref, k_lean)."""
     from stumble.control.reflex.controller import TrunkBalance
 
     t = net.topology
@@ -899,6 +904,10 @@ def network_space(net, interneuron_biases: bool = True) -> Space:
             seg = t.segments[t.inputs()[i][0]]
             for k in range(t.hidden):
                 add(f"contact_{seg}_{k}", 0.0, 1.0, -10.0, 10.0)
+    for i in _touch_rows(net):
+        seg = t.segments[t.inputs()[i][0]]
+        for k in range(t.hidden):
+            add(f"touch_{seg}_{k}", 0.0, 1.0, -10.0, 10.0)
     bal = TrunkBalance.from_info(net.info)
     for n, x0 in zip(BALANCE_FIT, (bal.kp, bal.kd, bal.ref, bal.k_lean or 0.5), strict=True):
         add(f"balance_{n}", x0, max(0.3 * abs(x0), 0.05), -0.5 if n == "lean_ref_rad" else 0.0,
@@ -910,6 +919,12 @@ def _contact_rows(net) -> list[int]:
     """Indices of the foot-contact inputs among the network's inputs."""
     t = net.topology
     return [i for i, (_s, sig, _lag) in enumerate(t.inputs()) if sig == 3 * t.n_muscles]
+
+
+def _touch_rows(net) -> list[int]:
+    """Indices of the touch inputs among the network's inputs (none without it)."""
+    t = net.topology
+    return [i for i, (_s, sig, _lag) in enumerate(t.inputs()) if sig == t.touch_signal]
 
 
 def network_with(net, theta: np.ndarray):
@@ -934,6 +949,11 @@ def network_with(net, theta: np.ndarray):
         seg = t.segments[s]
         for k in range(H):
             w[i, s * H + k] += p[f"contact_{seg}_{k}"]
+    for i in _touch_rows(net):
+        s = t.inputs()[i][0]
+        seg = t.segments[s]
+        for k in range(H):
+            w[i, s * H + k] += p[f"touch_{seg}_{k}"]
     info = dict(net.info)
     bal = dict(info.get("balance") or {})
     bal.update({n: p[f"balance_{n}"] for n in BALANCE_FIT})
@@ -959,7 +979,9 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    out: Path | None = None, progress=None, knee_weight: float = W_KNEE,
                    track_weight: float = W_TRACK, starts: tuple = (),
                    timestep_s: float | None = None, interneuron_biases: bool = False,
-                   sigma: float = NETWORK_ES_SIGMA):
+                   sigma: float = NETWORK_ES_SIGMA, trips: tuple = (),
+                   strategy_cost: float = 0.0, recovery_cost: float = 0.0,
+                   trip_start: str | None = None, touch: bool = False):
     """CMA-ES on ``network_space(start, interneuron_biases)``: each candidate walks
     ``NETWORK_ES_WALK_S`` from the 1.2 m/s recording (and 10 s from each of ``starts``) at
     ``timestep_s`` (default the step the network runs at, ``trip.DEFAULT_TIMESTEP_S``:
@@ -968,7 +990,12 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
     name or path, "sha256": ...}``), recorded with the result. Returns (the best network,
     with its fit in ``info["fit"]``, and the ``FitResult``); ``sigma``: CMA-ES's first
     step in units of each parameter's scale (smaller for a second stage from a fitted
-    network); writes ``network.npz``,
+    network); ``trips``: obstacle trips ((swing fraction, m/s) pairs, e.g. a
+    ``TRIP_SETS`` entry) each candidate that walks must walk on from, costed by
+    ``trip_terms`` with ``strategy_cost`` and ``recovery_cost``, started at
+    ``trip_start`` (``Scenario.start``: ``own`` or ``playback``; default the network's,
+    ``playback``); ``touch``: give the start the touch afferent first
+    (``Network.with_touch``: its weights join the subset, from 0); writes ``network.npz``,
     ``history.jsonl`` and ``best.json`` to ``out`` when given."""
     import tempfile
 
@@ -978,6 +1005,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
         raise ValueError(f"track_weight must be a finite number >= 0, got {track_weight}")
     from stumble.trip import DEFAULT_TIMESTEP_S
 
+    if touch:
+        start = start.with_touch()
     space = network_space(start, interneuron_biases=interneuron_biases)
     step = timestep_s or DEFAULT_TIMESTEP_S["reflex"]
     with tempfile.TemporaryDirectory() as tmp:  # the workers load the start from a file
@@ -987,19 +1016,31 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                       sigma=sigma, workers=workers, out=out, progress=progress,
                       initializer=init_walk_eval,
                       initargs=("network", NETWORK_ES_WALK_S, GH2010_SPEED_M_PER_S,
-                                {"network": str(path)}, (), False, 0.0, False, 0.0, False,
-                                W_STANCE, False, 0.0, False, False, track_weight,
-                                knee_weight, tuple(starts), step),
-                      stage="walk")
+                                {"network": str(path)}, tuple(trips), False,
+                                float(strategy_cost), False, 0.0, False, W_STANCE, False,
+                                float(recovery_cost), False, False, track_weight,
+                                knee_weight, tuple(starts), step, trip_start),
+                      stage="walk+trips" if trips else "walk")
     net = network_with(start, res.best_theta)
     opts = [*_weight_opts(track_weight, knee_weight, knee_first=True), *_starts_opts(starts),
             f"--timestep {step:g}"]  # the step always: the default step may change
     if interneuron_biases:
         opts.append("--interneuron-biases")
+    if touch:
+        opts.append("--touch-afferent")
     if generations != NETWORK_ES_GENERATIONS:
         opts.append(f"--generations {generations}")
     if sigma != NETWORK_ES_SIGMA:
         opts.append(f"--sigma {sigma:g}")
+    if trips:
+        name = next((k for k, v in TRIP_SETS.items() if tuple(v) == tuple(trips)), None)
+        opts.append(f"--trip-set {name}" if name else f"(trips {list(trips)})")
+        if strategy_cost:
+            opts.append(f"--strategy-cost {strategy_cost:g}")
+        if recovery_cost:
+            opts.append(f"--recovery-cost {recovery_cost:g}")
+        if trip_start:
+            opts.append(f"--trip-start {trip_start}")
     command = " ".join(["stumble reflex fit --controller network --walk-es",
                         str(start_from.get("network")), *opts, f"--seed {seed} --out DIR"])
     info = dict(net.info)
@@ -1014,6 +1055,9 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    "walk_s": NETWORK_ES_WALK_S, "start_speed_m_per_s": GH2010_SPEED_M_PER_S,
                    "knee_weight": knee_weight, "track_weight": track_weight,
                    "starts": [float(v) for v in starts], "timestep_s": step,
+                   "trips": [list(t) for t in trips], "strategy_cost": strategy_cost,
+                   "recovery_cost": recovery_cost, "trip_start": trip_start,
+                   "touch_afferent": bool(start.topology.touch),
                    "cost": res.best_cost, "terms": res.best_terms,
                    "wall_time_s": round(res.wall_time_s, 1), "command": command}
     from dataclasses import replace as _replace

@@ -20,7 +20,13 @@ Neuron model and sizes (our choice; the seed does not give them):
   MuJoCo's activation dynamics (τ = 10 ms) turns into the muscle activity of eq. 1;
 - both legs use the same weights (left and right halves of the cord are mirror images);
 - optional foot-contact afferents (the seed's proposed extension, §VI), off by default:
-  the foot's normal force / body weight enters segments S1 and S2.
+  the foot's normal force / body weight enters segments L4-S2;
+- an optional touch afferent (ours, the same proposal's contact state): a touch of the
+  foot by anything but the floor (1 while touched, else 0) enters segments L4-S1, the
+  roots of the superficial peroneal nerve, whose cutaneous afferents from the foot's
+  dorsum trigger the stumbling corrective reaction (Zehr & Stein 1999, Prog Neurobiol
+  58:185). Walking data never hold a touch, so its weights are fitted in closed loop
+  (``fit_walk.network_space``); a network gains it by ``Network.with_touch``.
 
 Delays are whole samples of the network's rate (1 kHz by default, so within 0.5 ms).
 """
@@ -70,6 +76,10 @@ EFFERENT_M_PER_S = 52.4  # human sciatic nerve, motor fibres (same source)
 # point to the sole's nerve), to L4/L5 TA's + 0.35 m (TA's motor point in the upper shank
 # to the sole).
 CONTACT_NERVE_M = {"L4": 1.43, "L5": 1.41, "S1": 1.35, "S2": 1.32}
+# Touch afferents (ours): the foot dorsum's skin through the superficial peroneal nerve,
+# roots L4-S1. Lengths our estimate, as the sole's: TA's Table I length to each segment
+# + 0.35 m (TA's motor point in the upper shank to the dorsum), a parameter.
+TOUCH_NERVE_M = {"L4": 1.43, "L5": 1.41, "S1": 1.40}
 HIDDEN_PER_SEGMENT = 6
 RATE_HZ = 1000.0
 
@@ -84,6 +94,7 @@ class Topology:
     afferent_m_per_s: float = AFFERENT_M_PER_S
     efferent_m_per_s: float = EFFERENT_M_PER_S
     muscles: tuple[str, ...] = MUSCLE_NAMES  # one leg's muscles, in actuator order
+    touch: bool = False  # the touch afferent (``TOUCH_NERVE_M``)
 
     @property
     def segments(self) -> tuple[str, ...]:
@@ -98,8 +109,14 @@ class Topology:
 
     @property
     def n_signals(self) -> int:
-        """Signals per leg: 3 per muscle, plus the foot contact when enabled."""
-        return 3 * self.n_muscles + (1 if self.contact else 0)
+        """Signals per leg: 3 per muscle, plus the foot contact and the touch when
+        enabled (in that order)."""
+        return 3 * self.n_muscles + int(self.contact) + int(self.touch)
+
+    @property
+    def touch_signal(self) -> int | None:
+        """The touch's signal index, or None without it."""
+        return 3 * self.n_muscles + int(self.contact) if self.touch else None
 
     def inputs(self) -> list[tuple[int, int, int]]:
         """(segment index, signal index, afferent delay in samples) of every input."""
@@ -112,6 +129,9 @@ class Topology:
             if self.contact and seg in CONTACT_NERVE_M:
                 lag = self._samples(CONTACT_NERVE_M[seg] / self.afferent_m_per_s)
                 out.append((s, 3 * self.n_muscles, lag))
+            if self.touch and seg in TOUCH_NERVE_M:
+                lag = self._samples(TOUCH_NERVE_M[seg] / self.afferent_m_per_s)
+                out.append((s, self.touch_signal, lag))
         return out
 
     def connections(self) -> list[tuple[int, int, int]]:
@@ -213,9 +233,31 @@ class Network:
         """A copy whose every nerve delay is ``scale`` times as long (slower nerves)."""
         t = self.topology
         slower = Topology(t.rate_hz, t.hidden, t.contact, t.afferent_m_per_s / scale,
-                          t.efferent_m_per_s / scale, t.muscles)
+                          t.efferent_m_per_s / scale, t.muscles, t.touch)
         return Network(slower, self.w, self.b, self.v, self.c, self.mean, self.std,
                        dict(self.info), self.walk_rates)
+
+    def with_touch(self) -> Network:
+        """A copy with the touch afferent (``Topology.touch``), its weights 0: the same
+        network until they are fitted. The touch is standardised as 0 mean, unit spread
+        (walking holds none), and the walk's rates hold no touch."""
+        from dataclasses import replace as _replace
+
+        t = self.topology
+        if t.touch:
+            return self
+        new = _replace(t, touch=True)
+        old_rows = {(s, sig): i for i, (s, sig, _lag) in enumerate(t.inputs())}
+        w = np.zeros((len(new.inputs()), self.w.shape[1]))
+        for i, (s, sig, _lag) in enumerate(new.inputs()):
+            if (s, sig) in old_rows:
+                w[i] = self.w[old_rows[(s, sig)]]
+        walk = self.walk_rates
+        if walk is not None:
+            walk = np.concatenate([walk, np.zeros((*walk.shape[:2], 1))], axis=2)
+        return Network(new, w, self.b.copy(), self.v.copy(), self.c.copy(),
+                       np.append(self.mean, 0.0), np.append(self.std, 1.0),
+                       dict(self.info), walk)
 
     def units_of(self) -> np.ndarray:
         """(n_connections, H) hidden-unit index read by each motor path."""
@@ -292,6 +334,7 @@ class Network:
         np.savez_compressed(
                  path, w=self.w, b=self.b, v=self.v, c=self.c, mean=self.mean, std=self.std,
                  rate_hz=t.rate_hz, hidden=t.hidden, contact=t.contact,
+                 **({"touch": True} if t.touch else {}),
                  afferent_m_per_s=t.afferent_m_per_s, efferent_m_per_s=t.efferent_m_per_s,
                  muscles=np.array(t.muscles), segments=np.array(t.segments),
                  info=np.array(json.dumps(self.info)),
@@ -315,7 +358,8 @@ class Network:
             raise InputError(f"{path}: a network of the muscles {', '.join(names)}; this "
                              f"model has {', '.join(muscles)}")
         t = Topology(float(z["rate_hz"]), int(z["hidden"]), bool(z["contact"]),
-                     float(z["afferent_m_per_s"]), float(z["efferent_m_per_s"]), names)
+                     float(z["afferent_m_per_s"]), float(z["efferent_m_per_s"]), names,
+                     bool(z.get("touch", False)))
         walk = z.get("walk_rates")
         return cls(t, z["w"], z["b"], z["v"], z["c"], z["mean"], z["std"], z["info"],
                    walk if walk is not None and walk.size else None)
@@ -337,11 +381,12 @@ SCALARS = ("rate_hz", "hidden", "contact", "afferent_m_per_s", "efferent_m_per_s
 NAMES = ("muscles", "segments", "info")
 ARRAYS = ("w", "b", "v", "c", "mean", "std")
 OPTIONAL = ("walk_rates",)
+OPTIONAL_SCALARS = ("touch",)  # absent in files written before it: False
 
 
 def _entries(zf: zipfile.ZipFile, where: str) -> dict[str, zipfile.ZipInfo]:
     """The archive's members by array name, checked against the names and sizes allowed."""
-    known = (*SCALARS, *NAMES, *ARRAYS, *OPTIONAL)
+    known = (*SCALARS, *NAMES, *ARRAYS, *OPTIONAL, *OPTIONAL_SCALARS)
     out: dict[str, zipfile.ZipInfo] = {}
     for info in zf.infolist():
         name = info.filename.removesuffix(".npy")
@@ -470,7 +515,14 @@ def _checked(zf: zipfile.ZipFile, entries: dict, where: str) -> dict:
         info = None
     if not isinstance(info, dict):
         raise InputError(f"{where}: info is not a JSON object")
-    t = Topology(rate, int(hidden), bool(float(z["contact"])), muscles=muscles)
+    touch = False
+    if "touch" in entries:
+        _expect("touch", *heads["touch"], (), "fiub", where)
+        z["touch"] = _read(zf, entries["touch"])
+        if float(z["touch"]) not in (0.0, 1.0):
+            raise InputError(f"{where}: touch = {z['touch']} is not true or false")
+        touch = bool(float(z["touch"]))
+    t = Topology(rate, int(hidden), bool(float(z["contact"])), muscles=muscles, touch=touch)
     if tuple(str(s) for s in z["segments"]) != t.segments:
         raise InputError(f"{where}: segments are not {', '.join(t.segments)} (those its "
                          "muscles are bound to)")
