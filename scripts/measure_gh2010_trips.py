@@ -1,4 +1,5 @@
-"""The 45 own-gait obstacle trips of a GH2010 parameter file (``stumble study`` takes none).
+"""The 45 own-gait obstacle trips of a GH2010 parameter file (``stumble study`` takes none),
+or of a network (``--network FILE|NAME``: the seed's controller).
 
 The grid of ``stumble study --controller gh2010 --mechanism obstacle --swing
 0.05:0.75:15 --speed 1.0,1.2,1.4`` (10 cm box, the walker's own gait, 3 s after the
@@ -13,8 +14,8 @@ them among the 45 or a trip stage's (swing 0.075-0.725 in steps of 0.05 at 1.1 a
 1.3 m/s; the human windows 0.075-0.225 and 0.575-0.725), to check a fit chosen by its
 figures on the 45.
 
-Run:  python scripts/measure_gh2010_trips.py [PARAMS] [--start own|playback]
-      [--grid main|held-out] [--delay-scale K] [--out FILE]
+Run:  python scripts/measure_gh2010_trips.py [PARAMS | --network FILE|NAME]
+      [--start own|playback] [--grid main|held-out] [--delay-scale K] [--out FILE]
 """
 
 from __future__ import annotations
@@ -46,21 +47,35 @@ def main() -> None:
                     help="the walk tripped: the walker's own (default) or the recording's")
     ap.add_argument("--grid", choices=tuple(GRIDS), default="main",
                     help="the 45 trips (main) or 28 others (held-out)")
+    ap.add_argument("--network", default=None, metavar="FILE|NAME",
+                    help="trip the seed's network instead (a network.npz or a shipped "
+                    "name); not with PARAMS")
     ap.add_argument("--delay-scale", type=float, default=1.0, metavar="K",
                     help="every reflex delay times K, the walk-in's too (Scenario."
                     "delay_scale; default 1)")
     args = ap.parse_args()
     swings, speeds = GRIDS[args.grid]
-    p = shipped_params("gh2010") if args.params is None else load_params(args.params)
+    if args.network is not None and args.params is not None:
+        ap.error("give PARAMS (a GH2010 set) or --network, not both")
+    net = p = None
+    if args.network is not None:
+        from pathlib import Path
+
+        from stumble.cli import _network_arg
+
+        net = _network_arg(Path(args.network))
+    else:
+        p = shipped_params("gh2010") if args.params is None else load_params(args.params)
     t0 = time.perf_counter()
     rows = []
     for v in speeds:
         for s in swings:
-            sc = Scenario(controller="gh2010", mechanism="obstacle", swing_fraction=s,
+            sc = Scenario(controller="gh2010" if net is None else "reflex",
+                          mechanism="obstacle", swing_fraction=s,
                           speed_m_per_s=v, start=args.start,
                           delay_scale=args.delay_scale)
             try:
-                summ = simulate_trip(sc, gh2010=p).summary
+                summ = simulate_trip(sc, gh2010=p, network=net).summary
                 row = {"swing": s, "speed": v, "set": True,
                        "tripped": summ.get("trip_time_s") is not None,
                        "strategy": summ.get("strategy"),
@@ -99,7 +114,8 @@ def main() -> None:
     print(json.dumps(figures))
     if args.out:
         with open(args.out, "w") as f:
-            json.dump({"params": args.params, "figures": figures, "trips": rows}, f, indent=1)
+            json.dump({"params": args.params, "network": args.network, "figures": figures,
+                       "trips": rows}, f, indent=1)
 
 
 if __name__ == "__main__":
