@@ -42,6 +42,20 @@ def test_each_joint_beyond_eight_degrees_costs_and_bands_are_free_inside():
     assert slow["speed"] == pytest.approx(((1.0 - 0.8) / 0.1) ** 2)
 
 
+def test_the_track_limit_costs_twenty_a_degree_beyond_it_only_when_asked():
+    """``track_limit_deg`` (``--track-limit``): each joint's RMSE beyond it costs 20 a
+    degree (knee 16.7 and ankle 13.5 against a limit of 10: 20 × (6.7 + 3.5)); none
+    inside it, and no term without it."""
+    _, plain = walk_cost(_summary(rmse=(9.0, 16.7, 13.5)), effort=0.0)
+    cost, terms = walk_cost(_summary(rmse=(9.0, 16.7, 13.5)), effort=0.0,
+                            track_limit_deg=10.0)
+    assert "track_limit" not in plain
+    assert terms["track_limit"] == pytest.approx(20.0 * (6.7 + 3.5))
+    assert cost == pytest.approx(sum(plain.values()) + terms["track_limit"])
+    _, inside = walk_cost(_summary(rmse=(9.0, 9.9, 10.0)), effort=0.0, track_limit_deg=10.0)
+    assert inside["track_limit"] == 0.0
+
+
 def test_the_foot_term_counts_only_when_asked_and_like_a_joint():
     plain, t_plain = walk_cost({**_summary(), "foot_angle_rmse_deg": 22.0}, effort=0.0)
     cost, terms = walk_cost({**_summary(), "foot_angle_rmse_deg": 22.0}, effort=0.0,
@@ -804,11 +818,11 @@ def test_the_networks_walking_es_from_the_command_line(tmp_path, capsys):
     for argv, words in ((["--walk-es", "placement", "--trips"], "--trips is not for --walk-es"),
                         (["--walk-es", "no-such.npz"], "no-such.npz"),
                         (["--controller", "gh2010", "--walk-es", "placement"],
-                         "--walk-es, --interneuron-biases, --sigma and --touch-afferent are "
-                         "for --controller network"),
+                         "--walk-es, --interneuron-biases, --sigma, --touch-afferent and "
+                         "--track-limit are for --controller network"),
                         (["--interneuron-biases"],
-                         "--interneuron-biases, --sigma and --touch-afferent are for "
-                         "--walk-es"),
+                         "--interneuron-biases, --sigma, --touch-afferent and --track-limit "
+                         "are for --walk-es"),
                         (["--walk-es", "placement", "--sigma", "0"],
                          "--sigma must be a number in (0, 5], got 0.0")):
         assert main(["reflex", "fit", *argv, "--out", str(tmp_path / "x")]) == 2
@@ -817,17 +831,17 @@ def test_the_networks_walking_es_from_the_command_line(tmp_path, capsys):
 
 
 def test_the_networks_es_with_trips_costs_each_trip_and_records_them(tmp_path, capsys):
-    """``--walk-es ... --trip-set four --trip-start own``: every candidate that walks is
-    tripped four times in its own gait, each trip a ``trip_terms`` term; the record
-    names the trips and the command carries the trip options; trip options without a
-    trip set are refused in one line."""
+    """``--walk-es ... --trip-set four``: every candidate that walks is tripped four
+    times, in its own gait by default (``--trip-start own``), each trip a ``trip_terms``
+    term; the record names the trips and the command carries the trip options, the start
+    included; trip options without a trip set are refused in one line."""
     from stumble.cli import main
     from stumble.control.reflex.fit_walk import TRIP_SETS, W_TRIP
     from stumble.control.reflex.network import Network
 
     out = tmp_path / "es"
     assert main(["reflex", "fit", "--walk-es", "placement-es", "--generations", "1",
-                 "--timestep", "0.002", "--trip-set", "four", "--trip-start", "own",
+                 "--timestep", "0.002", "--trip-set", "four",
                  "--recovery-cost", "10", "--workers", "2", "--seed", "3",
                  "--out", str(out)]) == 0
     fit = Network.load(out / "network.npz").info["fit"]

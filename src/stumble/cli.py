@@ -265,6 +265,9 @@ def _parser() -> argparse.ArgumentParser:
                       "--interneuron-biases (ours)")
     f.add_argument("--interneuron-biases", action="store_true",
                    help="network, --walk-es: the interneurons' biases join the subset")
+    f.add_argument("--track-limit", type=float, default=None, metavar="DEG",
+                   help="network, --walk-es: each joint's RMSE beyond DEG costs 20 a "
+                   "degree (a walk held near the recording while trips are fitted; ours)")
     f.add_argument("--touch-afferent", action="store_true",
                    help="network, --walk-es: give the network a touch afferent first (the "
                    "foot touched by anything but the floor, into segments L4-S1; ours), "
@@ -327,8 +330,9 @@ def _parser() -> argparse.ArgumentParser:
                    "--params set's, 0.001 for the paper's)")
     f.add_argument("--trip-start", choices=("own", "playback"), default=None,
                    help="network, --walk-es with --trip-set: the trips start in the "
-                   "network's own gait (own) or from the recording at the trip "
-                   "(playback, the network's default)")
+                   "network's own gait (own, the default here: from the recording a "
+                   "network taking over at the trip falls untripped) or from the "
+                   "recording at the trip (playback, the network's default elsewhere)")
     f.add_argument("--recovery-cost", type=float, default=None, metavar="W",
                    help="gh2010 --trips: each of the stage's trips not recovered costs W "
                    "more, on top of its time term (default 0: the time walked on alone, "
@@ -918,6 +922,10 @@ def cmd_reflex_fit_network_es(args) -> int:
                     ("--trip-start", args.trip_start)):
         if v is not None and not trips:
             raise InputError(f"{flag} needs --trip-set")
+    if args.track_limit is not None and not (math.isfinite(args.track_limit)
+                                             and args.track_limit > 0):
+        raise InputError(f"--track-limit must be a number of degrees > 0, got "
+                         f"{args.track_limit}")
     for flag, key, v in (("--strategy-cost", "strategy_cost", args.strategy_cost),
                          ("--recovery-cost", "recovery_cost", args.recovery_cost)):
         v = 0.0 if v is None else v
@@ -936,8 +944,10 @@ def cmd_reflex_fit_network_es(args) -> int:
                               knee_weight=knee, track_weight=track, starts=starts,
                               timestep_s=args.timestep,
                               interneuron_biases=args.interneuron_biases, sigma=sigma,
-                              trips=trips, trip_start=args.trip_start,
-                              touch=args.touch_afferent, **costs)
+                              trips=trips,
+                              trip_start=(args.trip_start or "own") if trips else None,
+                              touch=args.touch_afferent,
+                              track_limit_deg=args.track_limit, **costs)
     bar.done()
     walk = simulate_walk("network", 20.0, network=net)
     report = dict(net.info["fit"])
@@ -965,15 +975,16 @@ def cmd_reflex(args) -> int:
         raise InputError("--trip-start is for --walk-es (with --trip-set)")
     if args.controller == "gh2010":
         if (args.walk_es is not None or args.interneuron_biases or args.sigma is not None
-                or args.touch_afferent):
-            raise InputError("--walk-es, --interneuron-biases, --sigma and --touch-afferent "
-                             "are for --controller network")
+                or args.touch_afferent or args.track_limit is not None):
+            raise InputError("--walk-es, --interneuron-biases, --sigma, --touch-afferent and "
+                             "--track-limit are for --controller network")
         return cmd_reflex_fit_gh2010(args)
     if args.walk_es is not None:
         return cmd_reflex_fit_network_es(args)
-    if args.interneuron_biases or args.sigma is not None or args.touch_afferent:
-        raise InputError("--interneuron-biases, --sigma and --touch-afferent are for "
-                         "--walk-es")
+    if (args.interneuron_biases or args.sigma is not None or args.touch_afferent
+            or args.track_limit is not None):
+        raise InputError("--interneuron-biases, --sigma, --touch-afferent and --track-limit "
+                         "are for --walk-es")
     if (args.trips or args.params is not None or args.trip_set or args.scr_phase
             or args.ta_bound != "wide" or args.strategy_cost is not None or args.crossing
             or args.recovery_cost is not None or args.placement or args.pushes

@@ -87,6 +87,10 @@ STRIDE_BAND = (1.0, 1.3)  # s
 SPEED_BAND = (1.0, 1.3)  # m/s
 STANCE_BAND = (0.57, 0.68)
 TRACK_HINGE_DEG = 8.0
+# ``--track-limit DEG`` (ours; none unless asked): each joint's RMSE beyond DEG costs
+# W_TRACK_LIMIT per degree: a walk held near the recording as a near-constraint while
+# trips are fitted (a recovered trip is worth about 25, so 20 a degree outweighs it)
+W_TRACK_LIMIT = 20.0
 
 
 def _outside(v: float, band: tuple[float, float]) -> float:
@@ -97,7 +101,8 @@ def walk_cost(summary: dict, effort: float, foot_angle: float = 0.0,
               stride_time: bool = False,
               stance_weight: float = W_STANCE,
               track_weight: float = W_TRACK,
-              knee_weight: float = W_KNEE) -> tuple[float, dict]:
+              knee_weight: float = W_KNEE,
+              track_limit_deg: float | None = None) -> tuple[float, dict]:
     """The objective J of a walk's summary (``walk_metrics``) and its mean
     F_max-weighted squared activation; returns J and its terms; ``foot_angle``: the
     foot-angle term's weight (0: none; ``W_FOOT``, 1, a joint's; on the summary's
@@ -105,7 +110,9 @@ def walk_cost(summary: dict, effort: float, foot_angle: float = 0.0,
     ``STRIDE_BAND``; the summary's ``stride_s``); ``stance_weight``: the stance term's
     weight (``W_STANCE``, 1, in every shipped fit); ``track_weight``: the tracking term's
     (``W_TRACK``, 1, in every shipped fit); ``knee_weight``: the knee term's, per degree
-    of ``knee_hyperextension_deg`` (``W_KNEE``, 0: none; 5 in ``knee-walk``'s fit)."""
+    of ``knee_hyperextension_deg`` (``W_KNEE``, 0: none; 5 in ``knee-walk``'s fit);
+    ``track_limit_deg``: each joint's RMSE beyond it costs ``W_TRACK_LIMIT`` a degree
+    (None: no such term)."""
     T = summary["duration_s"]
     walked = min(summary["walked_s"] / T,
                  max(summary.get("distance_m", T * SPEED_BAND[0]), 0.0) / (SPEED_BAND[0] * T))
@@ -124,6 +131,9 @@ def walk_cost(summary: dict, effort: float, foot_angle: float = 0.0,
                                   f / 10.0 + max(f - TRACK_HINGE_DEG, 0.0) / 2.0)
     if knee_weight:
         terms["knee"] = float(knee_weight) * summary.get("knee_hyperextension_deg", 0.0)
+    if track_limit_deg is not None:
+        terms["track_limit"] = W_TRACK_LIMIT * (
+            float(np.maximum(rmse - track_limit_deg, 0.0).sum()) if rmse.size else 10.0)
     if stride_time:
         st = summary.get("stride_s")
         terms["stride"] = W_STRIDE * (4.0 if st is None else
@@ -365,7 +375,8 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                    recovery_cost: float = 0.0, placement: bool = False,
                    pushes: bool = False, track_weight: float = W_TRACK,
                    knee_weight: float = W_KNEE, starts: tuple = (),
-                   timestep_s: float | None = None, trip_start: str | None = None) -> None:
+                   timestep_s: float | None = None, trip_start: str | None = None,
+                   track_limit_deg: float | None = None) -> None:
     """Worker set-up: what ``evaluate_walk`` simulates: a walk, and the obstacle trips
     ``trips`` ((swing fraction, speed) pairs) the walker must walk on from; GH2010
     candidates in ``gh2010_space(stumble_reflex=...)``; ``strategy_cost``: what a trip in
@@ -381,7 +392,8 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
     (``walk_cost``); ``starts``: each candidate also walks ``PUSH_WALK_S`` from the walk
     played back at each of these speeds (m/s; ``push_term``); ``timestep_s``: the network's
     physics step (default ``FIT_TIMESTEP_S``; a GH2010 candidate runs at its set's);
-    ``trip_start``: where the trips start (``Scenario.start``; default the controller's)."""
+    ``trip_start``: where the trips start (``Scenario.start``; default the controller's);
+    ``track_limit_deg``: ``walk_cost``'s."""
     from stumble.pipeline import WalkInCache
 
     _EVAL.pop("walk", None)
@@ -394,7 +406,8 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                  stance_weight=float(stance_weight), recovery_cost=float(recovery_cost),
                  placement=placement, pushes=pushes, track_weight=float(track_weight),
                  knee_weight=float(knee_weight), starts=tuple(map(float, starts)),
-                 timestep_s=timestep_s, trip_start=trip_start)
+                 timestep_s=timestep_s, trip_start=trip_start,
+                 track_limit_deg=track_limit_deg)
 
 
 def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
@@ -430,7 +443,8 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
                             _EVAL.get("stride_time", False),
                             _EVAL.get("stance_weight", W_STANCE),
                             _EVAL.get("track_weight", W_TRACK),
-                            _EVAL.get("knee_weight", W_KNEE))
+                            _EVAL.get("knee_weight", W_KNEE),
+                            _EVAL.get("track_limit_deg"))
     terms["walked_s"] = r.summary["walked_s"]
     terms["speed_m_per_s"] = r.summary["speed_m_per_s"]
     if _EVAL.get("pushes"):  # a walker that falls unpushed falls pushed: not run again
@@ -981,7 +995,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    timestep_s: float | None = None, interneuron_biases: bool = False,
                    sigma: float = NETWORK_ES_SIGMA, trips: tuple = (),
                    strategy_cost: float = 0.0, recovery_cost: float = 0.0,
-                   trip_start: str | None = None, touch: bool = False):
+                   trip_start: str | None = None, touch: bool = False,
+                   track_limit_deg: float | None = None):
     """CMA-ES on ``network_space(start, interneuron_biases)``: each candidate walks
     ``NETWORK_ES_WALK_S`` from the 1.2 m/s recording (and 10 s from each of ``starts``) at
     ``timestep_s`` (default the step the network runs at, ``trip.DEFAULT_TIMESTEP_S``:
@@ -995,7 +1010,9 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
     ``trip_terms`` with ``strategy_cost`` and ``recovery_cost``, started at
     ``trip_start`` (``Scenario.start``: ``own`` or ``playback``; default the network's,
     ``playback``); ``touch``: give the start the touch afferent first
-    (``Network.with_touch``: its weights join the subset, from 0); writes ``network.npz``,
+    (``Network.with_touch``: its weights join the subset, from 0); ``track_limit_deg``:
+    ``walk_cost``'s (each joint's RMSE beyond it costs ``W_TRACK_LIMIT`` a degree);
+    writes ``network.npz``,
     ``history.jsonl`` and ``best.json`` to ``out`` when given."""
     import tempfile
 
@@ -1019,7 +1036,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                                 {"network": str(path)}, tuple(trips), False,
                                 float(strategy_cost), False, 0.0, False, W_STANCE, False,
                                 float(recovery_cost), False, False, track_weight,
-                                knee_weight, tuple(starts), step, trip_start),
+                                knee_weight, tuple(starts), step, trip_start,
+                                track_limit_deg),
                       stage="walk+trips" if trips else "walk")
     net = network_with(start, res.best_theta)
     opts = [*_weight_opts(track_weight, knee_weight, knee_first=True), *_starts_opts(starts),
@@ -1028,6 +1046,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
         opts.append("--interneuron-biases")
     if touch:
         opts.append("--touch-afferent")
+    if track_limit_deg is not None:
+        opts.append(f"--track-limit {track_limit_deg:g}")
     if generations != NETWORK_ES_GENERATIONS:
         opts.append(f"--generations {generations}")
     if sigma != NETWORK_ES_SIGMA:
@@ -1058,6 +1078,7 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    "trips": [list(t) for t in trips], "strategy_cost": strategy_cost,
                    "recovery_cost": recovery_cost, "trip_start": trip_start,
                    "touch_afferent": bool(start.topology.touch),
+                   "track_limit_deg": track_limit_deg,
                    "cost": res.best_cost, "terms": res.best_terms,
                    "wall_time_s": round(res.wall_time_s, 1), "command": command}
     from dataclasses import replace as _replace
