@@ -260,9 +260,10 @@ def _parser() -> argparse.ArgumentParser:
                       "network in closed loop by CMA-ES on a documented subset of its "
                       "weights (motor-neuron gains and biases, contact afferents, trunk "
                       "balance; fit_walk.network_space) on the walking objective, with "
-                      "--knee-weight, --track-weight, --starts, --timestep (default 0.002, "
-                      "the network's step), --generations (default 150), --sigma and "
-                      "--interneuron-biases (ours)")
+                      "--knee-weight, --track-weight, --track-limit, --starts, --timestep "
+                      "(default 0.002, the network's step), --generations (default 150), "
+                      "--sigma, --interneuron-biases, --touch-afferent, and trips by "
+                      "--trip-set with --trip-start, --strategy-cost, --recovery-cost (ours)")
     f.add_argument("--interneuron-biases", action="store_true",
                    help="network, --walk-es: the interneurons' biases join the subset")
     f.add_argument("--track-limit", type=float, default=None, metavar="DEG",
@@ -291,7 +292,8 @@ def _parser() -> argparse.ArgumentParser:
                    f"{GH2010_NAMES} (with --trips the trip stage starts there; without, "
                    "the walk is refitted from there, a touch's reflexes kept as they are)")
     f.add_argument("--trip-set", choices=("four", "wide", "dense"), default=None,
-                   help="gh2010 --trips: the stage's obstacle trips: four (the default), "
+                   help="gh2010 --trips, or network --walk-es: the stage's obstacle "
+                   "trips (for --walk-es none unless given): four (gh2010's default), "
                    "twelve across swing 0.1-0.75 and the three start speeds (wide), or "
                    "thirty, swing 0.05-0.75 at 1.1 and 1.3 m/s (dense)")
     f.add_argument("--scr-phase", choices=("any", "foot"), default=None,
@@ -299,7 +301,8 @@ def _parser() -> argparse.ArgumentParser:
                    "phase (any), or reversing as the tripped foot is behind or ahead of "
                    "the other (foot); default: the starting fit's")
     f.add_argument("--strategy-cost", type=float, default=None, metavar="W",
-                   help="gh2010 --trips: each of the stage's trips in a human window "
+                   help="gh2010 --trips, network --walk-es --trip-set: each of the "
+                   "stage's trips in a human window "
                    "(elevating at 0.05-0.25 of swing, lowering at 0.55-0.75) costs W more "
                    "when the strategy read from the motion is not the human one (default "
                    "0: recovery alone; fit_walk.W_STRATEGY, 10, is half a lost trip)")
@@ -334,7 +337,8 @@ def _parser() -> argparse.ArgumentParser:
                    "network taking over at the trip falls untripped) or from the "
                    "recording at the trip (playback, the network's default elsewhere)")
     f.add_argument("--recovery-cost", type=float, default=None, metavar="W",
-                   help="gh2010 --trips: each of the stage's trips not recovered costs W "
+                   help="gh2010 --trips, network --walk-es --trip-set: each of the "
+                   "stage's trips not recovered costs W "
                    "more, on top of its time term (default 0: the time walked on alone, "
                    "which gives a trip walked on 2.9 s nearly a recovery's credit; a lost "
                    "trip's time term is 20)")

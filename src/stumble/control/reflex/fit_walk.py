@@ -37,6 +37,7 @@ candidate so far to ``best.json`` as the fit runs.
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import time
@@ -846,10 +847,7 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
             opts.append(f"--trip-set {named[0]}")
         if scr_phase is not None:
             opts.append(f"--scr-phase {scr_phase}")
-        if strategy_cost:
-            opts.append(f"--strategy-cost {strategy_cost:g}")
-        if recovery_cost:
-            opts.append(f"--recovery-cost {recovery_cost:g}")
+        opts += _trip_cost_opts(strategy_cost, recovery_cost)
         if crossing:
             opts.append("--crossing")
         if touch_only:
@@ -863,6 +861,12 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
         opts.append(f"--generations {total}")
     return " ".join(["stumble reflex fit --controller gh2010 --wiring", wiring, *opts,
                      f"--seed {seed} --out DIR"])
+
+
+def _trip_cost_opts(strategy_cost: float, recovery_cost: float) -> list[str]:
+    """The command-line options of a trip stage's strategy and recovery costs (0: none)."""
+    return ([f"--strategy-cost {strategy_cost:g}"] if strategy_cost else []) + (
+        [f"--recovery-cost {recovery_cost:g}"] if recovery_cost else [])
 
 
 def _weight_opts(track_weight: float, knee_weight: float,
@@ -1031,13 +1035,13 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
         start.save(path)
         res = cma_fit(evaluate_walk, space, seed=seed, generations=generations,
                       sigma=sigma, workers=workers, out=out, progress=progress,
-                      initializer=init_walk_eval,
-                      initargs=("network", NETWORK_ES_WALK_S, GH2010_SPEED_M_PER_S,
-                                {"network": str(path)}, tuple(trips), False,
-                                float(strategy_cost), False, 0.0, False, W_STANCE, False,
-                                float(recovery_cost), False, False, track_weight,
-                                knee_weight, tuple(starts), step, trip_start,
-                                track_limit_deg),
+                      initializer=functools.partial(
+                          init_walk_eval, "network", NETWORK_ES_WALK_S,
+                          GH2010_SPEED_M_PER_S, {"network": str(path)}, trips=tuple(trips),
+                          strategy_cost=float(strategy_cost),
+                          recovery_cost=float(recovery_cost), track_weight=track_weight,
+                          knee_weight=knee_weight, starts=tuple(starts), timestep_s=step,
+                          trip_start=trip_start, track_limit_deg=track_limit_deg),
                       stage="walk+trips" if trips else "walk")
     net = network_with(start, res.best_theta)
     opts = [*_weight_opts(track_weight, knee_weight, knee_first=True), *_starts_opts(starts),
@@ -1055,10 +1059,7 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
     if trips:
         name = next((k for k, v in TRIP_SETS.items() if tuple(v) == tuple(trips)), None)
         opts.append(f"--trip-set {name}" if name else f"(trips {list(trips)})")
-        if strategy_cost:
-            opts.append(f"--strategy-cost {strategy_cost:g}")
-        if recovery_cost:
-            opts.append(f"--recovery-cost {recovery_cost:g}")
+        opts += _trip_cost_opts(strategy_cost, recovery_cost)
         if trip_start:
             opts.append(f"--trip-start {trip_start}")
     command = " ".join(["stumble reflex fit --controller network --walk-es",
