@@ -818,11 +818,11 @@ def test_the_networks_walking_es_from_the_command_line(tmp_path, capsys):
     for argv, words in ((["--walk-es", "placement", "--trips"], "--trips is not for --walk-es"),
                         (["--walk-es", "no-such.npz"], "no-such.npz"),
                         (["--controller", "gh2010", "--walk-es", "placement"],
-                         "--walk-es, --interneuron-biases, --sigma, --touch-afferent and "
-                         "--track-limit are for --controller network"),
+                         "--walk-es, --interneuron-biases, --sigma, --touch-afferent, "
+                         "--touch-response and --track-limit are for --controller network"),
                         (["--interneuron-biases"],
-                         "--interneuron-biases, --sigma, --touch-afferent and --track-limit "
-                         "are for --walk-es"),
+                         "--interneuron-biases, --sigma, --touch-afferent, --touch-response "
+                         "and --track-limit are for --walk-es"),
                         (["--walk-es", "placement", "--sigma", "0"],
                          "--sigma must be a number in (0, 5], got 0.0")):
         assert main(["reflex", "fit", *argv, "--out", str(tmp_path / "x")]) == 2
@@ -884,3 +884,43 @@ def test_shipped_fit_records_name_no_machine_paths():
     assert len(texts) >= 14
     for name, text in texts.items():
         assert not re.search(r"(^|[\s\"'])/(work|tmp|root|home)/", text), name
+
+
+def test_the_networks_touch_stage_fits_the_touch_alone_and_keeps_the_walk(tmp_path, capsys):
+    """``--walk-es NETWORK --touch-only --touch-response --trip-set four``: the subset is
+    the touch response's gains and durations alone (``network_space(touch_only=True)``),
+    so the fitted network walks as its start, bit for bit; the record and the command
+    name the stage; a touch stage without trips, or with what weighs the walk, is one
+    line of error."""
+    from stumble.cli import main
+    from stumble.control.reflex.identify import default_network
+    from stumble.control.reflex.network import Network
+    from stumble.pipeline import simulate_walk
+
+    start = default_network("placement-es")
+    space = network_space(start.with_touch_response(), touch_only=True, touch_response=True)
+    assert len(space.names) == 3 * 8 + 2 and all(n.startswith("resp_") for n in space.names)
+    with pytest.raises(ValueError, match="no touch afferent"):
+        network_space(start, touch_only=True)
+    out = tmp_path / "touch"
+    assert main(["reflex", "fit", "--walk-es", "placement-es", "--touch-only",
+                 "--touch-response", "--trip-set", "four", "--generations", "1",
+                 "--workers", "2", "--seed", "2", "--out", str(out)]) == 0
+    net = Network.load(out / "network.npz")
+    fit = net.info["fit"]
+    assert fit["touch_only"] and fit["touch_response"] and fit["parameters"] == list(space.names)
+    assert "--touch-only --touch-response" in fit["command"]
+    assert np.array_equal(net.w, start.w) and np.array_equal(net.c, start.c)
+    assert net.info["balance"] == start.info["balance"]
+    assert any(v for g in ("ipsi", "after", "contra")
+               for v in net.info["touch_response"][g].values())
+    walk, walk0 = (simulate_walk("network", 2.0, network=n).recording for n in (net, start))
+    assert np.array_equal(walk.qpos, walk0.qpos)
+    capsys.readouterr()
+    for argv, words in ((["--touch-only"], "the touch stage needs --trip-set"),
+                        (["--touch-only", "--trip-set", "four", "--starts", "1.0"],
+                         "--starts weighs the walk: not with --touch-only")):
+        assert main(["reflex", "fit", "--walk-es", "placement-es", *argv,
+                     "--out", str(tmp_path / "x")]) == 2
+        err = capsys.readouterr().err
+        assert words in err and err.count("\n") == 1, err

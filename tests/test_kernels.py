@@ -175,3 +175,31 @@ def test_kernels_that_cannot_be_built_leave_the_numpy_code_with_a_warning(monkey
         monkeypatch.undo()
         K.use_numpy(False)
     assert K.kernels() is not None
+
+
+@pytest.mark.parametrize("timestep", [0.002, 0.001])
+def test_the_touch_response_compiled_equals_numpy_and_starts_after_its_latency(timestep):
+    """A network's touch response (``TouchResponse``): with its gains 0 the trip is the
+    network's own, bit for bit; with gains, the same recordings with and without the
+    kernels (at 2 ms and at 1 ms, where the kernel writes the plan), and a different
+    trip from 65 ms after the touch, not before."""
+    from stumble.control.reflex.fit_walk import network_space, network_with
+    from stumble.control.reflex.identify import default_network
+    from stumble.pipeline import simulate_trip
+    from stumble.trip import Scenario
+
+    net = default_network("placement-es")
+    sc = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.13,
+                  speed_m_per_s=1.2, duration_after_trip_s=0.5, timestep_s=timestep)
+    plain = simulate_trip(sc, network=net).recording
+    silent = simulate_trip(sc, network=net.with_touch_response()).recording
+    assert np.array_equal(plain.qpos, silent.qpos)
+    with_resp = net.with_touch_response()
+    space = network_space(with_resp, touch_only=True, touch_response=True)
+    theta = np.where([n.startswith("resp_ipsi") for n in space.names], 0.4, space.start)
+    touched = network_with(with_resp, theta, space.names)
+    _same_runs(lambda: simulate_trip(sc, network=touched).recording)
+    rec = simulate_trip(sc, network=touched).recording
+    n = min(len(rec.qpos), len(plain.qpos))
+    differs = np.flatnonzero(np.abs(rec.qpos[:n] - plain.qpos[:n]).max(axis=1) > 0)
+    assert len(differs) and 0.065 < rec.time_s[differs[0]] < 0.15

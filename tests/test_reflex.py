@@ -489,3 +489,66 @@ def test_reflex_time_step_must_divide_a_network_tick():
         simulate_trip(Scenario(controller="reflex", mechanism="obstacle",
                                swing_fraction=0.56, timestep_s=0.0015,
                                duration_after_trip_s=0.5))
+
+
+def test_a_touch_response_is_checked_and_kept_in_the_networks_file(tmp_path):
+    """``TouchResponse``: 65 ms late by default (Eng et al. 1994), its sets per muscle in
+    ``info['touch_response']``, which a file keeps; a bad latency or an unknown muscle is
+    one clear error; ``with_touch_response`` adds one with every gain 0."""
+    from stumble.control.reflex.controller import TouchResponse
+    from stumble.control.reflex.identify import default_network
+
+    net = default_network("placement-es")
+    resp_net = net.with_touch_response()
+    r = TouchResponse.from_info(resp_net.info, net.topology.muscles)
+    assert r.lag == 65 and not r.on and TouchResponse.from_info(net.info, ()) is None
+    info = {**resp_net.info, "touch_response": {**resp_net.info["touch_response"],
+                                                "contra": {"SOL": 0.4}, "hold_s": 0.12}}
+    resp_net = Network(net.topology, net.w, net.b, net.v, net.c, net.mean, net.std, info,
+                       net.walk_rates)
+    resp_net.save(tmp_path / "r.npz")
+    back = TouchResponse.from_info(Network.load(tmp_path / "r.npz").info,
+                                   net.topology.muscles)
+    assert back.on and back.hold == 120 and back.gains["contra"]["SOL"] == 0.4
+    assert back.gains["contra"]["GAS"] == 0.0
+    drive = back.drive(0, 400, np.array([10.0, -np.inf]))  # the right foot touched at 10
+    sol = net.topology.muscles.index("SOL")
+    on = np.flatnonzero(drive[:, 1, sol])  # the other (left) leg's SOL
+    assert on[0] == 10 + 65 and on[-1] == 10 + 65 + 120 + 100 - 1
+    assert not drive[:, 0].any()  # no ipsilateral gain
+    with pytest.raises(InputError, match=r"latency_s = 0\.005"):
+        TouchResponse(net.topology.muscles, latency_s=0.005)
+    with pytest.raises(InputError, match="muscles the network does not drive"):
+        TouchResponse(net.topology.muscles, {"ipsi": {"PSOAS": 1.0}})
+
+
+def test_trips_of_networks_differing_only_in_their_touch_share_the_walk_to_the_trip():
+    """Two networks that differ only in the touch response (and the touch afferent's
+    weights) have the same ``walk_key`` and walk to an own-gait trip once
+    (``WalkInCache``), each trip the same, bit for bit, as walked anew; a network that
+    differs elsewhere has another key, and ``retouch`` refuses it."""
+    from stumble.control.reflex.fit_walk import network_space, network_with
+    from stumble.control.reflex.identify import default_network
+    from stumble.pipeline import WalkInCache
+
+    base = default_network("placement-es").with_touch().with_touch_response()
+    space = network_space(base, touch_only=True, touch_response=True)
+    rng = np.random.default_rng(5)
+    a, b = (network_with(base, np.clip(space.start + space.scale * rng.normal(
+        0, 1, len(space.names)), space.lo, space.hi), space.names) for _ in range(2))
+    ka, kb = ReflexController(a).walk_key(), ReflexController(b).walk_key()
+    assert ka == kb
+    other = network_with(base, network_space(base, False).start * 1.01)
+    assert ReflexController(other).walk_key() != ka
+    with pytest.raises(ValueError, match="differ in more than"):
+        ReflexController(a).retouch(other)
+    sc = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.15,
+                  speed_m_per_s=1.2, start="own", duration_after_trip_s=0.5)
+    cache = WalkInCache()
+    for net in (a, b):
+        cached = simulate_trip(sc, network=net, walk_in_cache=cache).recording
+        fresh = simulate_trip(sc, network=net).recording
+        assert np.array_equal(cached.qpos, fresh.qpos)
+    assert len(cache) == 1
+    assert not np.array_equal(simulate_trip(sc, network=a).recording.qpos,
+                              simulate_trip(sc, network=b).recording.qpos)

@@ -263,7 +263,8 @@ def _parser() -> argparse.ArgumentParser:
                       "--knee-weight, --track-weight, --track-limit, --starts, --timestep "
                       "(default 0.002, the network's step), --generations (default 150), "
                       "--sigma, --interneuron-biases, --touch-afferent, and trips by "
-                      "--trip-set with --trip-start, --strategy-cost, --recovery-cost (ours)")
+                      "--trip-set with --trip-start, --strategy-cost, --recovery-cost, "
+                      "--touch-only (ours)")
     f.add_argument("--interneuron-biases", action="store_true",
                    help="network, --walk-es: the interneurons' biases join the subset")
     f.add_argument("--track-limit", type=float, default=None, metavar="DEG",
@@ -273,6 +274,11 @@ def _parser() -> argparse.ArgumentParser:
                    help="network, --walk-es: give the network a touch afferent first (the "
                    "foot touched by anything but the floor, into segments L4-S1; ours), "
                    "whose weights join the subset from 0")
+    f.add_argument("--touch-response", action="store_true",
+                   help="network, --walk-es: give the network a touch response first (the "
+                   "stumbling corrective reaction: 65 ms after a foot's touch, excitations "
+                   "of that leg's muscles for a time, then others, and of the other "
+                   "leg's; ours), whose gains and durations join the subset from 0")
     f.add_argument("--sigma", type=float, default=None, metavar="S",
                    help="network, --walk-es: CMA-ES's first step in units of each "
                    "parameter's scale (default 0.3; smaller for a second stage)")
@@ -349,7 +355,9 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument("--touch-only", action="store_true",
                    help="gh2010 --trips: fit only the reflexes a touch triggers (the "
                    "stumbling corrective reflex, and the crossing step with --crossing); "
-                   "the walking gains stay the starting fit's, and so does its walk")
+                   "the walking gains stay the starting fit's, and so does its walk; "
+                   "network --walk-es --trip-set: only the touch afferent's weights (the "
+                   "afferent given first if the network has none), the walk the start's")
     f.add_argument("--load-from", choices=("floor", "any"), default=None,
                    help="gh2010 --trips: a leg's load, which switches it to stance: the "
                    "floor's force on its foot (floor, the shipped fits') or the floor's "
@@ -873,7 +881,6 @@ def cmd_reflex_fit_network_es(args) -> int:
     for flag, given in (("--trips", args.trips or None), ("--params", args.params),
                         ("--scr-phase", args.scr_phase),
                         ("--crossing", args.crossing or None),
-                        ("--touch-only", args.touch_only or None),
                         ("--load-from", args.load_from), ("--placement", args.placement or None),
                         ("--pushes", args.pushes or None), ("--expert", args.expert),
                         ("--passes", args.passes), ("--foot-angle", args.foot_angle or None),
@@ -920,6 +927,15 @@ def cmd_reflex_fit_network_es(args) -> int:
     from stumble.control.reflex.fit_walk import NETWORK_ES_SIGMA, TRIP_SETS
 
     trips = TRIP_SETS[args.trip_set] if args.trip_set else ()
+    if args.touch_only:
+        if not trips:
+            raise InputError("--touch-only (network): the touch stage needs --trip-set")
+        for flag, given in (("--starts", args.starts), ("--interneuron-biases",
+                                                          args.interneuron_biases or None),
+                            ("--track-limit", args.track_limit)):
+            if given is not None:
+                raise InputError(f"{flag} weighs the walk: not with --touch-only (the "
+                                 "touch stage keeps the start's walk)")
     costs = {}
     for flag, v in (("--strategy-cost", args.strategy_cost),
                     ("--recovery-cost", args.recovery_cost),
@@ -950,7 +966,8 @@ def cmd_reflex_fit_network_es(args) -> int:
                               interneuron_biases=args.interneuron_biases, sigma=sigma,
                               trips=trips,
                               trip_start=(args.trip_start or "own") if trips else None,
-                              touch=args.touch_afferent,
+                              touch=args.touch_afferent, touch_only=args.touch_only,
+                              touch_response=args.touch_response,
                               track_limit_deg=args.track_limit, **costs)
     bar.done()
     walk = simulate_walk("network", 20.0, network=net)
@@ -979,16 +996,18 @@ def cmd_reflex(args) -> int:
         raise InputError("--trip-start is for --walk-es (with --trip-set)")
     if args.controller == "gh2010":
         if (args.walk_es is not None or args.interneuron_biases or args.sigma is not None
-                or args.touch_afferent or args.track_limit is not None):
-            raise InputError("--walk-es, --interneuron-biases, --sigma, --touch-afferent and "
+                or args.touch_afferent or args.track_limit is not None
+                or args.touch_response):
+            raise InputError("--walk-es, --interneuron-biases, --sigma, --touch-afferent, "
+                             "--touch-response and "
                              "--track-limit are for --controller network")
         return cmd_reflex_fit_gh2010(args)
     if args.walk_es is not None:
         return cmd_reflex_fit_network_es(args)
     if (args.interneuron_biases or args.sigma is not None or args.touch_afferent
-            or args.track_limit is not None):
-        raise InputError("--interneuron-biases, --sigma, --touch-afferent and --track-limit "
-                         "are for --walk-es")
+            or args.track_limit is not None or args.touch_response):
+        raise InputError("--interneuron-biases, --sigma, --touch-afferent, --touch-response "
+                         "and --track-limit are for --walk-es")
     if (args.trips or args.params is not None or args.trip_set or args.scr_phase
             or args.ta_bound != "wide" or args.strategy_cost is not None or args.crossing
             or args.recovery_cost is not None or args.placement or args.pushes

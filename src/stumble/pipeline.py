@@ -115,11 +115,13 @@ def _strength(m: mujoco.MjModel, sc: Scenario, reflex: bool) -> Strength | None:
 
 class WalkInCache:
     """Own-start walks to the trip instant, kept for trips that differ only in the
-    reflexes a touch triggers (``gh2010.TOUCH_FIELDS``): before the first touch those add
-    nothing, so the walk is the same, bit for bit, and is run once. Keyed by the scenario
-    and ``GH2010Controller.walk_key``; each use resumes from a deep copy of the model,
-    data, controller and walk recording. For fits of the touch's reflexes alone
-    (``fit_walk.fit_gh2010(touch_only=True)``), whose every candidate walks the same."""
+    reflexes a touch triggers (``gh2010.TOUCH_FIELDS``; a network's touch afferent and
+    touch response): before the first touch those add nothing, so the walk is the same,
+    bit for bit, and is run once. Keyed by the scenario and the controller's ``walk_key``
+    (``GH2010Controller``, ``ReflexController``); each use resumes from a deep copy of the
+    model, data, controller and walk recording. For fits of the touch's reflexes alone
+    (``fit_walk.fit_gh2010(touch_only=True)``, ``fit_network_es(touch_only=True)``), whose
+    every candidate walks the same."""
 
     def __init__(self) -> None:
         self._walks: dict = {}
@@ -160,9 +162,9 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     (t = 0 the trip; coordinates named as our model: pelvis_tilt, hip_flexion_l, ...)
     for the joint-pitch RMSE of SCA 2009 Table 2. ``log_controls``: keep every block's
     controls, gains and trip forces in the recording (``stumble.sim.run``), for benchmarks
-    that replay them. ``walk_in_cache`` (``gh2010``, own start): reuse the walk to the
-    trip of an earlier trip whose parameters differed only in the touch's reflexes (the
-    same numbers as walking it again).
+    that replay them. ``walk_in_cache`` (``gh2010`` or ``reflex``, own start): reuse the
+    walk to the trip of an earlier trip whose parameters (GH2010's) or network differed
+    only in the touch's reflexes (the same numbers as walking it again).
     """
     sc = scenario.validated(_gh2010_step(gh2010) if scenario.controller == "gh2010"
                             else None)
@@ -221,7 +223,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
         hit = walk_in_cache.get(key) if key is not None else None
         if hit is not None:  # the same walk, with other touch reflexes: go on from it
             m, d, body, ctx, walked, walk_rec, walk_in = hit
-            walked.retouch(controller.p)
+            walked.retouch(controller.touch_settings())
             controller = walked
         else:
             timer = TripTimer(sc.side, sc.swing_fraction, sc.walk_in_s, fall_height)

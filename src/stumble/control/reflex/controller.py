@@ -217,6 +217,102 @@ class TrunkBalance:
         return out
 
 
+class TouchResponse:
+    """The stumbling corrective reaction, an addition to seed 003's network (ours), as
+    ``TrunkBalance`` is: what a foot's touch by anything but the floor makes the legs do.
+
+    A touch that starts (a touched tick after an untouched one, the foot's last response
+    over) triggers, ``latency_s`` later, for ``hold_s`` the touched leg's ``ipsi``
+    excitations, then for ``after_s`` its ``after`` ones, and throughout both the other
+    leg's ``contra`` ones: per muscle, added to the network's excitation (after the trunk
+    balance, before the clip to 0.01-1). In people a trip in swing brings the swing leg's
+    knee and hip flexors and ankle dorsiflexors in about 60-80 ms, then its extensors
+    (Eng, Winter & Patla 1994, Exp Brain Res 102:339; Zehr & Stein 1999, Prog Neurobiol
+    58:185), and the support leg's plantarflexors and hip extensors push off (Pijnappels
+    et al. 2005, J Biomech 38:627). The pattern is not given here but fitted in closed
+    loop (``fit_walk.network_space(touch_response=True)``), from 0: a network without a
+    response, or with every gain 0, runs as before, bit for bit.
+
+    ``latency_s`` 0.065 s: the biceps femoris' onset 64 ms after a trip (Eng et al. 1994,
+    seed 003 §IV.A), as ``GH2010Params.scr_latency_s``; ``hold_s`` and ``after_s`` (s)
+    our choices or fitted.
+    """
+
+    LATENCY_S = 0.065  # Eng et al. 1994 (seed 003 §IV.A): BF 64 ms after a trip
+    SETS = ("ipsi", "after", "contra")
+
+    def __init__(self, muscles: tuple[str, ...], gains: dict | None = None,
+                 latency_s: float = LATENCY_S, hold_s: float = 0.1, after_s: float = 0.1,
+                 rate_hz: float = 1000.0):
+        gains = gains or {}
+        unknown = set(gains) - set(self.SETS)
+        if unknown:
+            raise InputError(f"touch response: unknown gain set(s) {sorted(unknown)}")
+        self.muscles = tuple(muscles)
+        self.gains = {k: {m: float((gains.get(k) or {}).get(m, 0.0)) for m in self.muscles}
+                      for k in self.SETS}
+        for k, g in gains.items():
+            bad = set(g) - set(self.muscles)
+            if bad:
+                raise InputError(f"touch response: {k} names muscles the network does not "
+                                 f"drive: {sorted(bad)}")
+        for name, v, lo in (("latency_s", latency_s, 0.02), ("hold_s", hold_s, 0.0),
+                            ("after_s", after_s, 0.0)):
+            if not (np.isfinite(v) and lo <= v <= 1.0):
+                raise InputError(f"touch response: {name} = {v} is not within {lo}-1 s")
+        self.latency_s, self.hold_s, self.after_s = latency_s, hold_s, after_s
+        self.lag = max(1, round(latency_s * rate_hz))  # ticks
+        self.hold = round(hold_s * rate_hz)
+        self.after = round(after_s * rate_hz)
+        self.w = np.array([[self.gains[k][m] for m in self.muscles] for k in self.SETS])
+
+    @property
+    def on(self) -> bool:
+        """Whether any gain is not 0."""
+        return bool(np.any(self.w))
+
+    def to_info(self) -> dict:
+        """The response, for a network file's ``info['touch_response']``."""
+        return {"latency_s": self.latency_s, "hold_s": self.hold_s, "after_s": self.after_s,
+                **{k: dict(self.gains[k]) for k in self.SETS}}
+
+    @classmethod
+    def from_info(cls, info: dict | None, muscles: tuple[str, ...],
+                  rate_hz: float = 1000.0) -> TouchResponse | None:
+        """The response a network file names (``info['touch_response']``), or None."""
+        d = (info or {}).get("touch_response")
+        if d is None:
+            return None
+        d = dict(d)
+        gains = {k: d.pop(k) for k in cls.SETS if k in d}
+        return cls(muscles, gains, rate_hz=rate_hz, **d)
+
+    def drive(self, first: int, n: int, onsets: np.ndarray) -> np.ndarray | None:
+        """The excitation (n, 2, n_muscles) it adds at ticks first … first+n−1, given each
+        foot's last touch onset (tick; −inf when none), or None when it adds nothing."""
+        out = None
+        ticks = np.arange(first, first + n)
+        for side in range(2):
+            o = onsets[side]
+            if not np.isfinite(o) or first >= o + self.lag + self.hold + self.after:
+                continue
+            t = ticks - (int(o) + self.lag)
+            a = (t >= 0) & (t < self.hold)
+            b = (t >= self.hold) & (t < self.hold + self.after)
+            if not (a.any() or b.any()):
+                continue
+            if out is None:
+                out = np.zeros((n, 2, len(self.muscles)))
+            out[a, side] += self.w[0]
+            out[b, side] += self.w[1]
+            out[a | b, 1 - side] += self.w[2]
+        return out
+
+    def running(self, tick: int, onset: float) -> bool:
+        """Whether a response from ``onset`` is still pending or running at ``tick``."""
+        return np.isfinite(onset) and tick < onset + self.lag + self.hold + self.after
+
+
 class ReflexController:
     """Seed 003's neuromuscular network driving the planar body's muscles (7 per leg, or 8
     with the iliopsoas)."""
@@ -240,6 +336,15 @@ class ReflexController:
         self.nm = network.topology.n_muscles
         self.excitation = np.zeros((2, self.nm))
         self.log: list[tuple[str, float]] = []
+        self.response = self._response_of(network)
+
+    @staticmethod
+    def _response_of(network: Network) -> TouchResponse | None:
+        """The network's touch response (``info['touch_response']``) when any gain of it
+        is not 0, else None (the network runs as without one)."""
+        t = network.topology
+        r = TouchResponse.from_info(network.info, t.muscles, t.rate_hz)
+        return r if r is not None and r.on else None
 
     # ---- set-up -----------------------------------------------------------------
     def _bind(self, ctx: Context) -> None:
@@ -318,6 +423,9 @@ class ReflexController:
         self.sensed = np.zeros((self.block, 3, 2 * nm))  # length, velocity, force
         self.loads = np.zeros((self.block, 2))
         self.touches = np.zeros((self.block, 2))  # each foot touched (1) or not (0)
+        # the touch response's trigger: each foot's last touch onset (tick), touched now
+        self._onsets = np.full(2, -np.inf)
+        self._was_touched = np.zeros(2, dtype=bool)
         self.exc_block = np.zeros((self.block, 2, nm))
         self._nb_ticks = np.arange(self.block)
         self.block_start = 0
@@ -464,7 +572,44 @@ class ReflexController:
         kern["net_out"](e, bal, self._bal_cols, self.exc_block, self.ctrl_block, plan,
                         self._act_first, self._held)
         self._plan_done = self._plan_in_kernel
+        if self.response is not None:
+            self._add_response(k, nb)
         self.block_start = k
+
+    def _sense_touches(self) -> None:
+        """Sense the feet's obstacle contacts (a model without an obstacle: never touched)
+        when the touch afferent or the touch response needs them."""
+        need = self.touch_sig is not None or self.response is not None
+        self._touch_cols = self._obstacle_cols if need else None
+        if self.response is not None and self.response.lag < self.block:
+            raise InputError(f"touch response: latency {self.response.latency_s} s is "
+                             f"shorter than the network's block of {self.block} ticks")
+
+    def _touch_onsets(self, k0: int, n: int) -> None:
+        """Note each foot's touch onsets among the block's n sensed ticks from k0: a
+        touched tick after an untouched one, once the foot's last response is over."""
+        touched = self.touches[:n] > 0.0
+        if not touched.any() and not self._was_touched.any():
+            return
+        for side in range(2):
+            was = self._was_touched[side]
+            for i in range(n):
+                now = touched[i, side]
+                if now and not was and not self.response.running(k0 + i,
+                                                                 self._onsets[side]):
+                    self._onsets[side] = k0 + i
+                was = now
+            self._was_touched[side] = was
+
+    def _add_response(self, k: int, nb: int) -> None:
+        """Add the touch response to the block's excitations and clip its controls again
+        (blocks it does not reach are left as they were)."""
+        r = self.response.drive(k, nb, self._onsets)
+        if r is None:
+            return
+        self.exc_block += r
+        self.ctrl_block = np.minimum(np.maximum(self.exc_block.reshape(nb, -1), 0.01), 1.0)
+        self._plan_done = False  # ``update`` writes the plan from the controls
 
     def _next_block(self) -> None:
         """Sense the finished block, then fix the excitations of the next one."""
@@ -489,6 +634,8 @@ class ReflexController:
                 self.trace["balance"].append((k, full))
             self.exc_block[:, :, self.balance.cols] += bal
         self.ctrl_block = np.minimum(np.maximum(self.exc_block.reshape(nb, -1), 0.01), 1.0)
+        if self.response is not None:
+            self._add_response(k, nb)
         self.block_start = k
 
     def _bal_rows(self, first: int, n: int) -> np.ndarray:
@@ -515,9 +662,8 @@ class ReflexController:
         self._obs_cols = np.concatenate([lay.muscle_length, lay.muscle_velocity,
                                          lay.muscle_force, lay.foot_force[:, 2]])
         self._n_mus3 = 3 * len(lay.muscle_length)
-        # the feet's obstacle contacts (a model without an obstacle: never touched)
-        self._touch_cols = (lay.obstacle_found if self.touch_sig is not None
-                            and lay.obstacle_found is not None else None)
+        self._obstacle_cols = lay.obstacle_found
+        self._sense_touches()
         self._bal_sense_cols = (self.balance.sense_cols(lay) if self.balance is not None
                                 else None)
         self._bal_g = np.empty((self.block * self.every, 7))
@@ -584,6 +730,8 @@ class ReflexController:
         k0 = self.k
         if self._touch_cols is not None:
             np.minimum(ticks[:, self._touch_cols], 1.0, out=self.touches[:n])
+            if self.response is not None:
+                self._touch_onsets(k0, n)
         kern = kernels()
         if kern is not None:  # the same numbers, compiled where elementwise (``kernels``)
             bal = self.balance is not None
@@ -611,3 +759,42 @@ class ReflexController:
     def state(self) -> str:
         """The network has one state."""
         return "reflex"
+
+    def touch_settings(self) -> Network:
+        """What ``retouch`` takes: the network."""
+        return self.net
+
+    def walk_key(self) -> str:
+        """What the walk before a first touch depends on: every weight of the network but
+        the touch afferent's (a touch rate of 0 adds nothing) and the touch response's
+        (``info['touch_response']``), its standardisation and settings, the trunk balance
+        and the block (a digest)."""
+        import hashlib
+
+        net, t = self.net, self.net.topology
+        w = net.w.copy()
+        w[self._touch_inputs()] = 0.0
+        h = hashlib.sha256(repr((t, sorted((net.info or {}).get("balance", {}).items()),
+                                 self.block_request, self.balance is None)).encode())
+        for a in (w, net.b, net.v, net.c, net.mean, net.std):
+            h.update(np.ascontiguousarray(a).tobytes())
+        return h.hexdigest()
+
+    def _touch_inputs(self) -> list[int]:
+        """The touch afferent's inputs (rows of ``net.w``)."""
+        sig = self.net.topology.touch_signal
+        return [i for i, (_s, g, _lag) in enumerate(self.net.topology.inputs()) if g == sig]
+
+    def retouch(self, net: Network) -> None:
+        """Go on with ``net``, which differs from the present network only in the touch
+        afferent's weights and the touch response: before a touch those add nothing, so a
+        walk to that instant is the same with either (``pipeline.WalkInCache``)."""
+        before = self.walk_key()
+        was, self.net = self.net, net
+        if self.walk_key() != before:
+            self.net = was
+            raise ValueError("retouch: the networks differ in more than the touch "
+                             "afferent's weights and the touch response")
+        self.w = net.w
+        self.response = self._response_of(net)
+        self._sense_touches()

@@ -377,7 +377,8 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                    pushes: bool = False, track_weight: float = W_TRACK,
                    knee_weight: float = W_KNEE, starts: tuple = (),
                    timestep_s: float | None = None, trip_start: str | None = None,
-                   track_limit_deg: float | None = None) -> None:
+                   track_limit_deg: float | None = None,
+                   names: tuple[str, ...] | None = None) -> None:
     """Worker set-up: what ``evaluate_walk`` simulates: a walk, and the obstacle trips
     ``trips`` ((swing fraction, speed) pairs) the walker must walk on from; GH2010
     candidates in ``gh2010_space(stumble_reflex=...)``; ``strategy_cost``: what a trip in
@@ -394,10 +395,12 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
     played back at each of these speeds (m/s; ``push_term``); ``timestep_s``: the network's
     physics step (default ``FIT_TIMESTEP_S``; a GH2010 candidate runs at its set's);
     ``trip_start``: where the trips start (``Scenario.start``; default the controller's);
-    ``track_limit_deg``: ``walk_cost``'s."""
+    ``track_limit_deg``: ``walk_cost``'s; ``names``: a network candidate's parameters
+    (``network_space``'s names; default inferred from its length)."""
     from stumble.pipeline import WalkInCache
 
     _EVAL.pop("walk", None)
+    _EVAL.pop("start_net", None)
     _EVAL.update(walk_ins=WalkInCache() if touch_only else None)
     _EVAL.update(touch_only=touch_only, kind=kind, duration_s=duration_s,
                  speed=speed_m_per_s, base=base,
@@ -408,7 +411,7 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                  placement=placement, pushes=pushes, track_weight=float(track_weight),
                  knee_weight=float(knee_weight), starts=tuple(map(float, starts)),
                  timestep_s=timestep_s, trip_start=trip_start,
-                 track_limit_deg=track_limit_deg)
+                 track_limit_deg=track_limit_deg, names=names)
 
 
 def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
@@ -435,9 +438,18 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
     elif kind == "network":
         from stumble.control.reflex.network import Network
 
-        net = network_with(Network.load(_EVAL["base"]["network"]), theta)
-        r = simulate_walk("network", _EVAL["duration_s"], _EVAL["speed"], network=net,
-                          timestep_s=_EVAL.get("timestep_s") or FIT_TIMESTEP_S)
+        if "start_net" not in _EVAL:  # loaded once per process
+            _EVAL["start_net"] = Network.load(_EVAL["base"]["network"])
+        start = _EVAL["start_net"]
+        touch_only = _EVAL.get("touch_only", False)
+        net = network_with(start, theta, _EVAL.get("names"))
+        if touch_only and "walk" in _EVAL:  # no obstacle, no touch: the same walk for
+            r = _EVAL["walk"]  # every candidate, run once per process
+        else:
+            r = simulate_walk("network", _EVAL["duration_s"], _EVAL["speed"], network=net,
+                              timestep_s=_EVAL.get("timestep_s") or FIT_TIMESTEP_S)
+            if touch_only:
+                _EVAL["walk"] = r
     else:
         raise ValueError(kind)
     cost, terms = walk_cost(r.summary, effort_of(r), _EVAL.get("foot_angle", 0.0),
@@ -888,7 +900,8 @@ def _starts_opts(starts: tuple) -> list[str]:
 BALANCE_FIT = ("kp_per_rad", "kd_s_per_rad", "lean_ref_rad", "k_lean")
 
 
-def network_space(net, interneuron_biases: bool = True) -> Space:
+def network_space(net, interneuron_biases: bool = True, touch_only: bool = False,
+                  touch_response: bool = False) -> Space:
     """The subset of the network a closed-loop fit changes, as offsets from its weights:
     per muscle a motor-neuron gain (a factor on its summed input, ``gain_<M>``, start 1)
     and bias (``bias_<M>``, an offset on c); per interneuron an offset on its bias
@@ -896,10 +909,22 @@ def network_space(net, interneuron_biases: bool = True) -> Space:
     foot-contact afferents' weights onto the interneurons of their segments
     (``contact_<seg>_<k>``, offsets); the touch afferent's (``touch_<seg>_<k>``, offsets
     from 0, when the network has it: ``Network.with_touch``); and the trunk-lean
-    addition's gains (``TrunkBalance``: k_p, k_d, θ_ref, k_lean)."""
-    from stumble.control.reflex.controller import TrunkBalance
+    addition's gains (``TrunkBalance``: k_p, k_d, θ_ref, k_lean). ``touch_response``
+    (the network must have one: ``Network.with_touch_response``): its gains per set and
+    muscle (``resp_<set>_<M>``, from the network's, -1 to 1) and its two durations
+    (``resp_hold_s``, ``resp_after_s``). ``touch_only``: the touch afferent's weights (when
+    the network has it) and the touch response's alone, which leave the walk before a
+    touch as it is (the network's touch stage)."""
+    from stumble.control.reflex.controller import TouchResponse, TrunkBalance
 
     t = net.topology
+    resp = TouchResponse.from_info(net.info, t.muscles, t.rate_hz)
+    if touch_response and resp is None:
+        raise ValueError("touch_response: the network has no touch response "
+                         "(Network.with_touch_response)")
+    if touch_only and not (t.touch or touch_response):
+        raise ValueError("touch_only: the network has no touch afferent (Network.with_touch) "
+                         "and no touch response is fitted")
     names, start, scale, lo, hi = [], [], [], [], []
 
     def add(name, x0, sc, a, b):
@@ -909,6 +934,22 @@ def network_space(net, interneuron_biases: bool = True) -> Space:
         lo.append(a)
         hi.append(b)
 
+    def add_response():
+        for k in TouchResponse.SETS:
+            for m in t.muscles:
+                add(f"resp_{k}_{m}", resp.gains[k][m], 0.3, -1.0, 1.0)
+        add("resp_hold_s", resp.hold_s, 0.04, 0.02, 0.25)
+        add("resp_after_s", resp.after_s, 0.04, 0.0, 0.3)
+
+    if touch_only:
+        for i in _touch_rows(net):
+            seg = t.segments[t.inputs()[i][0]]
+            for k in range(t.hidden):
+                add(f"touch_{seg}_{k}", 0.0, 1.0, -10.0, 10.0)
+        if touch_response:
+            add_response()
+        return Space(tuple(names), np.array(start), np.array(scale), np.array(lo),
+                     np.array(hi))
     for m in t.muscles:
         add(f"gain_{m}", 1.0, 0.3, 0.0, 5.0)
     for m in t.muscles:
@@ -930,6 +971,8 @@ def network_space(net, interneuron_biases: bool = True) -> Space:
     for n, x0 in zip(BALANCE_FIT, (bal.kp, bal.kd, bal.ref, bal.k_lean or 0.5), strict=True):
         add(f"balance_{n}", x0, max(0.3 * abs(x0), 0.05), -0.5 if n == "lean_ref_rad" else 0.0,
             10.0)
+    if touch_response:
+        add_response()
     return Space(tuple(names), np.array(start), np.array(scale), np.array(lo), np.array(hi))
 
 
@@ -945,15 +988,36 @@ def _touch_rows(net) -> list[int]:
     return [i for i, (_s, sig, _lag) in enumerate(t.inputs()) if sig == t.touch_signal]
 
 
-def network_with(net, theta: np.ndarray):
-    """A copy of ``net`` with a ``network_space`` candidate applied."""
+def network_with(net, theta: np.ndarray, names: tuple[str, ...] | None = None):
+    """A copy of ``net`` with a ``network_space`` candidate applied; ``names``: the
+    candidate's parameters (default: the whole subset, with the interneurons' biases when
+    ``theta`` is that long). A touch stage's candidate (``touch_only``) changes only the
+    touch afferent's weights."""
     from dataclasses import replace as _replace
 
     t = net.topology
-    with_b = len(theta) > len(network_space(net, False).names)
-    space = network_space(net, interneuron_biases=with_b)
-    p = dict(zip(space.names, map(float, theta), strict=True))
+    if names is None:
+        with_b = len(theta) > len(network_space(net, False).names)
+        names = network_space(net, interneuron_biases=with_b).names
+    p = dict(zip(names, map(float, theta), strict=True))
     v, c, w, b = net.v.copy(), net.c.copy(), net.w.copy(), net.b.copy()
+    H = t.hidden
+    for i in _touch_rows(net):
+        s = t.inputs()[i][0]
+        seg = t.segments[s]
+        for k in range(H):
+            w[i, s * H + k] += p.get(f"touch_{seg}_{k}", 0.0)
+    info = dict(net.info)
+    if any(n.startswith("resp_") for n in names):  # the touch response: its values
+        from stumble.control.reflex.controller import TouchResponse
+
+        resp = dict(info["touch_response"])
+        for k in TouchResponse.SETS:
+            resp[k] = {m: p[f"resp_{k}_{m}"] for m in t.muscles}
+        resp["hold_s"], resp["after_s"] = p["resp_hold_s"], p["resp_after_s"]
+        info["touch_response"] = resp
+    if all(n.startswith(("touch_", "resp_")) for n in names):  # the touch stage: nothing
+        return _replace(net, w=w, info=info)  # else moves
     for s, seg in enumerate(t.segments):
         for k in range(t.hidden):
             b[s * t.hidden + k] += p.get(f"b_{seg}_{k}", 0.0)
@@ -961,18 +1025,11 @@ def network_with(net, theta: np.ndarray):
         v[k] *= p[f"gain_{t.muscles[j]}"]
     for j, m in enumerate(t.muscles):
         c[j] = c[j] * p[f"gain_{m}"] + p[f"bias_{m}"]
-    H = t.hidden
     for i in _contact_rows(net):
         s = t.inputs()[i][0]
         seg = t.segments[s]
         for k in range(H):
             w[i, s * H + k] += p[f"contact_{seg}_{k}"]
-    for i in _touch_rows(net):
-        s = t.inputs()[i][0]
-        seg = t.segments[s]
-        for k in range(H):
-            w[i, s * H + k] += p[f"touch_{seg}_{k}"]
-    info = dict(net.info)
     bal = dict(info.get("balance") or {})
     bal.update({n: p[f"balance_{n}"] for n in BALANCE_FIT})
     bal.setdefault("rectified", True)
@@ -1000,8 +1057,10 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    sigma: float = NETWORK_ES_SIGMA, trips: tuple = (),
                    strategy_cost: float = 0.0, recovery_cost: float = 0.0,
                    trip_start: str | None = None, touch: bool = False,
-                   track_limit_deg: float | None = None):
-    """CMA-ES on ``network_space(start, interneuron_biases)``: each candidate walks
+                   track_limit_deg: float | None = None, touch_only: bool = False,
+                   touch_response: bool = False):
+    """CMA-ES on ``network_space(start, interneuron_biases, touch_only, touch_response)``:
+    each candidate walks
     ``NETWORK_ES_WALK_S`` from the 1.2 m/s recording (and 10 s from each of ``starts``) at
     ``timestep_s`` (default the step the network runs at, ``trip.DEFAULT_TIMESTEP_S``:
     2 ms; DAgger keeps ``FIT_TIMESTEP_S``), costed by ``walk_cost`` with
@@ -1016,7 +1075,12 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
     ``playback``); ``touch``: give the start the touch afferent first
     (``Network.with_touch``: its weights join the subset, from 0); ``track_limit_deg``:
     ``walk_cost``'s (each joint's RMSE beyond it costs ``W_TRACK_LIMIT`` a degree);
-    writes ``network.npz``,
+    ``touch_only``: the network's touch stage, the touch afferent's weights alone (given
+    the afferent first if the start has none): the walk stays the start's, bit for bit, so
+    it is run once per worker and each trip's walk to the trip once (``WalkInCache``);
+    it needs ``trips`` and takes no ``starts``; ``touch_response``: give the start a touch
+    response first if it has none (``Network.with_touch_response``, gains 0): its gains
+    and durations join the subset; writes ``network.npz``,
     ``history.jsonl`` and ``best.json`` to ``out`` when given."""
     import tempfile
 
@@ -1026,9 +1090,18 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
         raise ValueError(f"track_weight must be a finite number >= 0, got {track_weight}")
     from stumble.trip import DEFAULT_TIMESTEP_S
 
-    if touch:
+    if touch_only and not trips:
+        raise ValueError("touch_only is for trips: name a trip set")
+    if touch_only and starts:
+        raise ValueError("starts test the walk: not with touch_only")
+    if touch_only and interneuron_biases:
+        raise ValueError("interneuron_biases change the walk: not with touch_only")
+    if touch or (touch_only and not touch_response and not start.topology.touch):
         start = start.with_touch()
-    space = network_space(start, interneuron_biases=interneuron_biases)
+    if touch_response:
+        start = start.with_touch_response()
+    space = network_space(start, interneuron_biases=interneuron_biases,
+                          touch_only=touch_only, touch_response=touch_response)
     step = timestep_s or DEFAULT_TIMESTEP_S["reflex"]
     with tempfile.TemporaryDirectory() as tmp:  # the workers load the start from a file
         path = Path(tmp) / "start.npz"
@@ -1041,15 +1114,20 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                           strategy_cost=float(strategy_cost),
                           recovery_cost=float(recovery_cost), track_weight=track_weight,
                           knee_weight=knee_weight, starts=tuple(starts), timestep_s=step,
-                          trip_start=trip_start, track_limit_deg=track_limit_deg),
+                          trip_start=trip_start, track_limit_deg=track_limit_deg,
+                          touch_only=touch_only, names=tuple(space.names)),
                       stage="walk+trips" if trips else "walk")
-    net = network_with(start, res.best_theta)
+    net = network_with(start, res.best_theta, space.names)
     opts = [*_weight_opts(track_weight, knee_weight, knee_first=True), *_starts_opts(starts),
             f"--timestep {step:g}"]  # the step always: the default step may change
     if interneuron_biases:
         opts.append("--interneuron-biases")
-    if touch:
+    if touch and not touch_only:
         opts.append("--touch-afferent")
+    if touch_only:
+        opts.append("--touch-only")
+    if touch_response:
+        opts.append("--touch-response")
     if track_limit_deg is not None:
         opts.append(f"--track-limit {track_limit_deg:g}")
     if generations != NETWORK_ES_GENERATIONS:
@@ -1078,7 +1156,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    "starts": [float(v) for v in starts], "timestep_s": step,
                    "trips": [list(t) for t in trips], "strategy_cost": strategy_cost,
                    "recovery_cost": recovery_cost, "trip_start": trip_start,
-                   "touch_afferent": bool(start.topology.touch),
+                   "touch_afferent": bool(start.topology.touch), "touch_only": touch_only,
+                   "touch_response": touch_response,
                    "track_limit_deg": track_limit_deg,
                    "cost": res.best_cost, "terms": res.best_terms,
                    "wall_time_s": round(res.wall_time_s, 1), "command": command}

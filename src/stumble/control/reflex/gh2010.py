@@ -595,6 +595,10 @@ class GH2010Controller:
         return (*(getattr(p, f.name) for f in fields(p) if f.name not in TOUCH_FIELDS),
                 p.stumble_reflex, p.crossing)
 
+    def touch_settings(self) -> GH2010Params:
+        """What ``retouch`` takes: the parameters."""
+        return self.p
+
     def retouch(self, params: GH2010Params) -> None:
         """Go on with ``params``, which differ from the present ones only in the reflexes
         a touch triggers (``TOUCH_FIELDS``): before a touch those add nothing, so a

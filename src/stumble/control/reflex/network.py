@@ -259,6 +259,19 @@ class Network:
                        np.append(self.mean, 0.0), np.append(self.std, 1.0),
                        dict(self.info), walk)
 
+    def with_touch_response(self) -> Network:
+        """A copy with a touch response (``controller.TouchResponse``, in
+        ``info['touch_response']``), its gains 0: the same network until they are fitted."""
+        from stumble.control.reflex.controller import TouchResponse
+
+        if (self.info or {}).get("touch_response") is not None:
+            return self
+        t = self.topology
+        info = {**(self.info or {}),
+                "touch_response": TouchResponse(t.muscles, rate_hz=t.rate_hz).to_info()}
+        return Network(t, self.w, self.b, self.v, self.c, self.mean, self.std, info,
+                       self.walk_rates)
+
     def units_of(self) -> np.ndarray:
         """(n_connections, H) hidden-unit index read by each motor path."""
         H = self.topology.hidden
