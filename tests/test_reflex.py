@@ -552,3 +552,25 @@ def test_trips_of_networks_differing_only_in_their_touch_share_the_walk_to_the_t
     assert len(cache) == 1
     assert not np.array_equal(simulate_trip(sc, network=a).recording.qpos,
                               simulate_trip(sc, network=b).recording.qpos)
+
+
+def test_a_response_by_foot_answers_a_late_swing_touch_with_its_ahead_sets():
+    """``TouchResponse.by_foot``: with gains only in the ``*_ahead`` sets, a trip early in
+    swing (the tripped foot behind the other) runs as without a response, bit for bit,
+    and one late in swing (the foot ahead) does not."""
+    from stumble.control.reflex.fit_walk import network_space, network_with
+    from stumble.control.reflex.identify import default_network
+
+    net = default_network("placement-es")
+    by_foot = net.with_touch_response(by_foot=True)
+    space = network_space(by_foot, touch_only=True, touch_response=True)
+    assert len(space.names) == 6 * 8 + 2
+    theta = np.where([n.startswith("resp_") and "_ahead_" in n for n in space.names], 0.5,
+                     space.start)
+    ahead_only = network_with(by_foot, theta, space.names)
+    for swing, same in ((0.13, True), (0.6, False)):
+        sc = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=swing,
+                      speed_m_per_s=1.2, duration_after_trip_s=0.5)
+        plain = simulate_trip(sc, network=net).recording.qpos
+        resp = simulate_trip(sc, network=ahead_only).recording.qpos
+        assert (plain.shape == resp.shape and np.array_equal(plain, resp)) == same, swing

@@ -305,7 +305,9 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument("--scr-phase", choices=("any", "foot"), default=None,
                    help="gh2010 --trips: the stumbling corrective reflex the same at every "
                    "phase (any), or reversing as the tripped foot is behind or ahead of "
-                   "the other (foot); default: the starting fit's")
+                   "the other (foot); default: the starting fit's; network --walk-es "
+                   "--touch-response: foot gives the response sets for a touch of the foot "
+                   "ahead of the other")
     f.add_argument("--strategy-cost", type=float, default=None, metavar="W",
                    help="gh2010 --trips, network --walk-es --trip-set: each of the "
                    "stage's trips in a human window "
@@ -879,7 +881,6 @@ def cmd_reflex_fit_network_es(args) -> int:
     from stumble.viz.reflex_plots import plot_objective
 
     for flag, given in (("--trips", args.trips or None), ("--params", args.params),
-                        ("--scr-phase", args.scr_phase),
                         ("--crossing", args.crossing or None),
                         ("--load-from", args.load_from), ("--placement", args.placement or None),
                         ("--pushes", args.pushes or None), ("--expert", args.expert),
@@ -927,6 +928,8 @@ def cmd_reflex_fit_network_es(args) -> int:
     from stumble.control.reflex.fit_walk import NETWORK_ES_SIGMA, TRIP_SETS
 
     trips = TRIP_SETS[args.trip_set] if args.trip_set else ()
+    if args.scr_phase is not None and not args.touch_response:
+        raise InputError("--scr-phase (network --walk-es) is for --touch-response")
     if args.touch_only:
         if not trips:
             raise InputError("--touch-only (network): the touch stage needs --trip-set")
@@ -968,6 +971,7 @@ def cmd_reflex_fit_network_es(args) -> int:
                               trip_start=(args.trip_start or "own") if trips else None,
                               touch=args.touch_afferent, touch_only=args.touch_only,
                               touch_response=args.touch_response,
+                              response_by_foot=args.scr_phase == "foot",
                               track_limit_deg=args.track_limit, **costs)
     bar.done()
     walk = simulate_walk("network", 20.0, network=net)

@@ -225,12 +225,17 @@ class TouchResponse:
     over) triggers, ``latency_s`` later, for ``hold_s`` the touched leg's ``ipsi``
     excitations, then for ``after_s`` its ``after`` ones, and throughout both the other
     leg's ``contra`` ones: per muscle, added to the network's excitation (after the trunk
-    balance, before the clip to 0.01-1). In people a trip in swing brings the swing leg's
-    knee and hip flexors and ankle dorsiflexors in about 60-80 ms, then its extensors
-    (Eng, Winter & Patla 1994, Exp Brain Res 102:339; Zehr & Stein 1999, Prog Neurobiol
-    58:185), and the support leg's plantarflexors and hip extensors push off (Pijnappels
-    et al. 2005, J Biomech 38:627). The pattern is not given here but fitted in closed
-    loop (``fit_walk.network_space(touch_response=True)``), from 0: a network without a
+    balance, before the clip to 0.01-1). With ``by_foot`` (as ``GH2010Params.scr_phase``
+    foot) a touch of the foot ahead of the other (its ankle's x at the touch; late swing)
+    triggers the ``*_ahead`` sets instead: people flex the tripped leg early in swing
+    and extend it late (Eng et al. 1994, Schillings et al. 2000).
+
+    In people a trip in swing brings the swing leg's knee and hip flexors and ankle
+    dorsiflexors in about 60-80 ms, then its extensors (Eng, Winter & Patla 1994, Exp
+    Brain Res 102:339; Zehr & Stein 1999, Prog Neurobiol 58:185), and the support leg's
+    plantarflexors and hip extensors push off (Pijnappels et al. 2005, J Biomech 38:627).
+    The pattern is not given here but fitted in closed loop
+    (``fit_walk.network_space(touch_response=True)``), from 0: a network without a
     response, or with every gain 0, runs as before, bit for bit.
 
     ``latency_s`` 0.065 s: the biceps femoris' onset 64 ms after a trip (Eng et al. 1994,
@@ -240,17 +245,20 @@ class TouchResponse:
 
     LATENCY_S = 0.065  # Eng et al. 1994 (seed 003 §IV.A): BF 64 ms after a trip
     SETS = ("ipsi", "after", "contra")
+    AHEAD_SETS = ("ipsi_ahead", "after_ahead", "contra_ahead")  # ``by_foot``
 
     def __init__(self, muscles: tuple[str, ...], gains: dict | None = None,
                  latency_s: float = LATENCY_S, hold_s: float = 0.1, after_s: float = 0.1,
-                 rate_hz: float = 1000.0):
+                 rate_hz: float = 1000.0, by_foot: bool = False):
         gains = gains or {}
-        unknown = set(gains) - set(self.SETS)
+        self.by_foot = bool(by_foot)
+        self.sets = self.SETS + (self.AHEAD_SETS if self.by_foot else ())
+        unknown = set(gains) - set(self.sets)
         if unknown:
             raise InputError(f"touch response: unknown gain set(s) {sorted(unknown)}")
         self.muscles = tuple(muscles)
         self.gains = {k: {m: float((gains.get(k) or {}).get(m, 0.0)) for m in self.muscles}
-                      for k in self.SETS}
+                      for k in self.sets}
         for k, g in gains.items():
             bad = set(g) - set(self.muscles)
             if bad:
@@ -264,7 +272,7 @@ class TouchResponse:
         self.lag = max(1, round(latency_s * rate_hz))  # ticks
         self.hold = round(hold_s * rate_hz)
         self.after = round(after_s * rate_hz)
-        self.w = np.array([[self.gains[k][m] for m in self.muscles] for k in self.SETS])
+        self.w = np.array([[self.gains[k][m] for m in self.muscles] for k in self.sets])
 
     @property
     def on(self) -> bool:
@@ -274,7 +282,8 @@ class TouchResponse:
     def to_info(self) -> dict:
         """The response, for a network file's ``info['touch_response']``."""
         return {"latency_s": self.latency_s, "hold_s": self.hold_s, "after_s": self.after_s,
-                **{k: dict(self.gains[k]) for k in self.SETS}}
+                **({"by_foot": True} if self.by_foot else {}),
+                **{k: dict(self.gains[k]) for k in self.sets}}
 
     @classmethod
     def from_info(cls, info: dict | None, muscles: tuple[str, ...],
@@ -284,12 +293,14 @@ class TouchResponse:
         if d is None:
             return None
         d = dict(d)
-        gains = {k: d.pop(k) for k in cls.SETS if k in d}
+        gains = {k: d.pop(k) for k in cls.SETS + cls.AHEAD_SETS if k in d}
         return cls(muscles, gains, rate_hz=rate_hz, **d)
 
-    def drive(self, first: int, n: int, onsets: np.ndarray) -> np.ndarray | None:
+    def drive(self, first: int, n: int, onsets: np.ndarray,
+              ahead: np.ndarray | None = None) -> np.ndarray | None:
         """The excitation (n, 2, n_muscles) it adds at ticks first … first+n−1, given each
-        foot's last touch onset (tick; −inf when none), or None when it adds nothing."""
+        foot's last touch onset (tick; −inf when none) and, with ``by_foot``, whether that
+        foot was ahead of the other then, or None when it adds nothing."""
         out = None
         ticks = np.arange(first, first + n)
         for side in range(2):
@@ -303,9 +314,10 @@ class TouchResponse:
                 continue
             if out is None:
                 out = np.zeros((n, 2, len(self.muscles)))
-            out[a, side] += self.w[0]
-            out[b, side] += self.w[1]
-            out[a | b, 1 - side] += self.w[2]
+            w = self.w[3:6] if self.by_foot and ahead is not None and ahead[side] else self.w
+            out[a, side] += w[0]
+            out[b, side] += w[1]
+            out[a | b, 1 - side] += w[2]
         return out
 
     def running(self, tick: int, onset: float) -> bool:
@@ -426,6 +438,7 @@ class ReflexController:
         # the touch response's trigger: each foot's last touch onset (tick), touched now
         self._onsets = np.full(2, -np.inf)
         self._was_touched = np.zeros(2, dtype=bool)
+        self._ahead = np.zeros(2, dtype=bool)  # each foot ahead of the other at its onset
         self.exc_block = np.zeros((self.block, 2, nm))
         self._nb_ticks = np.arange(self.block)
         self.block_start = 0
@@ -585,9 +598,10 @@ class ReflexController:
             raise InputError(f"touch response: latency {self.response.latency_s} s is "
                              f"shorter than the network's block of {self.block} ticks")
 
-    def _touch_onsets(self, k0: int, n: int) -> None:
-        """Note each foot's touch onsets among the block's n sensed ticks from k0: a
-        touched tick after an untouched one, once the foot's last response is over."""
+    def _touch_onsets(self, k0: int, n: int, rows: np.ndarray) -> None:
+        """Note each foot's touch onsets among the block's n sensed ticks from k0 (their
+        sensor rows): a touched tick after an untouched one, once the foot's last response
+        is over; and whether the foot was then ahead of the other (its ankle's x)."""
         touched = self.touches[:n] > 0.0
         if not touched.any() and not self._was_touched.any():
             return
@@ -598,13 +612,15 @@ class ReflexController:
                 if now and not was and not self.response.running(k0 + i,
                                                                  self._onsets[side]):
                     self._onsets[side] = k0 + i
+                    x = rows[i, self.lay.foot_pos[:, 0]]
+                    self._ahead[side] = x[side] > x[1 - side]
                 was = now
             self._was_touched[side] = was
 
     def _add_response(self, k: int, nb: int) -> None:
         """Add the touch response to the block's excitations and clip its controls again
         (blocks it does not reach are left as they were)."""
-        r = self.response.drive(k, nb, self._onsets)
+        r = self.response.drive(k, nb, self._onsets, self._ahead)
         if r is None:
             return
         self.exc_block += r
@@ -731,7 +747,7 @@ class ReflexController:
         if self._touch_cols is not None:
             np.minimum(ticks[:, self._touch_cols], 1.0, out=self.touches[:n])
             if self.response is not None:
-                self._touch_onsets(k0, n)
+                self._touch_onsets(k0, n, ticks)
         kern = kernels()
         if kern is not None:  # the same numbers, compiled where elementwise (``kernels``)
             bal = self.balance is not None

@@ -935,7 +935,7 @@ def network_space(net, interneuron_biases: bool = True, touch_only: bool = False
         hi.append(b)
 
     def add_response():
-        for k in TouchResponse.SETS:
+        for k in resp.sets:
             for m in t.muscles:
                 add(f"resp_{k}_{m}", resp.gains[k][m], 0.3, -1.0, 1.0)
         add("resp_hold_s", resp.hold_s, 0.04, 0.02, 0.25)
@@ -1012,8 +1012,9 @@ def network_with(net, theta: np.ndarray, names: tuple[str, ...] | None = None):
         from stumble.control.reflex.controller import TouchResponse
 
         resp = dict(info["touch_response"])
-        for k in TouchResponse.SETS:
-            resp[k] = {m: p[f"resp_{k}_{m}"] for m in t.muscles}
+        for k in TouchResponse.SETS + TouchResponse.AHEAD_SETS:
+            if f"resp_{k}_{t.muscles[0]}" in p:
+                resp[k] = {m: p[f"resp_{k}_{m}"] for m in t.muscles}
         resp["hold_s"], resp["after_s"] = p["resp_hold_s"], p["resp_after_s"]
         info["touch_response"] = resp
     if all(n.startswith(("touch_", "resp_")) for n in names):  # the touch stage: nothing
@@ -1058,7 +1059,7 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    strategy_cost: float = 0.0, recovery_cost: float = 0.0,
                    trip_start: str | None = None, touch: bool = False,
                    track_limit_deg: float | None = None, touch_only: bool = False,
-                   touch_response: bool = False):
+                   touch_response: bool = False, response_by_foot: bool = False):
     """CMA-ES on ``network_space(start, interneuron_biases, touch_only, touch_response)``:
     each candidate walks
     ``NETWORK_ES_WALK_S`` from the 1.2 m/s recording (and 10 s from each of ``starts``) at
@@ -1080,7 +1081,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
     it is run once per worker and each trip's walk to the trip once (``WalkInCache``);
     it needs ``trips`` and takes no ``starts``; ``touch_response``: give the start a touch
     response first if it has none (``Network.with_touch_response``, gains 0): its gains
-    and durations join the subset; writes ``network.npz``,
+    and durations join the subset (``response_by_foot``: with sets for a touch of the foot
+    ahead, ``TouchResponse.by_foot``); writes ``network.npz``,
     ``history.jsonl`` and ``best.json`` to ``out`` when given."""
     import tempfile
 
@@ -1098,8 +1100,10 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
         raise ValueError("interneuron_biases change the walk: not with touch_only")
     if touch or (touch_only and not touch_response and not start.topology.touch):
         start = start.with_touch()
+    if response_by_foot and not touch_response:
+        raise ValueError("response_by_foot is for touch_response")
     if touch_response:
-        start = start.with_touch_response()
+        start = start.with_touch_response(by_foot=response_by_foot)
     space = network_space(start, interneuron_biases=interneuron_biases,
                           touch_only=touch_only, touch_response=touch_response)
     step = timestep_s or DEFAULT_TIMESTEP_S["reflex"]
@@ -1128,6 +1132,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
         opts.append("--touch-only")
     if touch_response:
         opts.append("--touch-response")
+    if response_by_foot:
+        opts.append("--scr-phase foot")
     if track_limit_deg is not None:
         opts.append(f"--track-limit {track_limit_deg:g}")
     if generations != NETWORK_ES_GENERATIONS:

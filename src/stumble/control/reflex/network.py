@@ -259,16 +259,17 @@ class Network:
                        np.append(self.mean, 0.0), np.append(self.std, 1.0),
                        dict(self.info), walk)
 
-    def with_touch_response(self) -> Network:
+    def with_touch_response(self, by_foot: bool = False) -> Network:
         """A copy with a touch response (``controller.TouchResponse``, in
-        ``info['touch_response']``), its gains 0: the same network until they are fitted."""
+        ``info['touch_response']``; ``by_foot``: its sets by the touched foot's place), its
+        gains 0: the same network until they are fitted (one it has is kept)."""
         from stumble.control.reflex.controller import TouchResponse
 
         if (self.info or {}).get("touch_response") is not None:
             return self
         t = self.topology
-        info = {**(self.info or {}),
-                "touch_response": TouchResponse(t.muscles, rate_hz=t.rate_hz).to_info()}
+        info = {**(self.info or {}), "touch_response": TouchResponse(
+            t.muscles, rate_hz=t.rate_hz, by_foot=by_foot).to_info()}
         return Network(t, self.w, self.b, self.v, self.c, self.mean, self.std, info,
                        self.walk_rates)
 
