@@ -516,6 +516,8 @@ def test_a_touch_response_is_checked_and_kept_in_the_networks_file(tmp_path):
     on = np.flatnonzero(drive[:, 1, sol])  # the other (left) leg's SOL
     assert on[0] == 10 + 65 and on[-1] == 10 + 65 + 120 + 100 - 1
     assert not drive[:, 0].any()  # no ipsilateral gain
+    slow = TouchResponse.from_info(resp_net.with_delay_scale(2.0).info, net.topology.muscles)
+    assert (slow.lag, slow.hold, slow.after) == (130, 240, 200)  # delays x 2, as GH2010's
     with pytest.raises(InputError, match=r"latency_s = 0\.005"):
         TouchResponse(net.topology.muscles, latency_s=0.005)
     with pytest.raises(InputError, match="muscles the network does not drive"):

@@ -130,7 +130,7 @@ def test_the_shipped_closed_loop_network_walks_from_every_start(speed):
     assert 0.55 <= s["stance_fraction"] <= 0.70
 
 
-@pytest.mark.parametrize("name", ["closed-loop", "placement", "placement-es"])
+@pytest.mark.parametrize("name", ["closed-loop", "placement", "placement-es", "placement-walk"])
 @pytest.mark.parametrize(("swing", "strategy"), [(0.13, "elevating"), (0.56, "lowering")])
 def test_the_closed_loop_network_takes_the_seeds_strategies(swing, strategy, name):
     """Seed 003's CASE 1 and CASE 2 (obstacle, 1.2 m/s, from the recording, the seed's
@@ -246,3 +246,20 @@ def test_the_placement_network_walks_closer_to_the_recording(tmp_path):
     r = s["rmse_deg"]
     assert r["hip_flexion"] < 10.0 and r["ankle_angle"] < 10.0 and r["knee_angle"] < 20.0
     assert 0.55 <= s["stance_fraction"] <= 0.70 and 0.9 <= s["speed_m_per_s"] <= 1.4
+
+
+def test_the_walk_held_network_walks_within_ten_degrees_at_every_joint():
+    """``--network placement-walk`` (``placement-es`` with each joint's RMSE beyond 9.7 deg
+    charged, ``--track-limit``): 20 s from the recording at 0.9-1.4 m/s, stance
+    0.55-0.70, hip, knee and ankle each within 10 deg of the recorded stride (README:
+    6.8/9.7/9.9 deg), the issue's walking target; its record names its start by name."""
+    from stumble.control.reflex.identify import default_network
+
+    net = default_network("placement-walk")
+    fit = net.info["fit"]
+    assert fit["track_limit_deg"] == 9.7 and fit["from"]["network"] == "placement-es"
+    assert "--walk-es placement-es" in fit["command"] and "--track-limit 9.7" in fit["command"]
+    s = simulate_walk("network", 20.0, network=net).summary
+    assert not s["fell"] and 0.9 <= s["speed_m_per_s"] <= 1.4
+    assert 0.55 <= s["stance_fraction"] <= 0.70
+    assert max(s["rmse_deg"][j] for j in ("hip_flexion", "knee_angle", "ankle_angle")) < 10.0

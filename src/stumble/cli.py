@@ -149,7 +149,9 @@ def _parser() -> argparse.ArgumentParser:
                    "shipped network: closed-loop (the default: the identification refined "
                    "in closed loop, which walks), placement (refined from a placing "
                    "expert: walks closer to the recording), placement-es (placement refined "
-                   "by CMA-ES: closest to the recording) or open-loop (seed 003's "
+                   "by CMA-ES), placement-walk (placement-es held within 10 deg at every "
+                   "joint: closest to the recording), placement-touch (placement-walk with "
+                   "a touch response: recovers early-swing trips) or open-loop (seed 003's "
                    "identification alone)")
     t.add_argument("--no-trunk-balance", action="store_true",
                    help="reflex controller: without the stance hips' trunk-lean reflex "
@@ -401,7 +403,9 @@ def _parser() -> argparse.ArgumentParser:
     rw.add_argument("--network", type=Path, metavar="FILE",
                     help="network controller: a network.npz, or a shipped network: "
                     "closed-loop (the default, which walks), placement (refined from a "
-                    "placing expert), placement-es (placement refined by CMA-ES) or "
+                    "placing expert), placement-es (placement refined by CMA-ES), "
+                    "placement-walk (within 10 deg at every joint), placement-touch "
+                    "(placement-walk with a touch response) or "
                     "open-loop (seed 003's identification alone, which "
                     "falls after 0.8 s)")
     rw.add_argument("--params", type=Path, metavar="FILE",

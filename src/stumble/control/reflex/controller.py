@@ -266,8 +266,8 @@ class TouchResponse:
                                  f"drive: {sorted(bad)}")
         for name, v, lo in (("latency_s", latency_s, 0.02), ("hold_s", hold_s, 0.0),
                             ("after_s", after_s, 0.0)):
-            if not (np.isfinite(v) and lo <= v <= 1.0):
-                raise InputError(f"touch response: {name} = {v} is not within {lo}-1 s")
+            if not (np.isfinite(v) and lo <= v <= 5.0):
+                raise InputError(f"touch response: {name} = {v} is not within {lo}-5 s")
         self.latency_s, self.hold_s, self.after_s = latency_s, hold_s, after_s
         self.lag = max(1, round(latency_s * rate_hz))  # ticks
         self.hold = round(hold_s * rate_hz)

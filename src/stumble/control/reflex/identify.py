@@ -77,8 +77,15 @@ SHIPPED_PLACEMENT = "network_placement.npz"
 # knee within 10 deg) and takes the human strategy in every window trip, but recovers
 # none of the 45 (README), so it is not the default (since 2026-12-04, later that day)
 SHIPPED_PLACEMENT_ES = "network_placement_es.npz"
+# ``placement-es`` with each joint held within 9.7 deg (``--track-limit``), a third
+# CMA-ES stage: `stumble reflex fit --controller network --walk-es placement-es
+# --knee-weight 5 --track-weight 3 --starts 1,1.4 --timestep 0.002 --track-limit 9.7
+# --sigma 0.05 --generations 40 --seed 0` (13 min, 1 worker, 2026-12-04): from the
+# recording it walks within 10 deg at hip, knee and ankle (6.8/9.7/9.9; README)
+SHIPPED_PLACEMENT_WALK = "network_placement_walk.npz"
 NETWORK_NAMES = {"open-loop": SHIPPED, "closed-loop": SHIPPED_CLOSED_LOOP,
-                 "placement": SHIPPED_PLACEMENT, "placement-es": SHIPPED_PLACEMENT_ES}
+                 "placement": SHIPPED_PLACEMENT, "placement-es": SHIPPED_PLACEMENT_ES,
+                 "placement-walk": SHIPPED_PLACEMENT_WALK}
 # the network a reflex controller runs when none is given: the closed-loop refinement,
 # which walks (since 2026-12-04; the open-loop identification, seed 003's own method, falls
 # after 0.8 s and stays ``--network open-loop`` for comparison). The identification's own

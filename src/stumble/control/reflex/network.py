@@ -230,12 +230,19 @@ class Network:
         return mask
 
     def with_delay_scale(self, scale: float) -> Network:
-        """A copy whose every nerve delay is ``scale`` times as long (slower nerves)."""
+        """A copy whose every nerve delay is ``scale`` times as long (slower nerves), and
+        its touch response's latency and durations too (as ``GH2010Params.delay_scale``
+        scales its touch reflexes' holds)."""
         t = self.topology
         slower = Topology(t.rate_hz, t.hidden, t.contact, t.afferent_m_per_s / scale,
                           t.efferent_m_per_s / scale, t.muscles, t.touch)
+        info = dict(self.info)
+        if info.get("touch_response") is not None:
+            info["touch_response"] = {**info["touch_response"], **{
+                k: info["touch_response"][k] * scale
+                for k in ("latency_s", "hold_s", "after_s")}}
         return Network(slower, self.w, self.b, self.v, self.c, self.mean, self.std,
-                       dict(self.info), self.walk_rates)
+                       info, self.walk_rates)
 
     def with_touch(self) -> Network:
         """A copy with the touch afferent (``Topology.touch``), its weights 0: the same
