@@ -3,6 +3,7 @@ the default ``stumble/control/reflex/data/gh2010_knee.json``, ``--params knee``)
 from the played-back walk and in their own gait, and under the closed-loop network; the
 open-loop network's strategies are tested in test_reflex.py."""
 
+import numpy as np
 import pytest
 
 from stumble.pipeline import simulate_trip, simulate_walk
@@ -130,8 +131,11 @@ def test_the_shipped_closed_loop_network_walks_from_every_start(speed):
     assert 0.55 <= s["stance_fraction"] <= 0.70
 
 
-@pytest.mark.parametrize("name", ["closed-loop", "placement", "placement-es", "placement-walk"])
-@pytest.mark.parametrize(("swing", "strategy"), [(0.13, "elevating"), (0.56, "lowering")])
+@pytest.mark.parametrize(("name", "swing", "strategy"), [
+    *((n, sw, st) for n in ("closed-loop", "placement", "placement-es", "placement-walk")
+      for sw, st in ((0.13, "elevating"), (0.56, "lowering"))),
+    ("placement-touch", 0.13, "elevating"),  # its CASE 2 falls before the foot is down
+])
 def test_the_closed_loop_network_takes_the_seeds_strategies(swing, strategy, name):
     """Seed 003's CASE 1 and CASE 2 (obstacle, 1.2 m/s, from the recording, the seed's
     way) under the closed-loop networks: never switched."""
@@ -263,3 +267,24 @@ def test_the_walk_held_network_walks_within_ten_degrees_at_every_joint():
     assert not s["fell"] and 0.9 <= s["speed_m_per_s"] <= 1.4
     assert 0.55 <= s["stance_fraction"] <= 0.70
     assert max(s["rmse_deg"][j] for j in ("hip_flexion", "knee_angle", "ankle_angle")) < 10.0
+
+
+def test_the_touch_network_walks_as_its_start_and_recovers_an_early_trip_it_could_not():
+    """``--network placement-touch``: ``placement-walk`` with a touch response fitted in
+    its touch stage (``--touch-only``), so its walk is ``placement-walk``'s bit for bit;
+    tripped in its own gait at 0.10 of swing (1.2 m/s) it elevates and walks on 3 s,
+    where ``placement-walk`` falls (README: 11 of the 45 against 0)."""
+    from stumble.control.reflex.controller import TouchResponse
+    from stumble.control.reflex.identify import default_network
+
+    touch, walk = default_network("placement-touch"), default_network("placement-walk")
+    assert TouchResponse.from_info(touch.info, touch.topology.muscles).on
+    assert touch.info["fit"]["touch_only"] and touch.info["fit"]["from"]["network"] == (
+        "placement-walk")
+    a, b = (simulate_walk("network", 2.0, network=n).recording.qpos for n in (touch, walk))
+    assert np.array_equal(a, b)
+    sc = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.10,
+                  speed_m_per_s=1.2, start="own")
+    s = simulate_trip(sc, network=touch).summary
+    assert s["strategy"] == "elevating" and s["recovered"] and not s["fell"]
+    assert not simulate_trip(sc, network=walk).summary["recovered"]

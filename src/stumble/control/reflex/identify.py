@@ -83,9 +83,16 @@ SHIPPED_PLACEMENT_ES = "network_placement_es.npz"
 # --sigma 0.05 --generations 40 --seed 0` (13 min, 1 worker, 2026-12-04): from the
 # recording it walks within 10 deg at hip, knee and ankle (6.8/9.7/9.9; README)
 SHIPPED_PLACEMENT_WALK = "network_placement_walk.npz"
+# ``placement-walk`` with a touch response (``controller.TouchResponse``) fitted in its
+# touch stage, the walk as it was: `stumble reflex fit --controller network --walk-es
+# placement-walk --touch-only --touch-response --trip-set dense --strategy-cost 10
+# --recovery-cost 10 --sigma 1 --generations 70 --seed 0` (26 min, 1 worker, 2026-12-04):
+# 11 of the 45 own-gait trips recover (README "The seed's network in closed loop")
+SHIPPED_PLACEMENT_TOUCH = "network_placement_touch.npz"
 NETWORK_NAMES = {"open-loop": SHIPPED, "closed-loop": SHIPPED_CLOSED_LOOP,
                  "placement": SHIPPED_PLACEMENT, "placement-es": SHIPPED_PLACEMENT_ES,
-                 "placement-walk": SHIPPED_PLACEMENT_WALK}
+                 "placement-walk": SHIPPED_PLACEMENT_WALK,
+                 "placement-touch": SHIPPED_PLACEMENT_TOUCH}
 # the network a reflex controller runs when none is given: the closed-loop refinement,
 # which walks (since 2026-12-04; the open-loop identification, seed 003's own method, falls
 # after 0.8 s and stays ``--network open-loop`` for comparison). The identification's own
