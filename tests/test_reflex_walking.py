@@ -271,16 +271,17 @@ def test_the_walk_held_network_walks_within_ten_degrees_at_every_joint():
 
 def test_the_touch_network_walks_as_its_start_and_recovers_an_early_trip_it_could_not():
     """``--network placement-touch``: ``placement-walk`` with a touch response fitted in
-    its touch stage (``--touch-only``), so its walk is ``placement-walk``'s bit for bit;
+    two touch stages (``--touch-only``), so its walk is ``placement-walk``'s bit for bit;
     tripped in its own gait at 0.10 of swing (1.2 m/s) it elevates and walks on 3 s,
-    where ``placement-walk`` falls (README: 11 of the 45 against 0)."""
+    where ``placement-walk`` falls (README: 17 of the 45 against 0)."""
     from stumble.control.reflex.controller import TouchResponse
     from stumble.control.reflex.identify import default_network
 
     touch, walk = default_network("placement-touch"), default_network("placement-walk")
     assert TouchResponse.from_info(touch.info, touch.topology.muscles).on
-    assert touch.info["fit"]["touch_only"] and touch.info["fit"]["from"]["network"] == (
-        "placement-walk")
+    fit = touch.info["fit"]
+    assert fit["touch_only"] and fit["from"]["its_fit"]["touch_only"]
+    assert fit["from"]["its_fit"]["from"]["network"] == "placement-walk"
     a, b = (simulate_walk("network", 2.0, network=n).recording.qpos for n in (touch, walk))
     assert np.array_equal(a, b)
     sc = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.10,

@@ -83,11 +83,14 @@ SHIPPED_PLACEMENT_ES = "network_placement_es.npz"
 # --sigma 0.05 --generations 40 --seed 0` (13 min, 1 worker, 2026-12-04): from the
 # recording it walks within 10 deg at hip, knee and ankle (6.8/9.7/9.9; README)
 SHIPPED_PLACEMENT_WALK = "network_placement_walk.npz"
-# ``placement-walk`` with a touch response (``controller.TouchResponse``) fitted in its
-# touch stage, the walk as it was: `stumble reflex fit --controller network --walk-es
+# ``placement-walk`` with a touch response (``controller.TouchResponse``) fitted in two
+# touch stages, the walk as it was: `stumble reflex fit --controller network --walk-es
 # placement-walk --touch-only --touch-response --trip-set dense --strategy-cost 10
-# --recovery-cost 10 --sigma 1 --generations 70 --seed 0` (26 min, 1 worker, 2026-12-04):
-# 11 of the 45 own-gait trips recover (README "The seed's network in closed loop")
+# --recovery-cost 10 --sigma 1 --generations 70 --seed 0 --out tr3/`, then `--walk-es
+# tr3/network.npz --touch-only --touch-response --trip-set wide --strategy-cost 10
+# --recovery-cost 10 --sigma 0.3 --generations 40 --seed 1` (26 and 7 min, 1 worker,
+# 2026-12-04): 17 of the 45 own-gait trips recover, 9 of the held-out 28 (README "The
+# seed's network in closed loop")
 SHIPPED_PLACEMENT_TOUCH = "network_placement_touch.npz"
 NETWORK_NAMES = {"open-loop": SHIPPED, "closed-loop": SHIPPED_CLOSED_LOOP,
                  "placement": SHIPPED_PLACEMENT, "placement-es": SHIPPED_PLACEMENT_ES,
