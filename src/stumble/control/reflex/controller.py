@@ -789,17 +789,12 @@ class ReflexController:
 
         net, t = self.net, self.net.topology
         w = net.w.copy()
-        w[self._touch_inputs()] = 0.0
+        w[t.touch_inputs()] = 0.0
         h = hashlib.sha256(repr((t, sorted((net.info or {}).get("balance", {}).items()),
                                  self.block_request, self.balance is None)).encode())
         for a in (w, net.b, net.v, net.c, net.mean, net.std):
             h.update(np.ascontiguousarray(a).tobytes())
         return h.hexdigest()
-
-    def _touch_inputs(self) -> list[int]:
-        """The touch afferent's inputs (rows of ``net.w``)."""
-        sig = self.net.topology.touch_signal
-        return [i for i, (_s, g, _lag) in enumerate(self.net.topology.inputs()) if g == sig]
 
     def retouch(self, net: Network) -> None:
         """Go on with ``net``, which differs from the present network only in the touch

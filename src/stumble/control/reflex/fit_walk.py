@@ -984,8 +984,7 @@ def _contact_rows(net) -> list[int]:
 
 def _touch_rows(net) -> list[int]:
     """Indices of the touch inputs among the network's inputs (none without it)."""
-    t = net.topology
-    return [i for i, (_s, sig, _lag) in enumerate(t.inputs()) if sig == t.touch_signal]
+    return net.topology.touch_inputs()
 
 
 def network_with(net, theta: np.ndarray, names: tuple[str, ...] | None = None):

@@ -134,6 +134,11 @@ class Topology:
                 out.append((s, self.touch_signal, lag))
         return out
 
+    def touch_inputs(self) -> list[int]:
+        """Indices of the touch afferent's inputs among ``inputs()`` (none without it)."""
+        return [i for i, (_s, sig, _lag) in enumerate(self.inputs())
+                if self.touch and sig == self.touch_signal]
+
     def connections(self) -> list[tuple[int, int, int]]:
         """(segment index, muscle index, efferent delay in samples) of every motor path."""
         out = []
