@@ -919,7 +919,9 @@ def test_the_networks_touch_stage_fits_the_touch_alone_and_keeps_the_walk(tmp_pa
     capsys.readouterr()
     for argv, words in ((["--touch-only"], "the touch stage needs --trip-set"),
                         (["--touch-only", "--trip-set", "four", "--starts", "1.0"],
-                         "--starts weighs the walk: not with --touch-only")):
+                         "--starts weighs the walk: not with --touch-only"),
+                        (["--scr-phase", "foot", "--trip-set", "four"],
+                         "--scr-phase (network --walk-es) is for --touch-response")):
         assert main(["reflex", "fit", "--walk-es", "placement-es", *argv,
                      "--out", str(tmp_path / "x")]) == 2
         err = capsys.readouterr().err
