@@ -135,6 +135,7 @@ def test_the_shipped_closed_loop_network_walks_from_every_start(speed):
     *((n, sw, st) for n in ("closed-loop", "placement", "placement-es", "placement-walk")
       for sw, st in ((0.13, "elevating"), (0.56, "lowering"))),
     ("placement-touch", 0.13, "elevating"),  # its CASE 2 falls before the foot is down
+    ("placement-foot", 0.13, "elevating"), ("placement-foot", 0.56, "lowering"),
 ])
 def test_the_closed_loop_network_takes_the_seeds_strategies(swing, strategy, name):
     """Seed 003's CASE 1 and CASE 2 (obstacle, 1.2 m/s, from the recording, the seed's
@@ -289,3 +290,19 @@ def test_the_touch_network_walks_as_its_start_and_recovers_an_early_trip_it_coul
     s = simulate_trip(sc, network=touch).summary
     assert s["strategy"] == "elevating" and s["recovered"] and not s["fell"]
     assert not simulate_trip(sc, network=walk).summary["recovered"]
+
+
+def test_the_network_with_a_response_by_the_foots_place_recovers_a_late_trip_by_lowering():
+    """``--network placement-foot`` (the touch response by the foot's place, two touch
+    stages on ``placement-walk``): tripped in its own gait at 0.70 of swing (1.2 m/s) it
+    lowers and walks on 3 s (README: 3 of the 45 by lowering), its walk
+    ``placement-walk``'s."""
+    from stumble.control.reflex.controller import TouchResponse
+    from stumble.control.reflex.identify import default_network
+
+    net = default_network("placement-foot")
+    assert TouchResponse.from_info(net.info, net.topology.muscles).by_foot
+    assert net.info["fit"]["from"]["its_fit"]["from"]["network"] == "placement-walk"
+    s = simulate_trip(Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.70,
+                               speed_m_per_s=1.2, start="own"), network=net).summary
+    assert s["strategy"] == "lowering" and s["recovered"] and not s["fell"]

@@ -151,7 +151,9 @@ def _parser() -> argparse.ArgumentParser:
                    "expert: walks closer to the recording), placement-es (placement refined "
                    "by CMA-ES), placement-walk (placement-es held within 10 deg at every "
                    "joint: closest to the recording), placement-touch (placement-walk with "
-                   "a touch response: recovers early-swing trips) or open-loop (seed 003's "
+                   "a touch response: recovers early-swing trips), placement-foot (its "
+                   "response by the foot's place: also lowers and recovers) or open-loop "
+                   "(seed 003's "
                    "identification alone)")
     t.add_argument("--no-trunk-balance", action="store_true",
                    help="reflex controller: without the stance hips' trunk-lean reflex "
@@ -405,7 +407,8 @@ def _parser() -> argparse.ArgumentParser:
                     "closed-loop (the default, which walks), placement (refined from a "
                     "placing expert), placement-es (placement refined by CMA-ES), "
                     "placement-walk (within 10 deg at every joint), placement-touch "
-                    "(placement-walk with a touch response) or "
+                    "(placement-walk with a touch response), placement-foot (the "
+                    "response by the foot's place) or "
                     "open-loop (seed 003's identification alone, which "
                     "falls after 0.8 s)")
     rw.add_argument("--params", type=Path, metavar="FILE",

@@ -92,10 +92,18 @@ SHIPPED_PLACEMENT_WALK = "network_placement_walk.npz"
 # 2026-12-04): 17 of the 45 own-gait trips recover, 9 of the held-out 28 (README "The
 # seed's network in closed loop")
 SHIPPED_PLACEMENT_TOUCH = "network_placement_touch.npz"
+# the same two touch stages with the response by the foot's place (``--scr-phase foot``:
+# a touch of the foot ahead of the other triggers its own sets): `... --walk-es
+# placement-walk ... --scr-phase foot ... --seed 0 --out tr4/`, then `--walk-es
+# tr4/network.npz ... --scr-phase foot --trip-set wide --sigma 0.3 --generations 40 --seed
+# 1` (each command in the file): 12 of the 45 recover, 3 of them by lowering, the human
+# strategy in every window trip (README "The seed's network in closed loop")
+SHIPPED_PLACEMENT_FOOT = "network_placement_foot.npz"
 NETWORK_NAMES = {"open-loop": SHIPPED, "closed-loop": SHIPPED_CLOSED_LOOP,
                  "placement": SHIPPED_PLACEMENT, "placement-es": SHIPPED_PLACEMENT_ES,
                  "placement-walk": SHIPPED_PLACEMENT_WALK,
-                 "placement-touch": SHIPPED_PLACEMENT_TOUCH}
+                 "placement-touch": SHIPPED_PLACEMENT_TOUCH,
+                 "placement-foot": SHIPPED_PLACEMENT_FOOT}
 # the network a reflex controller runs when none is given: the closed-loop refinement,
 # which walks (since 2026-12-04; the open-loop identification, seed 003's own method, falls
 # after 0.8 s and stays ``--network open-loop`` for comparison). The identification's own
