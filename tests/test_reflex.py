@@ -522,6 +522,10 @@ def test_a_touch_response_is_checked_and_kept_in_the_networks_file(tmp_path):
         TouchResponse(net.topology.muscles, latency_s=0.005)
     with pytest.raises(InputError, match="muscles the network does not drive"):
         TouchResponse(net.topology.muscles, {"ipsi": {"PSOAS": 1.0}})
+    with pytest.raises(InputError, match="ipsi gain of TA is nan, not a finite number"):
+        TouchResponse(net.topology.muscles, {"ipsi": {"TA": float("nan")}})
+    with pytest.raises(InputError, match=r"unknown field\(s\) \['hold'\]"):
+        TouchResponse.from_info({"touch_response": {"hold": 0.1}}, net.topology.muscles)
 
 
 def test_trips_of_networks_differing_only_in_their_touch_share_the_walk_to_the_trip():

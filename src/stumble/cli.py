@@ -362,8 +362,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="gh2010 --trips: fit only the reflexes a touch triggers (the "
                    "stumbling corrective reflex, and the crossing step with --crossing); "
                    "the walking gains stay the starting fit's, and so does its walk; "
-                   "network --walk-es --trip-set: only the touch afferent's weights (the "
-                   "afferent given first if the network has none), the walk the start's")
+                   "network --walk-es --trip-set: only the touch response's gains and "
+                   "durations (with --touch-response) and the touch afferent's weights (the "
+                   "afferent given first if the network has neither), the walk the start's")
     f.add_argument("--load-from", choices=("floor", "any"), default=None,
                    help="gh2010 --trips: a leg's load, which switches it to stance: the "
                    "floor's force on its foot (floor, the shipped fits') or the floor's "

@@ -264,6 +264,10 @@ class TouchResponse:
             if bad:
                 raise InputError(f"touch response: {k} names muscles the network does not "
                                  f"drive: {sorted(bad)}")
+            for m, v in g.items():
+                if not (isinstance(v, (int, float)) and np.isfinite(v)):
+                    raise InputError(f"touch response: {k} gain of {m} is {v!r}, not a "
+                                     "finite number")
         for name, v, lo in (("latency_s", latency_s, 0.02), ("hold_s", hold_s, 0.0),
                             ("after_s", after_s, 0.0)):
             if not (np.isfinite(v) and lo <= v <= 5.0):
@@ -294,6 +298,9 @@ class TouchResponse:
             return None
         d = dict(d)
         gains = {k: d.pop(k) for k in cls.SETS + cls.AHEAD_SETS if k in d}
+        unknown = set(d) - {"latency_s", "hold_s", "after_s", "by_foot"}
+        if unknown:
+            raise InputError(f"touch response: unknown field(s) {sorted(unknown)}")
         return cls(muscles, gains, rate_hz=rate_hz, **d)
 
     def drive(self, first: int, n: int, onsets: np.ndarray,
@@ -314,7 +321,8 @@ class TouchResponse:
                 continue
             if out is None:
                 out = np.zeros((n, 2, len(self.muscles)))
-            w = self.w[3:6] if self.by_foot and ahead is not None and ahead[side] else self.w
+            ahead_sets = self.by_foot and ahead is not None and ahead[side]
+            w = self.w[len(self.SETS):] if ahead_sets else self.w
             out[a, side] += w[0]
             out[b, side] += w[1]
             out[a | b, 1 - side] += w[2]
