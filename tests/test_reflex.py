@@ -528,6 +528,55 @@ def test_a_touch_response_is_checked_and_kept_in_the_networks_file(tmp_path):
         TouchResponse.from_info({"touch_response": {"hold": 0.1}}, net.topology.muscles)
 
 
+def test_a_response_by_the_foot_has_its_own_durations_for_the_foot_ahead():
+    """``TouchResponse.by_foot`` with ``hold_ahead_s``/``after_ahead_s``: a touch of the
+    foot ahead runs the ahead sets for their own durations, the foot behind's its own;
+    both or neither, and only by the foot; a response asked by the foot of a network
+    whose response is not is copied to both feet (the same drive); ``with_ahead_response``
+    takes another network's ahead sets and durations, and refuses one that walks
+    differently."""
+    from stumble.control.reflex.controller import TouchResponse
+    from stumble.control.reflex.identify import default_network
+
+    muscles = default_network("placement-touch").topology.muscles
+    sol = muscles.index("SOL")
+    r = TouchResponse(muscles, {"contra": {"SOL": 0.5}, "contra_ahead": {"SOL": -0.3}},
+                      hold_s=0.2, after_s=0.1, by_foot=True, hold_ahead_s=0.03,
+                      after_ahead_s=0.15)
+    behind = r.drive(0, 600, np.array([0.0, -np.inf]), np.array([False, False]))
+    ahead = r.drive(0, 600, np.array([0.0, -np.inf]), np.array([True, False]))
+    assert np.flatnonzero(behind[:, 1, sol]).tolist() == list(range(65, 65 + 300))
+    assert np.flatnonzero(ahead[:, 1, sol]).tolist() == list(range(65, 65 + 180))
+    assert set(ahead[:, 1, sol]) == {0.0, -0.3}
+    assert r.running(65 + 299, 0.0) and not r.running(65 + 300, 0.0)  # the longer one
+    back = TouchResponse.from_info({"touch_response": r.to_info()}, muscles)
+    assert (back.hold_ahead, back.after_ahead) == (30, 150)
+    with pytest.raises(InputError, match="hold_ahead_s and after_ahead_s both"):
+        TouchResponse(muscles, by_foot=True, hold_ahead_s=0.1)
+    with pytest.raises(InputError, match="by the foot's place"):
+        TouchResponse(muscles, hold_ahead_s=0.1, after_ahead_s=0.1)
+
+    touch, foot = default_network("placement-touch"), default_network("placement-foot")
+    both = touch.with_touch_response(by_foot=True)
+    r1 = TouchResponse.from_info(touch.info, muscles)
+    r2 = TouchResponse.from_info(both.info, muscles)
+    assert r2.by_foot and not r1.by_foot
+    for side_ahead in (False, True):
+        assert np.array_equal(r1.drive(0, 500, np.array([3.0, -np.inf])),
+                              r2.drive(0, 500, np.array([3.0, -np.inf]),
+                                       np.array([side_ahead, False])))
+    mixed = touch.with_ahead_response(foot)
+    rm = TouchResponse.from_info(mixed.info, muscles)
+    rf = TouchResponse.from_info(foot.info, muscles)
+    assert rm.gains["ipsi"] == r1.gains["ipsi"] and rm.hold == r1.hold
+    assert rm.gains["ipsi_ahead"] == rf.gains["ipsi_ahead"]
+    assert (rm.hold_ahead, rm.after_ahead) == (rf.hold, rf.after)
+    with pytest.raises(InputError, match="walks differently"):
+        default_network("closed-loop").with_touch_response().with_ahead_response(foot)
+    with pytest.raises(InputError, match="no touch response by the foot"):
+        touch.with_ahead_response(touch)
+
+
 def test_trips_of_networks_differing_only_in_their_touch_share_the_walk_to_the_trip():
     """Two networks that differ only in the touch response (and the touch afferent's
     weights) have the same ``walk_key`` and walk to an own-gait trip once

@@ -146,8 +146,11 @@ def _parser() -> argparse.ArgumentParser:
                    "anderson2007, walking on and with --recovery step)")
     t.add_argument("--network", type=Path, metavar="FILE",
                    help="reflex controller: a network.npz from `stumble reflex fit`, or a "
-                   "shipped network: closed-loop (the default: the identification refined "
-                   "in closed loop, which walks), placement (refined from a placing "
+                   "shipped network: placement-both (the default: placement-touch's "
+                   "response for the foot behind, placement-foot's for the foot ahead; "
+                   "walks within 10 deg and recovers trips of both strategies), "
+                   "closed-loop (the identification refined by DAgger), placement "
+                   "(refined from a placing "
                    "expert: walks closer to the recording), placement-es (placement refined "
                    "by CMA-ES), placement-walk (placement-es held within 10 deg at every "
                    "joint: closest to the recording), placement-touch (placement-walk with "
@@ -235,7 +238,9 @@ def _parser() -> argparse.ArgumentParser:
                    "(default 0)")
     f.add_argument("--generations", type=int, default=None, metavar="N",
                    help="gh2010: CMA-ES generations (default as shipped: 110 of 15 s walks "
-                   "for --wiring gh2010, 100 of 10 s walks for seed003)")
+                   "for --wiring gh2010, 100 of 10 s walks for seed003); network "
+                   "--walk-es: 0 writes the start as given (with --ahead-from, the "
+                   "responses combined), its objective evaluated once")
     f.add_argument("--workers", type=int, default=None, metavar="N",
                    help="closed-loop fits: worker processes (default: one per core); the "
                    "result does not depend on it")
@@ -257,8 +262,7 @@ def _parser() -> argparse.ArgumentParser:
                       "as --network open-loop)")
     loop.add_argument("--closed-loop", action="store_true",
                       help="network: then refine it in closed loop by DAgger with the "
-                      "seed003-wired GH2010 expert (shipped as --network closed-loop, the "
-                      "default network)")
+                      "seed003-wired GH2010 expert (shipped as --network closed-loop)")
     loop.add_argument("--walk-es", default=None, metavar="NETWORK",
                       help="network: refine a shipped (closed-loop, placement, ...) or saved "
                       "network in closed loop by CMA-ES on a documented subset of its "
@@ -283,6 +287,11 @@ def _parser() -> argparse.ArgumentParser:
                    "stumbling corrective reaction: 65 ms after a foot's touch, excitations "
                    "of that leg's muscles for a time, then others, and of the other "
                    "leg's; ours), whose gains and durations join the subset from 0")
+    f.add_argument("--ahead-from", default=None, metavar="FILE|NAME",
+                   help="network, --walk-es --touch-response --scr-phase foot: start the "
+                   "response for a touch of the foot ahead from this network's (the same "
+                   "walk, its response by the foot's place), the foot behind's from the "
+                   "start's")
     f.add_argument("--sigma", type=float, default=None, metavar="S",
                    help="network, --walk-es: CMA-ES's first step in units of each "
                    "parameter's scale (default 0.3; smaller for a second stage)")
@@ -405,7 +414,9 @@ def _parser() -> argparse.ArgumentParser:
                     "Herr 2010's reflexes")
     rw.add_argument("--network", type=Path, metavar="FILE",
                     help="network controller: a network.npz, or a shipped network: "
-                    "closed-loop (the default, which walks), placement (refined from a "
+                    "placement-both (the default: walks within 10 deg and recovers "
+                    "trips of both strategies), closed-loop (refined by DAgger), "
+                    "placement (refined from a "
                     "placing expert), placement-es (placement refined by CMA-ES), "
                     "placement-walk (within 10 deg at every joint), placement-touch "
                     "(placement-walk with a touch response), placement-foot (the "
@@ -907,22 +918,34 @@ def cmd_reflex_fit_network_es(args) -> int:
 
     src = (Path(args.walk_es) if Path(args.walk_es).exists() or args.walk_es not in NETWORK_NAMES
            else None)
-    if src is None:
-        from importlib import resources
+    from importlib import resources
 
+    if src is None:
         data = (resources.files("stumble.control.reflex") / "data"
                 / NETWORK_NAMES[args.walk_es]).read_bytes()
     else:
         data = src.read_bytes()
     start_from = {"network": str(args.walk_es), "sha256": hashlib.sha256(data).hexdigest()}
+    ahead_from = None
+    if args.ahead_from is not None:
+        if args.scr_phase != "foot":
+            raise InputError("--ahead-from is for --touch-response --scr-phase foot")
+        a = Path(args.ahead_from)
+        ahead_net = _network_arg(a)
+        start.with_touch_response(by_foot=True).with_ahead_response(ahead_net)  # checked
+        ahead_bytes = (a.read_bytes() if a.exists() or args.ahead_from not in NETWORK_NAMES
+                       else (resources.files("stumble.control.reflex") / "data"
+                             / NETWORK_NAMES[args.ahead_from]).read_bytes())
+        ahead_from = (ahead_net, {"network": str(args.ahead_from),
+                                        "sha256": hashlib.sha256(ahead_bytes).hexdigest()})
     knee = W_KNEE if args.knee_weight is None else args.knee_weight
     track = W_TRACK if args.track_weight is None else args.track_weight
     for flag, v in (("--knee-weight", knee), ("--track-weight", track)):
         if not (math.isfinite(v) and v >= 0):
             raise InputError(f"{flag} must be a number >= 0, got {v}")
     gens = NETWORK_ES_GENERATIONS if args.generations is None else args.generations
-    if gens < 1:
-        raise InputError(f"--generations must be at least 1, got {gens}")
+    if gens < 0:
+        raise InputError(f"--generations must be at least 0, got {gens}")
     if args.timestep is not None:
         from stumble.control.reflex.network import tick_ratio
 
@@ -971,7 +994,7 @@ def cmd_reflex_fit_network_es(args) -> int:
     bar = _Progress("fitting the network", sys.stderr.isatty())
     net, res = fit_network_es(start, start_from, seed=args.seed, generations=gens,
                               workers=workers, out=out,
-                              progress=lambda row: bar(row["generation"] + 1, gens),
+                              progress=lambda row: bar(row["generation"] + 1, max(gens, 1)),
                               knee_weight=knee, track_weight=track, starts=starts,
                               timestep_s=args.timestep,
                               interneuron_biases=args.interneuron_biases, sigma=sigma,
@@ -980,7 +1003,7 @@ def cmd_reflex_fit_network_es(args) -> int:
                               touch=args.touch_afferent, touch_only=args.touch_only,
                               touch_response=args.touch_response,
                               response_by_foot=args.scr_phase == "foot",
-                              track_limit_deg=args.track_limit, **costs)
+                              ahead_from=ahead_from, track_limit_deg=args.track_limit, **costs)
     bar.done()
     walk = simulate_walk("network", 20.0, network=net)
     report = dict(net.info["fit"])
@@ -993,7 +1016,8 @@ def cmd_reflex_fit_network_es(args) -> int:
     rm = s["rmse_deg"] or {}
     errors = "/".join(f"{rm[j]:.1f}" for j in ("hip_flexion", "knee_angle", "ankle_angle")
                       if j in rm) or "n/a"
-    print(f"network fitted: objective {res.best_cost:.3f} after {res.evaluations} walks in "
+    print(f"network {'fitted' if gens else 'written as given (no search)'}: objective "
+          f"{res.best_cost:.3f} after {res.evaluations} walks in "
           f"{res.wall_time_s:.0f} s; a 20 s walk: {s['walked_s']:.1f} s walked at "
           f"{s['speed_m_per_s']:.2f} m/s, RMSE hip/knee/ankle {errors} deg; wrote "
           f"network.npz, history.jsonl, best.json, fit.json, objective.png to {out}")
@@ -1006,6 +1030,9 @@ def cmd_reflex(args) -> int:
         return cmd_reflex_walk(args)
     if args.trip_start is not None and args.walk_es is None:
         raise InputError("--trip-start is for --walk-es (with --trip-set)")
+    if args.ahead_from is not None and (args.walk_es is None or args.controller == "gh2010"):
+        raise InputError("--ahead-from is for --controller network --walk-es "
+                         "--touch-response --scr-phase foot")
     if args.controller == "gh2010":
         if (args.walk_es is not None or args.interneuron_biases or args.sigma is not None
                 or args.touch_afferent or args.track_limit is not None

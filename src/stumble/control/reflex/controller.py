@@ -228,7 +228,8 @@ class TouchResponse:
     balance, before the clip to 0.01-1). With ``by_foot`` (as ``GH2010Params.scr_phase``
     foot) a touch of the foot ahead of the other (its ankle's x at the touch; late swing)
     triggers the ``*_ahead`` sets instead: people flex the tripped leg early in swing
-    and extend it late (Eng et al. 1994, Schillings et al. 2000).
+    and extend it late (Eng et al. 1994, Schillings et al. 2000); ``hold_ahead_s`` and
+    ``after_ahead_s``, when given, are those sets' own durations (default the others').
 
     In people a trip in swing brings the swing leg's knee and hip flexors and ankle
     dorsiflexors in about 60-80 ms, then its extensors (Eng, Winter & Patla 1994, Exp
@@ -249,9 +250,16 @@ class TouchResponse:
 
     def __init__(self, muscles: tuple[str, ...], gains: dict | None = None,
                  latency_s: float = LATENCY_S, hold_s: float = 0.1, after_s: float = 0.1,
-                 rate_hz: float = 1000.0, by_foot: bool = False):
+                 rate_hz: float = 1000.0, by_foot: bool = False,
+                 hold_ahead_s: float | None = None, after_ahead_s: float | None = None):
         gains = gains or {}
         self.by_foot = bool(by_foot)
+        if not self.by_foot and (hold_ahead_s is not None or after_ahead_s is not None):
+            raise InputError("touch response: hold_ahead_s and after_ahead_s are for a "
+                             "response by the foot's place (by_foot)")
+        if (hold_ahead_s is None) != (after_ahead_s is None):
+            raise InputError("touch response: give hold_ahead_s and after_ahead_s both, or "
+                             "neither")
         self.sets = self.SETS + (self.AHEAD_SETS if self.by_foot else ())
         unknown = set(gains) - set(self.sets)
         if unknown:
@@ -269,13 +277,21 @@ class TouchResponse:
                     raise InputError(f"touch response: {k} gain of {m} is {v!r}, not a "
                                      "finite number")
         for name, v, lo in (("latency_s", latency_s, 0.02), ("hold_s", hold_s, 0.0),
-                            ("after_s", after_s, 0.0)):
-            if not (np.isfinite(v) and lo <= v <= 5.0):
+                            ("after_s", after_s, 0.0), ("hold_ahead_s", hold_ahead_s, 0.0),
+                            ("after_ahead_s", after_ahead_s, 0.0)):
+            if v is not None and not (isinstance(v, (int, float)) and np.isfinite(v)
+                                      and lo <= v <= 5.0):
                 raise InputError(f"touch response: {name} = {v} is not within {lo}-5 s")
         self.latency_s, self.hold_s, self.after_s = latency_s, hold_s, after_s
+        # the ahead sets' own durations (None: hold_s and after_s, as every file before)
+        self.hold_ahead_s, self.after_ahead_s = hold_ahead_s, after_ahead_s
         self.lag = max(1, round(latency_s * rate_hz))  # ticks
         self.hold = round(hold_s * rate_hz)
         self.after = round(after_s * rate_hz)
+        self.hold_ahead = self.hold if hold_ahead_s is None else round(hold_ahead_s * rate_hz)
+        self.after_ahead = (self.after if after_ahead_s is None
+                            else round(after_ahead_s * rate_hz))
+        self.span = max(self.hold + self.after, self.hold_ahead + self.after_ahead)
         self.w = np.array([[self.gains[k][m] for m in self.muscles] for k in self.sets])
 
     @property
@@ -287,6 +303,8 @@ class TouchResponse:
         """The response, for a network file's ``info['touch_response']``."""
         return {"latency_s": self.latency_s, "hold_s": self.hold_s, "after_s": self.after_s,
                 **({"by_foot": True} if self.by_foot else {}),
+                **{k: v for k, v in (("hold_ahead_s", self.hold_ahead_s),
+                                     ("after_ahead_s", self.after_ahead_s)) if v is not None},
                 **{k: dict(self.gains[k]) for k in self.sets}}
 
     @classmethod
@@ -298,7 +316,8 @@ class TouchResponse:
             return None
         d = dict(d)
         gains = {k: d.pop(k) for k in cls.SETS + cls.AHEAD_SETS if k in d}
-        unknown = set(d) - {"latency_s", "hold_s", "after_s", "by_foot"}
+        unknown = set(d) - {"latency_s", "hold_s", "after_s", "by_foot", "hold_ahead_s",
+                            "after_ahead_s"}
         if unknown:
             raise InputError(f"touch response: unknown field(s) {sorted(unknown)}")
         return cls(muscles, gains, rate_hz=rate_hz, **d)
@@ -312,16 +331,18 @@ class TouchResponse:
         ticks = np.arange(first, first + n)
         for side in range(2):
             o = onsets[side]
-            if not np.isfinite(o) or first >= o + self.lag + self.hold + self.after:
+            if not np.isfinite(o) or first >= o + self.lag + self.span:
                 continue
+            ahead_sets = self.by_foot and ahead is not None and ahead[side]
+            hold, after = ((self.hold_ahead, self.after_ahead) if ahead_sets
+                           else (self.hold, self.after))
             t = ticks - (int(o) + self.lag)
-            a = (t >= 0) & (t < self.hold)
-            b = (t >= self.hold) & (t < self.hold + self.after)
+            a = (t >= 0) & (t < hold)
+            b = (t >= hold) & (t < hold + after)
             if not (a.any() or b.any()):
                 continue
             if out is None:
                 out = np.zeros((n, 2, len(self.muscles)))
-            ahead_sets = self.by_foot and ahead is not None and ahead[side]
             w = self.w[len(self.SETS):] if ahead_sets else self.w
             out[a, side] += w[0]
             out[b, side] += w[1]
@@ -330,7 +351,7 @@ class TouchResponse:
 
     def running(self, tick: int, onset: float) -> bool:
         """Whether a response from ``onset`` is still pending or running at ``tick``."""
-        return np.isfinite(onset) and tick < onset + self.lag + self.hold + self.after
+        return np.isfinite(onset) and tick < onset + self.lag + self.span
 
 
 class ReflexController:

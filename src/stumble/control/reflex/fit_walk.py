@@ -205,7 +205,8 @@ def cma_fit(evaluate: Callable[[np.ndarray], tuple[float, dict]], space: Space,
             stage: str = "", fixed: dict | None = None) -> FitResult:
     """Minimise ``evaluate(theta)`` (a picklable, top-level function returning (J, terms))
     over ``space`` with seeded CMA-ES, ``workers`` processes evaluating each generation.
-    Stops after ``generations`` or once the best J is below ``target``. Generations are
+    Stops after ``generations`` or once the best J is below ``target``; ``generations``
+    0 evaluates the start alone (one row, the start "best"). Generations are
     numbered from ``first_generation`` and the history is appended to ``out`` when it
     does not start at 0 (a later stage of one fit). ``fixed``: the parameters outside the
     space, written with the best candidate's to ``best.json`` so that it is a whole
@@ -228,11 +229,14 @@ def cma_fit(evaluate: Callable[[np.ndarray], tuple[float, dict]], space: Space,
         out.mkdir(parents=True, exist_ok=True)
         hist_file = (out / "history.jsonl").open("a" if first_generation else "w")
     try:
-        for gen in range(first_generation, first_generation + generations):
-            xs = [opt.ask() for _ in range(opt.population_size)]
+        for gen in range(first_generation, first_generation + max(generations, 1)):
+            # no generations: the start alone, evaluated once (its figures on record)
+            xs = ([opt.ask() for _ in range(opt.population_size)] if generations
+                  else [np.zeros(n)])
             thetas = [space.to_params(x) for x in xs]
             results = list(pool.map(evaluate, thetas) if pool else map(evaluate, thetas))
-            opt.tell([(x, r[0]) for x, r in zip(xs, results, strict=True)])
+            if generations:
+                opt.tell([(x, r[0]) for x, r in zip(xs, results, strict=True)])
             best.evaluations += len(xs)
             costs = [r[0] for r in results]
             k = int(np.argmin(costs))
@@ -912,7 +916,8 @@ def network_space(net, interneuron_biases: bool = True, touch_only: bool = False
     addition's gains (``TrunkBalance``: k_p, k_d, θ_ref, k_lean). ``touch_response``
     (the network must have one: ``Network.with_touch_response``): its gains per set and
     muscle (``resp_<set>_<M>``, from the network's, -1 to 1) and its two durations
-    (``resp_hold_s``, ``resp_after_s``). ``touch_only``: the touch afferent's weights (when
+    (``resp_hold_s``, ``resp_after_s``; and the ahead sets' own, ``resp_hold_ahead_s``,
+    ``resp_after_ahead_s``, when it has them). ``touch_only``: the touch afferent's weights (when
     the network has it) and the touch response's alone, which leave the walk before a
     touch as it is (the network's touch stage)."""
     from stumble.control.reflex.controller import TouchResponse, TrunkBalance
@@ -940,6 +945,9 @@ def network_space(net, interneuron_biases: bool = True, touch_only: bool = False
                 add(f"resp_{k}_{m}", resp.gains[k][m], 0.3, -1.0, 1.0)
         add("resp_hold_s", resp.hold_s, 0.04, 0.02, 0.25)
         add("resp_after_s", resp.after_s, 0.04, 0.0, 0.3)
+        if resp.hold_ahead_s is not None:  # the ahead sets' own durations, when it has them
+            add("resp_hold_ahead_s", resp.hold_ahead_s, 0.04, 0.02, 0.25)
+            add("resp_after_ahead_s", resp.after_ahead_s, 0.04, 0.0, 0.3)
 
     if touch_only:
         for i in _touch_rows(net):
@@ -1015,6 +1023,9 @@ def network_with(net, theta: np.ndarray, names: tuple[str, ...] | None = None):
             if f"resp_{k}_{t.muscles[0]}" in p:
                 resp[k] = {m: p[f"resp_{k}_{m}"] for m in t.muscles}
         resp["hold_s"], resp["after_s"] = p["resp_hold_s"], p["resp_after_s"]
+        if "resp_hold_ahead_s" in p:
+            resp["hold_ahead_s"] = p["resp_hold_ahead_s"]
+            resp["after_ahead_s"] = p["resp_after_ahead_s"]
         info["touch_response"] = resp
     if all(n.startswith(("touch_", "resp_")) for n in names):  # the touch stage: nothing
         return _replace(net, w=w, info=info)  # else moves
@@ -1058,7 +1069,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    strategy_cost: float = 0.0, recovery_cost: float = 0.0,
                    trip_start: str | None = None, touch: bool = False,
                    track_limit_deg: float | None = None, touch_only: bool = False,
-                   touch_response: bool = False, response_by_foot: bool = False):
+                   touch_response: bool = False, response_by_foot: bool = False,
+                   ahead_from: tuple | None = None):
     """CMA-ES on ``network_space(start, interneuron_biases, touch_only, touch_response)``:
     each candidate walks
     ``NETWORK_ES_WALK_S`` from the 1.2 m/s recording (and 10 s from each of ``starts``) at
@@ -1081,7 +1093,10 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
     it needs ``trips`` and takes no ``starts``; ``touch_response``: give the start a touch
     response first if it has none (``Network.with_touch_response``, gains 0): its gains
     and durations join the subset (``response_by_foot``: with sets for a touch of the foot
-    ahead, ``TouchResponse.by_foot``); writes ``network.npz``,
+    ahead, ``TouchResponse.by_foot``; a response that is not by the foot is copied to
+    both feet first); ``ahead_from``: (a network, what was named) whose response by the
+    foot gives the start's for the foot ahead first (``Network.with_ahead_response``);
+    writes ``network.npz``,
     ``history.jsonl`` and ``best.json`` to ``out`` when given."""
     import tempfile
 
@@ -1103,6 +1118,10 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
         raise ValueError("response_by_foot is for touch_response")
     if touch_response:
         start = start.with_touch_response(by_foot=response_by_foot)
+    if ahead_from is not None:
+        if not response_by_foot:
+            raise ValueError("ahead_from is for response_by_foot")
+        start = start.with_ahead_response(ahead_from[0])
     space = network_space(start, interneuron_biases=interneuron_biases,
                           touch_only=touch_only, touch_response=touch_response)
     step = timestep_s or DEFAULT_TIMESTEP_S["reflex"]
@@ -1133,6 +1152,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
         opts.append("--touch-response")
     if response_by_foot:
         opts.append("--scr-phase foot")
+    if ahead_from is not None:
+        opts.append(f"--ahead-from {ahead_from[1]['network']}")
     if track_limit_deg is not None:
         opts.append(f"--track-limit {track_limit_deg:g}")
     if generations != NETWORK_ES_GENERATIONS:
@@ -1148,7 +1169,9 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
     command = " ".join(["stumble reflex fit --controller network --walk-es",
                         str(start_from.get("network")), *opts, f"--seed {seed} --out DIR"])
     info = dict(net.info)
-    info["fit"] = {"method": "CMA-ES (cmaes package) on fit_walk.network_space",
+    info["fit"] = {"method": ("CMA-ES (cmaes package) on fit_walk.network_space"
+                              if generations else "none: the start as given (--generations "
+                              "0), its objective evaluated once"),
                    "seed": seed, "generations": generations,
                    "population": len(res.history) and res.evaluations // len(res.history),
                    "evaluations": res.evaluations, "sigma0": sigma,
@@ -1163,6 +1186,7 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    "recovery_cost": recovery_cost, "trip_start": trip_start,
                    "touch_afferent": bool(start.topology.touch), "touch_only": touch_only,
                    "touch_response": touch_response,
+                   **({"ahead_from": ahead_from[1]} if ahead_from is not None else {}),
                    "track_limit_deg": track_limit_deg,
                    "cost": res.best_cost, "terms": res.best_terms,
                    "wall_time_s": round(res.wall_time_s, 1), "command": command}

@@ -245,7 +245,8 @@ class Network:
         if info.get("touch_response") is not None:
             info["touch_response"] = {**info["touch_response"], **{
                 k: info["touch_response"][k] * scale
-                for k in ("latency_s", "hold_s", "after_s")}}
+                for k in ("latency_s", "hold_s", "after_s", "hold_ahead_s", "after_ahead_s")
+                if info["touch_response"].get(k) is not None}}
         return Network(slower, self.w, self.b, self.v, self.c, self.mean, self.std,
                        info, self.walk_rates)
 
@@ -274,16 +275,56 @@ class Network:
     def with_touch_response(self, by_foot: bool = False) -> Network:
         """A copy with a touch response (``controller.TouchResponse``, in
         ``info['touch_response']``; ``by_foot``: its sets by the touched foot's place), its
-        gains 0: the same network until they are fitted (one it has is kept)."""
+        gains 0: the same network until they are fitted. One it has is kept; asked
+        ``by_foot`` of one that is not, its sets and durations are copied to the foot
+        ahead's (the same network still)."""
         from stumble.control.reflex.controller import TouchResponse
 
-        if (self.info or {}).get("touch_response") is not None:
+        have = (self.info or {}).get("touch_response")
+        if have is not None and (have.get("by_foot") or not by_foot):
             return self
         t = self.topology
+        if have is not None:
+            resp = {**have, "by_foot": True, "hold_ahead_s": have["hold_s"],
+                    "after_ahead_s": have["after_s"],
+                    **{f"{k}_ahead": dict(have[k]) for k in TouchResponse.SETS if k in have}}
+            TouchResponse.from_info({"touch_response": resp}, t.muscles, t.rate_hz)
+            return Network(t, self.w, self.b, self.v, self.c, self.mean, self.std,
+                           {**self.info, "touch_response": resp}, self.walk_rates)
         info = {**(self.info or {}), "touch_response": TouchResponse(
             t.muscles, rate_hz=t.rate_hz, by_foot=by_foot).to_info()}
         return Network(t, self.w, self.b, self.v, self.c, self.mean, self.std, info,
                        self.walk_rates)
+
+    def with_ahead_response(self, other: Network) -> Network:
+        """A copy whose touch response, by the foot's place, takes ``other``'s sets and
+        durations for a touch of the foot ahead (its own for the foot behind): both must
+        be the same walking network, ``other``'s response by the foot's place."""
+        from stumble.control.reflex.controller import TouchResponse
+
+        mine = (self.info or {}).get("touch_response")
+        theirs = (other.info or {}).get("touch_response")
+        if mine is None:
+            raise InputError("--ahead-from: the starting network has no touch response")
+        if theirs is None or not theirs.get("by_foot"):
+            raise InputError("--ahead-from: that network has no touch response by the "
+                             "foot's place (--scr-phase foot)")
+        same = (self.topology == other.topology and all(
+            np.array_equal(getattr(self, k), getattr(other, k))
+            for k in ("w", "b", "v", "c", "mean", "std"))
+            and self.info.get("balance") == other.info.get("balance"))
+        if not same:
+            raise InputError("--ahead-from: that network walks differently from the start "
+                             "(its weights, standardisation or trunk balance differ)")
+        resp = {k: v for k, v in mine.items() if not k.endswith("_ahead")}
+        resp.update(by_foot=True,
+                    hold_ahead_s=theirs.get("hold_ahead_s", theirs["hold_s"]),
+                    after_ahead_s=theirs.get("after_ahead_s", theirs["after_s"]),
+                    **{k: dict(theirs[k]) for k in TouchResponse.AHEAD_SETS if k in theirs})
+        t = self.topology
+        TouchResponse.from_info({"touch_response": resp}, t.muscles, t.rate_hz)
+        return Network(t, self.w, self.b, self.v, self.c, self.mean, self.std,
+                       {**self.info, "touch_response": resp}, self.walk_rates)
 
     def units_of(self) -> np.ndarray:
         """(n_connections, H) hidden-unit index read by each motor path."""
