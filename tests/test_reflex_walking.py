@@ -136,6 +136,7 @@ def test_the_shipped_closed_loop_network_walks_from_every_start(speed):
       for sw, st in ((0.13, "elevating"), (0.56, "lowering"))),
     ("placement-touch", 0.13, "elevating"),  # its CASE 2 falls before the foot is down
     ("placement-foot", 0.13, "elevating"), ("placement-foot", 0.56, "lowering"),
+    ("placement-both", 0.13, "elevating"), ("placement-both", 0.56, "lowering"),
 ])
 def test_the_closed_loop_network_takes_the_seeds_strategies(swing, strategy, name):
     """Seed 003's CASE 1 and CASE 2 (obstacle, 1.2 m/s, from the recording, the seed's
@@ -189,8 +190,8 @@ def test_cli_names_the_closed_loop_network(tmp_path):
                  "--duration", "1", "--no-video", "--out", str(tmp_path / "w")]) == 0
 
 
-def test_the_default_network_is_the_closed_loop_one_and_walks(tmp_path):
-    """Since 2026-12-04 a reflex trip or walk given no network runs the closed-loop one
+def test_the_default_network_is_placement_both_and_walks(tmp_path):
+    """Since 2026-12-05 a reflex trip or walk given no network runs ``placement-both``
     (``identify.DEFAULT_NETWORK``), which walks; the open-loop identification, seed 003's
     own method, stays ``--network open-loop`` and falls within a second; the
     identification's figures stay the open-loop network's."""
@@ -203,8 +204,8 @@ def test_the_default_network_is_the_closed_loop_one_and_walks(tmp_path):
         fit_summary,
     )
 
-    assert DEFAULT_NETWORK == "closed-loop" and default_network() is default_network(
-        "closed-loop")
+    assert DEFAULT_NETWORK == "placement-both" and default_network() is default_network(
+        "placement-both")
     assert fit_summary() == dict(default_network("open-loop").info)
     assert main(["reflex", "walk", "--duration", "3", "--no-video",
                  "--out", str(tmp_path / "d")]) == 0
@@ -306,3 +307,28 @@ def test_the_network_with_a_response_by_the_foots_place_recovers_a_late_trip_by_
     s = simulate_trip(Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.70,
                                speed_m_per_s=1.2, start="own"), network=net).summary
     assert s["strategy"] == "lowering" and s["recovered"] and not s["fell"]
+
+
+@pytest.mark.parametrize(("swing", "strategy"), [(0.10, "elevating"), (0.70, "lowering")])
+def test_the_default_network_recovers_early_and_late_trips_with_both_strategies(swing,
+                                                                                strategy):
+    """``--network placement-both`` (the default): ``placement-touch``'s response for a
+    touch of the foot behind, ``placement-foot``'s sets and durations for the foot ahead,
+    nothing fitted (``--generations 0``), its walk ``placement-walk``'s bit for bit.
+    Tripped in its own gait (1.2 m/s) at 0.10 of swing it elevates and at 0.70 it lowers,
+    each time walking on 3 s (README: 21 of the 45, 4 by lowering)."""
+    from stumble.control.reflex.controller import TouchResponse
+    from stumble.control.reflex.identify import default_network
+
+    net, touch, foot = (default_network(n) for n in ("placement-both", "placement-touch",
+                                                       "placement-foot"))
+    r, rt, rf = (TouchResponse.from_info(n.info, n.topology.muscles)
+                 for n in (net, touch, foot))
+    assert r.by_foot and r.gains["ipsi"] == rt.gains["ipsi"] and r.hold == rt.hold
+    assert r.gains["contra_ahead"] == rf.gains["contra_ahead"] and r.hold_ahead == rf.hold
+    fit = net.info["fit"]
+    assert fit["generations"] == 0 and fit["ahead_from"]["network"] == "placement-foot"
+    assert "--ahead-from placement-foot --generations 0" in fit["command"]
+    s = simulate_trip(Scenario(controller="reflex", mechanism="obstacle", swing_fraction=swing,
+                               speed_m_per_s=1.2, start="own")).summary
+    assert s["strategy"] == strategy and s["recovered"] and not s["fell"]
