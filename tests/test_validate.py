@@ -50,7 +50,13 @@ def fake(monkeypatch):
 
 def test_the_fixed_study():
     cases = validate.validation_scenarios()
-    assert len(cases) == 140 and len({c for c, _ in cases}) == 140
+    assert len(cases) == 230 and len({c for c, _ in cases}) == 230
+    for ctrl in ("reflex", "gh2010"):  # issue 9's strategy map, in the own gait
+        m = [sc for c, sc in cases if c.startswith(f"{ctrl}/map/")]
+        assert len(m) == 45 and {sc.start for sc in m} == {"own"}
+        assert {sc.speed_m_per_s for sc in m} == {1.0, 1.2, 1.4}
+        assert sorted({sc.swing_fraction for sc in m}) == list(validate.MAP_SWINGS)
+        assert validate.MAP_SWINGS[0] == 0.05 and validate.MAP_SWINGS[-1] == 0.75
     grid = [sc for c, sc in cases if "/grid/" in c]
     assert len(grid) == 96 and {sc.population for sc in grid} == {"young", "older"}
     assert {sc.recovery for sc in grid} == {"walk_on"}
@@ -117,7 +123,8 @@ def test_validate_prints_the_table_and_writes_json(tmp_path, fake, capsys, monke
     opened = by[("walking 20 s from the played-back walk", "reflex (open loop)")]
     assert opened["stumble_text"] == "not available"
     reflex = [r for r in rows if r["controller"] == "reflex"]
-    assert len(reflex) == 3 + 4 + 1 + 1 + 2  # windows, durations, recovery, walk, ident.
+    assert len(reflex) == 3 + 4 + 1 + 2 + 1 + 2  # windows, durations, recovery, map,
+    # walk, identification
     assert all(r["agreement"] == "n/a" and r["stumble_text"] == "not available"
                for r in reflex)
     assert "controller 'reflex' is not available" in reflex[0]["note"]
@@ -125,6 +132,15 @@ def test_validate_prints_the_table_and_writes_json(tmp_path, fake, capsys, monke
     # recovery rates and the GH2010 walk: the ankle's 11° is over the 10° criterion
     assert by[("recovery rate, obstacle trips at 5-75 % of swing, 1.1 m/s", "fsm")][
         "stumble"] == pytest.approx(1.0)
+    # GH2010's strategy map in its own gait (the fake: elevating to 0.5 of swing, every
+    # 1.4 m/s trip falls): the human strategy in all 30 window trips, 30 of 45 recovered
+    # (10 of them lowering), under the 70 % criterion
+    hs = by[("own gait: human strategy, 45 obstacle trips at 5-75 % of swing, "
+             "1.0/1.2/1.4 m/s", "gh2010")]
+    assert hs["stumble_text"] == "30/30 (100%)" and hs["agreement"] == "yes"
+    rec = by[("own gait: recovered of the 45 obstacle trips (3 s after the trip)", "gh2010")]
+    assert rec["stumble"] == pytest.approx(30 / 45, abs=1e-4) and rec["agreement"] == "no"
+    assert rec["stumble_text"] == "30/45 (67%; 10 by lowering)"
     walk = by[("walking 20 s: RMSE against the recorded stride", "gh2010")]
     assert walk["agreement"] == "no" and "walked 20.0 s" in walk["stumble_text"]
     stance = by[("walking: stance fraction", "gh2010")]
