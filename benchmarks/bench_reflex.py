@@ -3,9 +3,10 @@
 Run:  python benchmarks/bench_reflex.py [--repeats N]
 
 For a reflex trip (CASE 1 of seed 003: obstacle at 0.13 of swing, 1.2 m/s; the network
-the default closed-loop one, and the open-loop one for comparison with the figures
-before 2026-12-04) and a 10 s and a 20 s walk of each reflex controller (``network``:
-the closed-loop one, from the 1.2 m/s walk; ``gh2010``, the default set), it
+the default one, ``placement-both`` since 2026-12-05, and the open-loop one for
+comparison with the figures before 2026-12-04) and a 10 s and a 20 s walk of each reflex
+controller (``network``: the default one, from the 1.2 m/s walk, and the closed-loop
+one, the default before, for comparison; ``gh2010``, the default set), it
 times the whole ``sim.run`` loop and a bare loop that replays the recorded controls on
 the same model from the same state after the controller's start, doing nothing else
 (``mj_step`` per control row): the physical limit of this engine for that motion. CPU
@@ -124,14 +125,15 @@ def main() -> None:
         pipeline.simulate_trip(sc_own, **kw)
         measure(label, lambda s=sc_own, k=kw: pipeline.simulate_trip(s, **k), args.repeats,
                 whole=True)
-    # the walks: GH2010 from the recording's speed; the network closed-loop, from the
-    # 1.2 m/s walk it walks from (the open-loop network falls within a second), at its
-    # default step (2 ms) and at 1 ms, the step before 2026-12-04
-    net = default_network("closed-loop")
+    # the walks: GH2010 from the recording's speed; the default network and the
+    # closed-loop one, from the 1.2 m/s walk (the open-loop network falls within a
+    # second), at the default step (2 ms) and at 1 ms, the step before 2026-12-04
+    net, closed = default_network(), default_network("closed-loop")
     for kind, label, kw in (
             ("network", "network", {"network": net, "speed_m_per_s": 1.2}),
             ("network", "network, 1 ms", {"network": net, "speed_m_per_s": 1.2,
                                           "timestep_s": 0.001}),
+            ("network", "closed-loop network", {"network": closed, "speed_m_per_s": 1.2}),
             ("gh2010", "gh2010", {}),
             ("gh2010", "gh2010 knee-2ms", {"params": fast})):
         pipeline.simulate_walk(kind, 1.0, **kw)

@@ -21,6 +21,8 @@ that led up to it (the seed replays the walk and its inverse dynamics until the 
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from stumble.body.muscles import MUSCLE_NAMES
@@ -143,15 +145,20 @@ class TrunkBalance:
         out[:, 4:6] = g[:, 5:7]
         return out
 
-    def place_sense(self, rows: np.ndarray, lay) -> np.ndarray:
-        """(n, 5) each leg's angle from vertical α (rad, pelvis to ankle, forward +), the
-        centre of mass ahead of the other leg's ankle (m, 2) and its forward speed (m/s),
-        from sensor rows (n, nsensordata): the placement's senses."""
+    def place_cols(self, lay) -> np.ndarray:
+        """The sensor columns ``place_sense`` reads: the pelvis' x and z, the ankles' x,
+        their z, the centre of mass' x and forward speed."""
         if self._place_lay is not lay:
             self._place_lay, self._place_cols = lay, np.concatenate([
                 lay.pelvis[[0, 2]], lay.foot_pos[:, 0], lay.foot_pos[:, 2],
                 [lay.com[0], lay.com_vel[0]]])
-        r = rows[:, self._place_cols]  # pelvis x, z, ankle x (2), ankle z (2), COM x, vx
+        return self._place_cols
+
+    def place_sense(self, rows: np.ndarray, lay) -> np.ndarray:
+        """(n, 5) each leg's angle from vertical α (rad, pelvis to ankle, forward +), the
+        centre of mass ahead of the other leg's ankle (m, 2) and its forward speed (m/s),
+        from sensor rows (n, nsensordata): the placement's senses."""
+        r = rows[:, self.place_cols(lay)]  # pelvis x, z, ankle x (2), ankle z (2), COM x, vx
         out = np.empty((len(rows), 5))
         np.arctan2(r[:, 2:4] - r[:, :1], r[:, 1:2] - r[:, 4:6], out=out[:, 0:2])
         np.subtract(r[:, 6:7], r[:, 3:1:-1], out=out[:, 2:4])
@@ -331,7 +338,7 @@ class TouchResponse:
         ticks = np.arange(first, first + n)
         for side in range(2):
             o = onsets[side]
-            if not np.isfinite(o) or first >= o + self.lag + self.span:
+            if not math.isfinite(o) or first >= o + self.lag + self.span:
                 continue
             ahead_sets = self.by_foot and ahead is not None and ahead[side]
             hold, after = ((self.hold_ahead, self.after_ahead) if ahead_sets
@@ -602,9 +609,11 @@ class ReflexController:
             rows = (k - self.balance.lag + self._nb_ticks) % len(self.bal_buf)
             sensed = self.bal_buf.take(rows, axis=0)
             bal = self.balance.drive_cols(sensed)
-            if self.place_buf is not None:
-                bal += self.balance.place_cols_drive(self.place_buf.take(rows, axis=0),
-                                                     sensed[:, 2:4])
+            if self.place_buf is not None:  # ``place_cols_drive``, added
+                b = self.balance
+                kern["place_drive_add"](self.place_buf, rows, self.bal_buf, float(b.k_place),
+                                        float(b.place_a0), float(b.place_cd),
+                                        float(b.place_cv), b.stance_load * b.weight_n, bal)
         else:
             bal = self._no_balance
         self.exc_block = np.empty((nb, 2, self.nm))
@@ -786,9 +795,11 @@ class ReflexController:
                                 else self._obs_cols[:0], g)
             if bal:
                 kern["bal_store"](g, np.arctan2(g[:, 0], g[:, 1]), self.bal_buf, k0)
-            if self.place_buf is not None:
-                self.place_buf[self._bal_rows(k0, n)] = self.balance.place_sense(ticks,
-                                                                                 self.lay)
+            if self.place_buf is not None:  # ``place_sense``, its arctan2 NumPy's
+                d = np.empty((2, n, 2))
+                kern["place_pre"](ticks, self.balance.place_cols(self.lay), d,
+                                  self.place_buf, k0)
+                kern["place_alpha"](np.arctan2(d[0], d[1]), self.place_buf, k0)
             self.k = k0 + n
             return
         g = ticks[:, self._obs_cols]  # muscle lengths, velocities, forces; feet's loads

@@ -233,6 +233,47 @@ def _compiled(numba) -> dict:
             buf[r, 5] = g[i, 6]
 
     @jit
+    def place_pre(ticks, cols, d, buf, first):
+        """``TrunkBalance.place_sense`` but its arctan2: from the sensor rows' columns
+        ``cols`` (pelvis x, z, the ankles' x, their z, the COM's x and vx), each leg's
+        pelvis-to-ankle x and z into ``d`` (2, n, 2) for the angle, and the COM ahead of
+        each other ankle and its speed into ``buf``'s columns 2-4 from slot ``first``."""
+        size = buf.shape[0]
+        for i in range(ticks.shape[0]):
+            r = (first + i) % size
+            for s in range(2):
+                d[0, i, s] = ticks[i, cols[2 + s]] - ticks[i, cols[0]]
+                d[1, i, s] = ticks[i, cols[1]] - ticks[i, cols[4 + s]]
+            buf[r, 2] = ticks[i, cols[6]] - ticks[i, cols[3]]
+            buf[r, 3] = ticks[i, cols[6]] - ticks[i, cols[2]]
+            buf[r, 4] = ticks[i, cols[7]]
+
+    @jit
+    def place_alpha(alpha, buf, first):
+        """The legs' angles ``alpha`` (n, 2) into ``buf``'s columns 0-1 from ``first``."""
+        size = buf.shape[0]
+        for i in range(alpha.shape[0]):
+            r = (first + i) % size
+            buf[r, 0] = alpha[i, 0]
+            buf[r, 1] = alpha[i, 1]
+
+    @jit
+    def place_drive_add(buf, rows, bal_buf, k_place, a0, cd, cv, swing_below_n, bal):
+        """``bal += TrunkBalance.place_cols_drive(buf[rows], bal_buf[rows][:, 2:4])``: the
+        placement's drive of GLU, HAMS and the flexor (n, 2, 3), added."""
+        for i in range(rows.shape[0]):
+            r = rows[i]
+            for s in range(2):
+                alpha = buf[r, s]
+                e = k_place * (a0 + cd * buf[r, 2 + s] + cv * buf[r, 4] - alpha)
+                on = 1.0 if (bal_buf[r, 2 + s] < swing_below_n and alpha > 0.0) else 0.0
+                pe = e if (e >= 0.0 or e != e) else 0.0
+                ne = -e if (-e >= 0.0 or e != e) else 0.0
+                bal[i, s, 0] += on * ne
+                bal[i, s, 1] += 0.0
+                bal[i, s, 2] += on * pe
+
+    @jit
     def iir2(b, a, x, z, y):
         """A second-order filter along axis 0 of ``x`` (n, channels) into ``y``, from and
         updating the state ``z`` (2, channels), in direct form II transposed with the
@@ -500,6 +541,8 @@ def _compiled(numba) -> dict:
     return {"iir2": iir2, "balance_cols": balance_cols, "net_pre": net_pre,
             "net_push": net_push, "net_drive": net_drive, "net_out": net_out,
             "net_observe": net_observe, "bal_store": bal_store, "store_rows": store_rows,
+            "place_pre": place_pre, "place_alpha": place_alpha,
+            "place_drive_add": place_drive_add,
             "ring_take": ring_take,
             "gh_channels": gh_channels, "gh_place_in": gh_place_in,
             "gh_features": gh_features, "gh_select": gh_select, "gh_lean": gh_lean,
