@@ -474,6 +474,53 @@ def test_the_dense_trip_set_is_thirty_trips_apart_from_the_maps_45():
     assert "--trip-set dense " in _fit_command("gh2010", True, ((30, 10.0, dense),), None, 5)
 
 
+def test_the_pool_is_apart_from_the_maps_45_and_the_held_out_28():
+    """``--trip-set pool``: 116 trips at 1.05-1.35 m/s, swing 0.05-0.75 in steps of 0.025,
+    none at the speeds of the strategy map (1.0/1.2/1.4) or of the held-out trips
+    (1.1/1.3)."""
+    from stumble.control.reflex.fit_walk import TRIP_SETS
+
+    pool = TRIP_SETS["pool"]
+    assert len(pool) == len(set(pool)) == 116
+    assert {v for _s, v in pool} == {1.05, 1.15, 1.25, 1.35}
+    assert min(s for s, _v in pool) == 0.05 and max(s for s, _v in pool) == 0.75
+    assert sorted({s for s, _v in pool})[:3] == [0.05, 0.075, 0.1]
+
+
+def _noisy_quadratic(arg):
+    """A test objective: (θ − 1)² summed, plus the sample's mean when given one."""
+    theta, sample = arg if isinstance(arg, tuple) else (arg, None)
+    cost = float(np.sum((np.asarray(theta) - 1.0) ** 2))
+    if sample is not None:
+        cost += float(np.mean(sample))
+    return cost, {"sampled": float(sample is not None)}
+
+
+def test_a_sampled_fit_judges_each_generation_on_its_sample_and_returns_the_mean():
+    """``cma_fit(sample=...)``: every candidate of a generation gets that generation's
+    sample; the result is the search's mean, judged without a sample (its whole set),
+    the same from the same seed."""
+    from stumble.control.reflex.fit_walk import Space, cma_fit
+
+    space = Space(("a", "b"), np.zeros(2), np.ones(2), -5 * np.ones(2), 5 * np.ones(2))
+    seen = []
+
+    def sample(gen):
+        seen.append(gen)
+        return (float(gen),)
+
+    res = cma_fit(_noisy_quadratic, space, seed=3, generations=30, popsize=6, sigma=0.5,
+                  sample=sample)
+    assert seen == list(range(30))
+    assert [h["terms"]["sampled"] for h in res.history] == [1.0] * 30
+    assert res.best_terms == {"sampled": 0.0}
+    assert res.best_cost == pytest.approx(float(np.sum((res.best_theta - 1.0) ** 2)))
+    assert np.allclose(res.best_theta, 1.0, atol=0.2)  # the mean found the minimum
+    again = cma_fit(_noisy_quadratic, space, seed=3, generations=30, popsize=6, sigma=0.5,
+                    sample=lambda g: (float(g),))
+    assert np.array_equal(again.best_theta, res.best_theta)
+
+
 def test_swing_leg_placement_is_off_by_default_and_fitted_only_when_asked():
     """``--placement``: the swing-leg placement's fields join the space only then, within
     their bounds; off (k_place 0) the controller is the paper's; on, a walk differs."""

@@ -287,6 +287,10 @@ def _parser() -> argparse.ArgumentParser:
                    "stumbling corrective reaction: 65 ms after a foot's touch, excitations "
                    "of that leg's muscles for a time, then others, and of the other "
                    "leg's; ours), whose gains and durations join the subset from 0")
+    f.add_argument("--trip-sample", type=int, default=None, metavar="K",
+                   help="network --walk-es --trip-set: judge each generation on K of the "
+                   "set's trips, drawn afresh each generation (seeded), and take the "
+                   "search's mean at the end, judged on all of them (for the pool set)")
     f.add_argument("--ahead-from", default=None, metavar="FILE|NAME",
                    help="network, --walk-es --touch-response --scr-phase foot: start the "
                    "response for a touch of the foot ahead from this network's (the same "
@@ -310,11 +314,13 @@ def _parser() -> argparse.ArgumentParser:
                    help="gh2010: the gh2010.json to start from, or a shipped set by name: "
                    f"{GH2010_NAMES} (with --trips the trip stage starts there; without, "
                    "the walk is refitted from there, a touch's reflexes kept as they are)")
-    f.add_argument("--trip-set", choices=("four", "wide", "dense"), default=None,
+    f.add_argument("--trip-set", choices=("four", "wide", "dense", "pool"), default=None,
                    help="gh2010 --trips, or network --walk-es: the stage's obstacle "
                    "trips (for --walk-es none unless given): four (gh2010's default), "
                    "twelve across swing 0.1-0.75 and the three start speeds (wide), or "
-                   "thirty, swing 0.05-0.75 at 1.1 and 1.3 m/s (dense)")
+                   "thirty, swing 0.05-0.75 at 1.1 and 1.3 m/s (dense), or 116 at "
+                   "1.05-1.35 m/s, swing 0.05-0.75 in steps of 0.025 (pool: network, with "
+                   "--trip-sample)")
     f.add_argument("--scr-phase", choices=("any", "foot"), default=None,
                    help="gh2010 --trips: the stumbling corrective reflex the same at every "
                    "phase (any), or reversing as the tripped foot is behind or ahead of "
@@ -959,6 +965,10 @@ def cmd_reflex_fit_network_es(args) -> int:
     from stumble.control.reflex.fit_walk import NETWORK_ES_SIGMA, TRIP_SETS
 
     trips = TRIP_SETS[args.trip_set] if args.trip_set else ()
+    if args.trip_sample is not None and not (trips and 1 <= args.trip_sample <= len(trips)):
+        raise InputError(f"--trip-sample must be 1-{len(trips)} (the --trip-set's trips), "
+                         f"got {args.trip_sample}" if trips else
+                         "--trip-sample needs --trip-set")
     if args.scr_phase is not None and not args.touch_response:
         raise InputError("--scr-phase (network --walk-es) is for --touch-response")
     if args.touch_only:
@@ -1003,7 +1013,8 @@ def cmd_reflex_fit_network_es(args) -> int:
                               touch=args.touch_afferent, touch_only=args.touch_only,
                               touch_response=args.touch_response,
                               response_by_foot=args.scr_phase == "foot",
-                              ahead_from=ahead_from, track_limit_deg=args.track_limit, **costs)
+                              ahead_from=ahead_from, trip_sample=args.trip_sample,
+                              track_limit_deg=args.track_limit, **costs)
     bar.done()
     walk = simulate_walk("network", 20.0, network=net)
     report = dict(net.info["fit"])
@@ -1030,6 +1041,9 @@ def cmd_reflex(args) -> int:
         return cmd_reflex_walk(args)
     if args.trip_start is not None and args.walk_es is None:
         raise InputError("--trip-start is for --walk-es (with --trip-set)")
+    if args.trip_sample is not None and (args.walk_es is None
+                                         or args.controller == "gh2010"):
+        raise InputError("--trip-sample is for --controller network --walk-es --trip-set")
     if args.ahead_from is not None and (args.walk_es is None or args.controller == "gh2010"):
         raise InputError("--ahead-from is for --controller network --walk-es "
                          "--touch-response --scr-phase foot")

@@ -202,7 +202,7 @@ def cma_fit(evaluate: Callable[[np.ndarray], tuple[float, dict]], space: Space,
             sigma: float = 0.5, workers: int = 1, out: Path | None = None,
             progress: Callable[[dict], None] | None = None, initializer=None,
             initargs: tuple = (), target: float | None = None, first_generation: int = 0,
-            stage: str = "", fixed: dict | None = None) -> FitResult:
+            stage: str = "", fixed: dict | None = None, sample=None) -> FitResult:
     """Minimise ``evaluate(theta)`` (a picklable, top-level function returning (J, terms))
     over ``space`` with seeded CMA-ES, ``workers`` processes evaluating each generation.
     Stops after ``generations`` or once the best J is below ``target``; ``generations``
@@ -210,7 +210,11 @@ def cma_fit(evaluate: Callable[[np.ndarray], tuple[float, dict]], space: Space,
     numbered from ``first_generation`` and the history is appended to ``out`` when it
     does not start at 0 (a later stage of one fit). ``fixed``: the parameters outside the
     space, written with the best candidate's to ``best.json`` so that it is a whole
-    parameter set (a GH2010 ``best.json`` loads with ``--params``)."""
+    parameter set (a GH2010 ``best.json`` loads with ``--params``). ``sample``: a
+    function of the generation giving what each of its candidates is judged on, passed to
+    ``evaluate`` as ``(theta, that)`` (a noisy objective: every candidate of a generation
+    on the same sample); the result is then the search's mean at the end, judged by
+    ``evaluate(theta)`` alone (its whole set), not the best of the samples."""
     from cmaes import CMA
 
     from stumble.jsonio import dumps
@@ -234,7 +238,9 @@ def cma_fit(evaluate: Callable[[np.ndarray], tuple[float, dict]], space: Space,
             xs = ([opt.ask() for _ in range(opt.population_size)] if generations
                   else [np.zeros(n)])
             thetas = [space.to_params(x) for x in xs]
-            results = list(pool.map(evaluate, thetas) if pool else map(evaluate, thetas))
+            drawn = None if sample is None else sample(gen)
+            args = thetas if sample is None else [(t, drawn) for t in thetas]
+            results = list(pool.map(evaluate, args) if pool else map(evaluate, args))
             if generations:
                 opt.tell([(x, r[0]) for x, r in zip(xs, results, strict=True)])
             best.evaluations += len(xs)
@@ -261,6 +267,16 @@ def cma_fit(evaluate: Callable[[np.ndarray], tuple[float, dict]], space: Space,
                 progress(row)
             if target is not None and best.best_cost < target:
                 break
+        if sample is not None and generations:  # the mean, judged on the whole set
+            theta = space.to_params(opt.mean)
+            cost, terms = (pool.submit(evaluate, theta).result() if pool
+                           else evaluate(theta))
+            best.best_theta, best.best_cost, best.best_terms = theta, cost, terms
+            if out is not None:
+                _write_json(out / "best.json", {
+                    "generation": "mean", "cost": cost, "terms": terms,
+                    "params": {**(fixed or {}), **dict(zip(
+                        space.names, map(float, theta), strict=True))}})
     finally:
         if pool is not None:
             pool.shutdown()
@@ -418,10 +434,15 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                  track_limit_deg=track_limit_deg, names=names)
 
 
-def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
-    """J of one candidate of the controller set up by ``init_walk_eval``."""
+def evaluate_walk(theta) -> tuple[float, dict]:
+    """J of one candidate of the controller set up by ``init_walk_eval``; ``theta`` may be
+    ``(theta, trips)``: judged on those trips instead of the set's (``cma_fit``'s
+    ``sample``)."""
     from stumble.pipeline import simulate_walk
 
+    trips = _EVAL.get("trips") or ()
+    if isinstance(theta, tuple):
+        theta, trips = theta
     kind = _EVAL["kind"]
     if kind == "gh2010":
         from stumble.control.reflex.gh2010 import GH2010Params
@@ -481,7 +502,6 @@ def evaluate_walk(theta: np.ndarray) -> tuple[float, dict]:
                                timestep_s=r.body.model.opt.timestep).summary)
         terms[f"start_{v:g}"] = push_term(other)
         cost += terms[f"start_{v:g}"]
-    trips = _EVAL.get("trips") or ()
     w_strategy = _EVAL.get("strategy_cost", 0.0)
     if trips and terms["fall"] == 0.0:  # trips only once it walks: they cost 3 s each
         ok = human = 0
@@ -622,7 +642,12 @@ TRIP_SETS = {"four": TRIP_STAGES[0][2],
              "wide": ((0.1, 1.0), (0.2, 1.4), (0.3, 1.2), (0.35, 1.0), (0.4, 1.4),
                       (0.45, 1.2), (0.5, 1.0), (0.55, 1.4), (0.6, 1.2), (0.65, 1.0),
                       (0.7, 1.4), (0.75, 1.2)),
-             "dense": tuple((round(0.05 * k, 2), v) for v in (1.1, 1.3) for k in range(1, 16))}
+             "dense": tuple((round(0.05 * k, 2), v) for v in (1.1, 1.3) for k in range(1, 16)),
+             # 116 trips at speeds and instants of neither the 45 (1.0/1.2/1.4 m/s) nor the
+             # held-out 28 (1.1/1.3 m/s): a pool to draw a sample from each generation
+             # (``--trip-sample``)
+             "pool": tuple((round(0.05 + 0.025 * k, 3), v) for v in (1.05, 1.15, 1.25, 1.35)
+                           for k in range(29))}
 TRIP_SIGMA = 0.4
 SCR_START = 0.2  # every gain of the stumbling corrective reflex starts here
 
@@ -1070,7 +1095,7 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    trip_start: str | None = None, touch: bool = False,
                    track_limit_deg: float | None = None, touch_only: bool = False,
                    touch_response: bool = False, response_by_foot: bool = False,
-                   ahead_from: tuple | None = None):
+                   ahead_from: tuple | None = None, trip_sample: int | None = None):
     """CMA-ES on ``network_space(start, interneuron_biases, touch_only, touch_response)``:
     each candidate walks
     ``NETWORK_ES_WALK_S`` from the 1.2 m/s recording (and 10 s from each of ``starts``) at
@@ -1096,6 +1121,9 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
     ahead, ``TouchResponse.by_foot``; a response that is not by the foot is copied to
     both feet first); ``ahead_from``: (a network, what was named) whose response by the
     foot gives the start's for the foot ahead first (``Network.with_ahead_response``);
+    ``trip_sample``: each generation's candidates judged on that many of ``trips``,
+    drawn afresh each generation (seeded by ``seed`` and the generation), the result the
+    search's mean at the end judged on all of them (``cma_fit``'s ``sample``);
     writes ``network.npz``,
     ``history.jsonl`` and ``best.json`` to ``out`` when given."""
     import tempfile
@@ -1125,6 +1153,17 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
     space = network_space(start, interneuron_biases=interneuron_biases,
                           touch_only=touch_only, touch_response=touch_response)
     step = timestep_s or DEFAULT_TIMESTEP_S["reflex"]
+    sample = None
+    if trip_sample is not None:
+        if not 1 <= trip_sample <= len(trips):
+            raise ValueError(f"trip_sample must be 1-{len(trips)} (the trip set's size), "
+                             f"got {trip_sample}")
+        pool = tuple(trips)
+
+        def sample(gen: int) -> tuple:
+            rng = np.random.default_rng([seed, gen])
+            return tuple(pool[i] for i in sorted(rng.choice(len(pool), trip_sample,
+                                                            replace=False)))
     with tempfile.TemporaryDirectory() as tmp:  # the workers load the start from a file
         path = Path(tmp) / "start.npz"
         start.save(path)
@@ -1138,7 +1177,7 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                           knee_weight=knee_weight, starts=tuple(starts), timestep_s=step,
                           trip_start=trip_start, track_limit_deg=track_limit_deg,
                           touch_only=touch_only, names=tuple(space.names)),
-                      stage="walk+trips" if trips else "walk")
+                      stage="walk+trips" if trips else "walk", sample=sample)
     net = network_with(start, res.best_theta, space.names)
     opts = [*_weight_opts(track_weight, knee_weight, knee_first=True), *_starts_opts(starts),
             f"--timestep {step:g}"]  # the step always: the default step may change
@@ -1166,6 +1205,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
         opts += _trip_cost_opts(strategy_cost, recovery_cost)
         if trip_start:
             opts.append(f"--trip-start {trip_start}")
+        if trip_sample is not None:
+            opts.append(f"--trip-sample {trip_sample}")
     command = " ".join(["stumble reflex fit --controller network --walk-es",
                         str(start_from.get("network")), *opts, f"--seed {seed} --out DIR"])
     info = dict(net.info)
@@ -1187,6 +1228,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    "touch_afferent": bool(start.topology.touch), "touch_only": touch_only,
                    "touch_response": touch_response,
                    **({"ahead_from": ahead_from[1]} if ahead_from is not None else {}),
+                   **({"trip_sample": trip_sample, "result": "the search's mean at the "
+                       "end, judged on the whole trip set"} if trip_sample else {}),
                    "track_limit_deg": track_limit_deg,
                    "cost": res.best_cost, "terms": res.best_terms,
                    "wall_time_s": round(res.wall_time_s, 1), "command": command}
