@@ -332,3 +332,37 @@ def test_the_default_network_recovers_early_and_late_trips_with_both_strategies(
     s = simulate_trip(Scenario(controller="reflex", mechanism="obstacle", swing_fraction=swing,
                                speed_m_per_s=1.2, start="own")).summary
     assert s["strategy"] == strategy and s["recovered"] and not s["fell"]
+
+
+def test_the_default_networks_chain_of_commands_is_read_from_its_file():
+    """``scripts/network_chain.py``: the commands that made ``placement-both``, oldest
+    first, from ``placement`` (shipped) through six CMA-ES stages, each ``--out`` the next
+    one's start, the last the combination by ``--ahead-from`` with no search; a network
+    without CMA-ES stages is one clear error."""
+    import importlib.util
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from stumble.control.reflex.identify import NETWORK_NAMES, default_network
+
+    path = Path(__file__).resolve().parents[1] / "scripts" / "network_chain.py"
+    spec = importlib.util.spec_from_file_location("network_chain", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    fit = default_network("placement-both").info["fit"]
+    st = mod.stages(fit)
+    assert len(st) == 6 and st[0]["start"] == "placement"
+    assert [s["start"] for s in st[1:]] == ["es1/network.npz", "placement-es",
+                                            "placement-walk", "tr3/network.npz",
+                                            "placement-touch"]
+    assert st[-1]["ahead_from"] == "placement-foot"
+    lines = mod.commands(fit, set(NETWORK_NAMES))
+    cmds = [ln for ln in lines if ln.startswith("stumble ")]
+    assert "--out es1/" in cmds[0] and "--out tr3/" in cmds[3]
+    assert "--out placement-walk/  # shipped as 'placement-walk'" in cmds[2]
+    assert "--ahead-from placement-foot --generations 0" in cmds[-1]
+    r = subprocess.run([sys.executable, str(path), "placement"], capture_output=True,
+                       text=True)
+    assert r.returncode == 2 and "records no CMA-ES stage" in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1
