@@ -648,6 +648,22 @@ def _network_arg(path: Path):
     return Network.load(path)
 
 
+def _network_record(arg: str):
+    """A network named on the command line (a file, or a shipped name) and what a fit
+    records of it: ``{"network": as named, "sha256": of its file}``."""
+    import hashlib
+    from importlib import resources
+
+    from stumble.control.reflex.identify import NETWORK_NAMES
+
+    path = Path(arg)
+    net = _network_arg(path)
+    data = (path.read_bytes() if path.exists() or arg not in NETWORK_NAMES
+            else (resources.files("stumble.control.reflex") / "data"
+                  / NETWORK_NAMES[arg]).read_bytes())
+    return net, {"network": str(arg), "sha256": hashlib.sha256(data).hexdigest()}
+
+
 def cmd_trip(args) -> int:
     """``stumble trip``: one trip, its summary, time series, plots and video."""
     from stumble.outputs import (
@@ -917,33 +933,13 @@ def cmd_reflex_fit_network_es(args) -> int:
                         ("--contact-afferents", args.contact_afferents)):
         if given is not None:
             raise InputError(f"{flag} is not for --walk-es")
-    start = _network_arg(Path(args.walk_es))
-    import hashlib
-
-    from stumble.control.reflex.identify import NETWORK_NAMES
-
-    src = (Path(args.walk_es) if Path(args.walk_es).exists() or args.walk_es not in NETWORK_NAMES
-           else None)
-    from importlib import resources
-
-    if src is None:
-        data = (resources.files("stumble.control.reflex") / "data"
-                / NETWORK_NAMES[args.walk_es]).read_bytes()
-    else:
-        data = src.read_bytes()
-    start_from = {"network": str(args.walk_es), "sha256": hashlib.sha256(data).hexdigest()}
+    start, start_from = _network_record(args.walk_es)
     ahead_from = None
     if args.ahead_from is not None:
         if args.scr_phase != "foot":
             raise InputError("--ahead-from is for --touch-response --scr-phase foot")
-        a = Path(args.ahead_from)
-        ahead_net = _network_arg(a)
-        start.with_touch_response(by_foot=True).with_ahead_response(ahead_net)  # checked
-        ahead_bytes = (a.read_bytes() if a.exists() or args.ahead_from not in NETWORK_NAMES
-                       else (resources.files("stumble.control.reflex") / "data"
-                             / NETWORK_NAMES[args.ahead_from]).read_bytes())
-        ahead_from = (ahead_net, {"network": str(args.ahead_from),
-                                        "sha256": hashlib.sha256(ahead_bytes).hexdigest()})
+        ahead_from = _network_record(args.ahead_from)
+        start.with_touch_response(by_foot=True).with_ahead_response(ahead_from[0])  # checked
     knee = W_KNEE if args.knee_weight is None else args.knee_weight
     track = W_TRACK if args.track_weight is None else args.track_weight
     for flag, v in (("--knee-weight", knee), ("--track-weight", track)):
