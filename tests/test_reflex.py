@@ -577,6 +577,39 @@ def test_a_response_by_the_foot_has_its_own_durations_for_the_foot_ahead():
         touch.with_ahead_response(touch)
 
 
+def test_the_recovery_step_drives_the_other_leg_from_the_touched_foots_landing():
+    """``TouchResponse`` with ``cross_hold_s`` (``Network.with_cross_step``): from the
+    touched foot's landing, the other leg's ``cross`` set for ``cross_hold_s``; kept in
+    the file, scaled with the delays, fitted alone with ``cross_only``; with its gains 0
+    a trip is the network's, bit for bit; a network without a response cannot have one."""
+    from stumble.control.reflex.controller import TouchResponse
+    from stumble.control.reflex.fit_walk import network_space
+    from stumble.control.reflex.identify import default_network
+
+    net = default_network("placement-both")
+    muscles = net.topology.muscles
+    hfl = muscles.index("HFL")
+    r = TouchResponse(muscles, {"cross": {"HFL": 0.7}}, cross_hold_s=0.15)
+    out = r.drive(0, 600, np.array([10.0, -np.inf]), landings=np.array([200.0, -np.inf]))
+    assert np.flatnonzero(out[:, 1, hfl]).tolist() == list(range(200, 350))  # other leg
+    assert not out[:, 0].any()
+    assert not r.drive(0, 600, np.array([10.0, -np.inf])).any()  # no landing, no step
+    back = TouchResponse.from_info({"touch_response": r.to_info()}, muscles)
+    assert back.cross and back.cross_hold == 150 and back.gains["cross"]["HFL"] == 0.7
+    crossed = net.with_cross_step()
+    assert crossed.info["touch_response"]["cross_hold_s"] == 0.2
+    slow = TouchResponse.from_info(crossed.with_delay_scale(2.0).info, muscles)
+    assert slow.cross_hold == 400
+    space = network_space(crossed, touch_only=True, touch_response=True, cross_only=True)
+    assert space.names == tuple(f"resp_cross_{m}" for m in muscles) + ("resp_cross_hold_s",)
+    with pytest.raises(InputError, match="no touch response"):
+        default_network("placement-walk").with_cross_step()
+    sc = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.6,
+                  speed_m_per_s=1.2, start="own", duration_after_trip_s=1.0)
+    assert np.array_equal(simulate_trip(sc, network=net).recording.qpos,
+                          simulate_trip(sc, network=crossed).recording.qpos)
+
+
 def test_trips_of_networks_differing_only_in_their_touch_share_the_walk_to_the_trip():
     """Two networks that differ only in the touch response (and the touch afferent's
     weights) have the same ``walk_key`` and walk to an own-gait trip once

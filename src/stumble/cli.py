@@ -287,6 +287,13 @@ def _parser() -> argparse.ArgumentParser:
                    "stumbling corrective reaction: 65 ms after a foot's touch, excitations "
                    "of that leg's muscles for a time, then others, and of the other "
                    "leg's; ours), whose gains and durations join the subset from 0")
+    f.add_argument("--cross-step", action="store_true",
+                   help="network, --walk-es --touch-response: give the response a recovery "
+                   "step first (the other leg's excitations for a time from the touched "
+                   "foot's landing; ours), its gains fitted from 0")
+    f.add_argument("--cross-only", action="store_true",
+                   help="network, --walk-es --touch-only --cross-step: fit the recovery "
+                   "step alone, the rest of the response as the start has it")
     f.add_argument("--trip-sample", type=int, default=None, metavar="K",
                    help="network --walk-es --trip-set: judge each generation on K of the "
                    "set's trips, drawn afresh each generation (seeded), and take the "
@@ -1010,6 +1017,7 @@ def cmd_reflex_fit_network_es(args) -> int:
                               touch_response=args.touch_response,
                               response_by_foot=args.scr_phase == "foot",
                               ahead_from=ahead_from, trip_sample=args.trip_sample,
+                              cross_step=args.cross_step, cross_only=args.cross_only,
                               track_limit_deg=args.track_limit, **costs)
     bar.done()
     walk = simulate_walk("network", 20.0, network=net)
@@ -1037,6 +1045,12 @@ def cmd_reflex(args) -> int:
         return cmd_reflex_walk(args)
     if args.trip_start is not None and args.walk_es is None:
         raise InputError("--trip-start is for --walk-es (with --trip-set)")
+    if args.cross_step and (args.walk_es is None or args.controller == "gh2010"
+                            or not args.touch_response):
+        raise InputError("--cross-step is for --controller network --walk-es "
+                         "--touch-response")
+    if args.cross_only and not (args.cross_step and args.touch_only):
+        raise InputError("--cross-only is for --touch-only --cross-step")
     if args.trip_sample is not None and (args.walk_es is None
                                          or args.controller == "gh2010"):
         raise InputError("--trip-sample is for --controller network --walk-es --trip-set")

@@ -254,12 +254,21 @@ class TouchResponse:
     LATENCY_S = 0.065  # Eng et al. 1994 (seed 003 §IV.A): BF 64 ms after a trip
     SETS = ("ipsi", "after", "contra")
     AHEAD_SETS = ("ipsi_ahead", "after_ahead", "contra_ahead")  # ``by_foot``
+    CROSS = "cross"  # the recovery step's set (``cross_hold_s``)
+    # the touched foot has landed when its vertical load exceeds this share of body
+    # weight (ours; as ``GH2010Params.stance_load``'s 0.1)
+    LAND_LOAD = 0.1
 
     def __init__(self, muscles: tuple[str, ...], gains: dict | None = None,
                  latency_s: float = LATENCY_S, hold_s: float = 0.1, after_s: float = 0.1,
                  rate_hz: float = 1000.0, by_foot: bool = False,
-                 hold_ahead_s: float | None = None, after_ahead_s: float | None = None):
+                 hold_ahead_s: float | None = None, after_ahead_s: float | None = None,
+                 cross_hold_s: float | None = None):
         gains = gains or {}
+        # the recovery step (``cross_hold_s`` given): when the touched foot lands after its
+        # touch (``LAND_LOAD``), the other leg's ``cross`` set for ``cross_hold_s``, its
+        # swing over the obstacle (ours; as Geyer & Herr's crossing gains here)
+        self.cross = cross_hold_s is not None
         self.by_foot = bool(by_foot)
         if not self.by_foot and (hold_ahead_s is not None or after_ahead_s is not None):
             raise InputError("touch response: hold_ahead_s and after_ahead_s are for a "
@@ -267,7 +276,8 @@ class TouchResponse:
         if (hold_ahead_s is None) != (after_ahead_s is None):
             raise InputError("touch response: give hold_ahead_s and after_ahead_s both, or "
                              "neither")
-        self.sets = self.SETS + (self.AHEAD_SETS if self.by_foot else ())
+        self.sets = (self.SETS + (self.AHEAD_SETS if self.by_foot else ())
+                     + ((self.CROSS,) if self.cross else ()))
         unknown = set(gains) - set(self.sets)
         if unknown:
             raise InputError(f"touch response: unknown gain set(s) {sorted(unknown)}")
@@ -285,7 +295,8 @@ class TouchResponse:
                                      "finite number")
         for name, v, lo in (("latency_s", latency_s, 0.02), ("hold_s", hold_s, 0.0),
                             ("after_s", after_s, 0.0), ("hold_ahead_s", hold_ahead_s, 0.0),
-                            ("after_ahead_s", after_ahead_s, 0.0)):
+                            ("after_ahead_s", after_ahead_s, 0.0),
+                            ("cross_hold_s", cross_hold_s, 0.0)):
             if v is not None and not (isinstance(v, (int, float)) and np.isfinite(v)
                                       and lo <= v <= 5.0):
                 raise InputError(f"touch response: {name} = {v} is not within {lo}-5 s")
@@ -299,6 +310,8 @@ class TouchResponse:
         self.after_ahead = (self.after if after_ahead_s is None
                             else round(after_ahead_s * rate_hz))
         self.span = max(self.hold + self.after, self.hold_ahead + self.after_ahead)
+        self.cross_hold_s = cross_hold_s
+        self.cross_hold = 0 if cross_hold_s is None else round(cross_hold_s * rate_hz)
         self.w = np.array([[self.gains[k][m] for m in self.muscles] for k in self.sets])
 
     @property
@@ -311,7 +324,8 @@ class TouchResponse:
         return {"latency_s": self.latency_s, "hold_s": self.hold_s, "after_s": self.after_s,
                 **({"by_foot": True} if self.by_foot else {}),
                 **{k: v for k, v in (("hold_ahead_s", self.hold_ahead_s),
-                                     ("after_ahead_s", self.after_ahead_s)) if v is not None},
+                                     ("after_ahead_s", self.after_ahead_s),
+                                     ("cross_hold_s", self.cross_hold_s)) if v is not None},
                 **{k: dict(self.gains[k]) for k in self.sets}}
 
     @classmethod
@@ -322,20 +336,32 @@ class TouchResponse:
         if d is None:
             return None
         d = dict(d)
-        gains = {k: d.pop(k) for k in cls.SETS + cls.AHEAD_SETS if k in d}
+        gains = {k: d.pop(k) for k in cls.SETS + cls.AHEAD_SETS + (cls.CROSS,) if k in d}
         unknown = set(d) - {"latency_s", "hold_s", "after_s", "by_foot", "hold_ahead_s",
-                            "after_ahead_s"}
+                            "after_ahead_s", "cross_hold_s"}
         if unknown:
             raise InputError(f"touch response: unknown field(s) {sorted(unknown)}")
         return cls(muscles, gains, rate_hz=rate_hz, **d)
 
     def drive(self, first: int, n: int, onsets: np.ndarray,
-              ahead: np.ndarray | None = None) -> np.ndarray | None:
+              ahead: np.ndarray | None = None,
+              landings: np.ndarray | None = None) -> np.ndarray | None:
         """The excitation (n, 2, n_muscles) it adds at ticks first … first+n−1, given each
-        foot's last touch onset (tick; −inf when none) and, with ``by_foot``, whether that
-        foot was ahead of the other then, or None when it adds nothing."""
+        foot's last touch onset (tick; −inf when none), with ``by_foot`` whether that
+        foot was ahead of the other then, and with ``cross`` each foot's landing after its
+        touch (tick; −inf when none), or None when it adds nothing."""
         out = None
         ticks = np.arange(first, first + n)
+        if self.cross and landings is not None:
+            for side in range(2):
+                land = landings[side]
+                if not math.isfinite(land) or first >= land + self.cross_hold:
+                    continue
+                c = (ticks >= land) & (ticks < land + self.cross_hold)
+                if c.any():
+                    if out is None:
+                        out = np.zeros((n, 2, len(self.muscles)))
+                    out[c, 1 - side] += self.w[-1]
         for side in range(2):
             o = onsets[side]
             if not math.isfinite(o) or first >= o + self.lag + self.span:
@@ -475,6 +501,7 @@ class ReflexController:
         self._onsets = np.full(2, -np.inf)
         self._was_touched = np.zeros(2, dtype=bool)
         self._ahead = np.zeros(2, dtype=bool)  # each foot ahead of the other at its onset
+        self._landings = np.full(2, -np.inf)  # each touched foot's landing after its onset
         self.exc_block = np.zeros((self.block, 2, nm))
         self._nb_ticks = np.arange(self.block)
         self.block_start = 0
@@ -655,10 +682,25 @@ class ReflexController:
                 was = now
             self._was_touched[side] = was
 
+    def _touch_landings(self, k0: int, n: int, rows: np.ndarray) -> None:
+        """Note the first tick among the block's n sensed ticks at which a touched foot
+        bears ``TouchResponse.LAND_LOAD`` of body weight, its response under way (the
+        recovery step's trigger)."""
+        r = self.response
+        for side in range(2):
+            o = self._onsets[side]
+            if not math.isfinite(o) or self._landings[side] >= o:
+                continue  # no touch, or landed already since it
+            load = -rows[:, self.lay.foot_force[side, 2]]
+            after = np.arange(k0, k0 + n) >= o + r.lag
+            hit = np.flatnonzero(after & (load > r.LAND_LOAD * self.body_weight_n))
+            if hit.size:
+                self._landings[side] = k0 + int(hit[0])
+
     def _add_response(self, k: int, nb: int) -> None:
         """Add the touch response to the block's excitations and clip its controls again
         (blocks it does not reach are left as they were)."""
-        r = self.response.drive(k, nb, self._onsets, self._ahead)
+        r = self.response.drive(k, nb, self._onsets, self._ahead, self._landings)
         if r is None:
             return
         self.exc_block += r
@@ -786,6 +828,8 @@ class ReflexController:
             np.minimum(ticks[:, self._touch_cols], 1.0, out=self.touches[:n])
             if self.response is not None:
                 self._touch_onsets(k0, n, ticks)
+                if self.response.cross:
+                    self._touch_landings(k0, n, ticks)
         kern = kernels()
         if kern is not None:  # the same numbers, compiled where elementwise (``kernels``)
             bal = self.balance is not None

@@ -930,7 +930,7 @@ BALANCE_FIT = ("kp_per_rad", "kd_s_per_rad", "lean_ref_rad", "k_lean")
 
 
 def network_space(net, interneuron_biases: bool = True, touch_only: bool = False,
-                  touch_response: bool = False) -> Space:
+                  touch_response: bool = False, cross_only: bool = False) -> Space:
     """The subset of the network a closed-loop fit changes, as offsets from its weights:
     per muscle a motor-neuron gain (a factor on its summed input, ``gain_<M>``, start 1)
     and bias (``bias_<M>``, an offset on c); per interneuron an offset on its bias
@@ -942,9 +942,10 @@ def network_space(net, interneuron_biases: bool = True, touch_only: bool = False
     (the network must have one: ``Network.with_touch_response``): its gains per set and
     muscle (``resp_<set>_<M>``, from the network's, -1 to 1) and its two durations
     (``resp_hold_s``, ``resp_after_s``; and the ahead sets' own, ``resp_hold_ahead_s``,
-    ``resp_after_ahead_s``, when it has them). ``touch_only``: the touch afferent's weights (when
-    the network has it) and the touch response's alone, which leave the walk before a
-    touch as it is (the network's touch stage)."""
+    ``resp_after_ahead_s``, when it has them; the recovery step's ``resp_cross_<M>`` and
+    ``resp_cross_hold_s``; ``cross_only``: those alone). ``touch_only``: the touch
+    afferent's weights (when the network has it) and the touch response's alone, which
+    leave the walk before a touch as it is (the network's touch stage)."""
     from stumble.control.reflex.controller import TouchResponse, TrunkBalance
 
     t = net.topology
@@ -965,6 +966,14 @@ def network_space(net, interneuron_biases: bool = True, touch_only: bool = False
         hi.append(b)
 
     def add_response():
+        if cross_only:
+            if not resp.cross:
+                raise ValueError("cross_only: the response has no recovery step "
+                                 "(Network.with_cross_step)")
+            for m in t.muscles:
+                add(f"resp_cross_{m}", resp.gains["cross"][m], 0.3, -1.0, 1.0)
+            add("resp_cross_hold_s", resp.cross_hold_s, 0.05, 0.05, 0.5)
+            return
         for k in resp.sets:
             for m in t.muscles:
                 add(f"resp_{k}_{m}", resp.gains[k][m], 0.3, -1.0, 1.0)
@@ -973,9 +982,11 @@ def network_space(net, interneuron_biases: bool = True, touch_only: bool = False
         if resp.hold_ahead_s is not None:  # the ahead sets' own durations, when it has them
             add("resp_hold_ahead_s", resp.hold_ahead_s, 0.04, 0.02, 0.25)
             add("resp_after_ahead_s", resp.after_ahead_s, 0.04, 0.0, 0.3)
+        if resp.cross:  # the recovery step's duration
+            add("resp_cross_hold_s", resp.cross_hold_s, 0.05, 0.05, 0.5)
 
     if touch_only:
-        for i in _touch_rows(net):
+        for i in _touch_rows(net) if not cross_only else ():
             seg = t.segments[t.inputs()[i][0]]
             for k in range(t.hidden):
                 add(f"touch_{seg}_{k}", 0.0, 1.0, -10.0, 10.0)
@@ -1044,13 +1055,16 @@ def network_with(net, theta: np.ndarray, names: tuple[str, ...] | None = None):
         from stumble.control.reflex.controller import TouchResponse
 
         resp = dict(info["touch_response"])
-        for k in TouchResponse.SETS + TouchResponse.AHEAD_SETS:
+        for k in TouchResponse.SETS + TouchResponse.AHEAD_SETS + (TouchResponse.CROSS,):
             if f"resp_{k}_{t.muscles[0]}" in p:
                 resp[k] = {m: p[f"resp_{k}_{m}"] for m in t.muscles}
-        resp["hold_s"], resp["after_s"] = p["resp_hold_s"], p["resp_after_s"]
+        if "resp_hold_s" in p:
+            resp["hold_s"], resp["after_s"] = p["resp_hold_s"], p["resp_after_s"]
         if "resp_hold_ahead_s" in p:
             resp["hold_ahead_s"] = p["resp_hold_ahead_s"]
             resp["after_ahead_s"] = p["resp_after_ahead_s"]
+        if "resp_cross_hold_s" in p:
+            resp["cross_hold_s"] = p["resp_cross_hold_s"]
         info["touch_response"] = resp
     if all(n.startswith(("touch_", "resp_")) for n in names):  # the touch stage: nothing
         return _replace(net, w=w, info=info)  # else moves
@@ -1095,7 +1109,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    trip_start: str | None = None, touch: bool = False,
                    track_limit_deg: float | None = None, touch_only: bool = False,
                    touch_response: bool = False, response_by_foot: bool = False,
-                   ahead_from: tuple | None = None, trip_sample: int | None = None):
+                   ahead_from: tuple | None = None, trip_sample: int | None = None,
+                   cross_step: bool = False, cross_only: bool = False):
     """CMA-ES on ``network_space(start, interneuron_biases, touch_only, touch_response)``:
     each candidate walks
     ``NETWORK_ES_WALK_S`` from the 1.2 m/s recording (and 10 s from each of ``starts``) at
@@ -1121,7 +1136,10 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
     ahead, ``TouchResponse.by_foot``; a response that is not by the foot is copied to
     both feet first); ``ahead_from``: (a network, what was named) whose response by the
     foot gives the start's for the foot ahead first (``Network.with_ahead_response``);
-    ``trip_sample``: each generation's candidates judged on that many of ``trips``,
+    ``cross_step``: give the response the recovery step's set first
+    (``Network.with_cross_step``, gains 0); ``cross_only``: fit that set alone (with
+    ``touch_only``); ``trip_sample``: each generation's
+    candidates judged on that many of ``trips``,
     drawn afresh each generation (seeded by ``seed`` and the generation), the result the
     search's mean at the end judged on all of them (``cma_fit``'s ``sample``);
     writes ``network.npz``,
@@ -1150,8 +1168,15 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
         if not response_by_foot:
             raise ValueError("ahead_from is for response_by_foot")
         start = start.with_ahead_response(ahead_from[0])
+    if cross_step:
+        if not touch_response:
+            raise ValueError("cross_step is for touch_response")
+        start = start.with_cross_step()
+    if cross_only and not (touch_only and cross_step):
+        raise ValueError("cross_only is for touch_only with cross_step")
     space = network_space(start, interneuron_biases=interneuron_biases,
-                          touch_only=touch_only, touch_response=touch_response)
+                          touch_only=touch_only, touch_response=touch_response,
+                          cross_only=cross_only)
     step = timestep_s or DEFAULT_TIMESTEP_S["reflex"]
     sample = None
     if trip_sample is not None:
@@ -1193,6 +1218,10 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
         opts.append("--scr-phase foot")
     if ahead_from is not None:
         opts.append(f"--ahead-from {ahead_from[1]['network']}")
+    if cross_step:
+        opts.append("--cross-step")
+    if cross_only:
+        opts.append("--cross-only")
     if track_limit_deg is not None:
         opts.append(f"--track-limit {track_limit_deg:g}")
     if generations != NETWORK_ES_GENERATIONS:

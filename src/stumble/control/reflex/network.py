@@ -245,7 +245,8 @@ class Network:
         if info.get("touch_response") is not None:
             info["touch_response"] = {**info["touch_response"], **{
                 k: info["touch_response"][k] * scale
-                for k in ("latency_s", "hold_s", "after_s", "hold_ahead_s", "after_ahead_s")
+                for k in ("latency_s", "hold_s", "after_s", "hold_ahead_s", "after_ahead_s",
+                          "cross_hold_s")
                 if info["touch_response"].get(k) is not None}}
         return Network(slower, self.w, self.b, self.v, self.c, self.mean, self.std,
                        info, self.walk_rates)
@@ -295,6 +296,25 @@ class Network:
             t.muscles, rate_hz=t.rate_hz, by_foot=by_foot).to_info()}
         return Network(t, self.w, self.b, self.v, self.c, self.mean, self.std, info,
                        self.walk_rates)
+
+    def with_cross_step(self, hold_s: float = 0.2) -> Network:
+        """A copy whose touch response has the recovery step's set (``TouchResponse``'s
+        ``cross``: the other leg's excitations for ``hold_s`` from the touched foot's
+        landing), its gains 0: the same network until they are fitted (one it has is
+        kept). ``hold_s`` 0.2 s: ours, about the first half of a swing."""
+        from stumble.control.reflex.controller import TouchResponse
+
+        have = (self.info or {}).get("touch_response")
+        if have is None:
+            raise InputError("--cross-step: the network has no touch response "
+                             "(--touch-response)")
+        if have.get("cross_hold_s") is not None:
+            return self
+        t = self.topology
+        resp = {**have, "cross_hold_s": float(hold_s), TouchResponse.CROSS: {}}
+        TouchResponse.from_info({"touch_response": resp}, t.muscles, t.rate_hz)
+        return Network(t, self.w, self.b, self.v, self.c, self.mean, self.std,
+                       {**self.info, "touch_response": resp}, self.walk_rates)
 
     def with_ahead_response(self, other: Network) -> Network:
         """A copy whose touch response, by the foot's place, takes ``other``'s sets and
