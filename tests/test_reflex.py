@@ -601,7 +601,7 @@ def test_the_recovery_step_drives_the_other_leg_from_the_touched_foots_landing()
     slow = TouchResponse.from_info(crossed.with_delay_scale(2.0).info, muscles)
     assert slow.cross_hold == 400
     space = network_space(crossed, touch_only=True, touch_response=True, cross_only=True)
-    assert space.names == tuple(f"resp_cross_{m}" for m in muscles) + ("resp_cross_hold_s",)
+    assert space.names == (*(f"resp_cross_{m}" for m in muscles), "resp_cross_hold_s")
     with pytest.raises(InputError, match="no touch response"):
         default_network("placement-walk").with_cross_step()
     sc = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.6,
