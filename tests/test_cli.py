@@ -205,6 +205,8 @@ def _one_line_error(r: subprocess.CompletedProcess, *words: str) -> None:
     (["reflex", "fit", "--walk-es", "placement-both", "--touch-only", "--touch-response",
       "--trip-set", "dense", "--cross-only", "--out", "OUT"],
      ["--cross-only is for --touch-only --cross-step"]),
+    (["reflex", "fit", "--controller", "gh2010", "--trips", "--trip-set", "pool", "--out",
+      "OUT"], ["--trip-set pool", "is for --controller network --walk-es --trip-sample"]),
     (["reflex", "fit", "--trip-sample", "5", "--out", "OUT"],
      ["--trip-sample is for --controller network --walk-es --trip-set"]),
     (["reflex", "fit", "--walk-es", "placement-both", "--touch-only", "--touch-response",

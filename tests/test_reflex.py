@@ -598,6 +598,9 @@ def test_the_recovery_step_drives_the_other_leg_from_the_touched_foots_landing()
     assert back.cross and back.cross_hold == 150 and back.gains["cross"]["HFL"] == 0.7
     crossed = net.with_cross_step()
     assert crossed.info["touch_response"]["cross_hold_s"] == 0.2
+    # the landing is sensed through the sole's afferent (1.32 m of nerve), slower nerves later
+    assert net.topology.load_lag() == 23
+    assert net.with_delay_scale(2.0).topology.load_lag() == 46
     slow = TouchResponse.from_info(crossed.with_delay_scale(2.0).info, muscles)
     assert slow.cross_hold == 400
     space = network_space(crossed, touch_only=True, touch_response=True, cross_only=True)

@@ -292,3 +292,27 @@ def test_a_trip_not_set_counts_as_no_run_in_the_figures():
     (row,) = recovery_rows("gh2010", by_case)
     n = len(WINDOW_SWINGS) - 1
     assert row["stumble_text"] == f"{n}/{n} (100%)" and len(row["runs"]) == n + 1
+
+
+def test_the_own_gait_map_counts_a_trip_not_set_as_not_recovered():
+    """``map_rows``: of the 45 trips one not set (and none of its strategy read) is a trip
+    not recovered, as the issue counts them, and the text says so; the human strategy is
+    counted over the window trips that ran."""
+    from stumble.validate import MAP_SPEEDS, MAP_SWINGS, map_rows
+
+    by_case = {}
+    for v in MAP_SPEEDS:
+        for s in MAP_SWINGS:
+            key = f"gh2010/map/{s}/{v}"
+            if (s, v) == (0.6, 1.2):
+                by_case[key] = {"key": key, "not_set": True, "not_set_reason": "toe up",
+                                "error": None}
+            else:
+                by_case[key] = {"key": key, "error": None, "recovered": s <= 0.5,
+                                "strategy": "elevating" if s <= 0.5 else "lowering"}
+    strat, rec = map_rows("gh2010", by_case)
+    assert strat["stumble_text"] == "29/29 (100%; 1 not set)"
+    n = sum(s <= 0.5 for s in MAP_SWINGS) * len(MAP_SPEEDS)  # 30 recovered
+    assert rec["stumble"] == pytest.approx(round(n / 45, 4))
+    assert rec["stumble_text"] == f"{n}/45 (67%; 0 by lowering; 1 not set)"
+    assert rec["agreement"] == "no" and len(rec["runs"]) == 45

@@ -844,6 +844,9 @@ def cmd_reflex_fit_gh2010(args) -> int:
             start_from["rewired_from"] = rewired
     stages = (TRIP_STAGES if args.trips else GH2010_STAGES if args.wiring == "gh2010"
               else SEED003_STAGES)
+    if args.trip_set == "pool":
+        raise InputError("--trip-set pool (116 trips, to sample from) is for --controller "
+                         "network --walk-es --trip-sample")
     if args.trip_set is not None:
         stages = tuple((g, w, TRIP_SETS[args.trip_set]) for g, w, _t in stages)
     if args.generations is not None:  # the same stages, shortened (a quick look)

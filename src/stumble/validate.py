@@ -238,7 +238,7 @@ def map_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
     share = human / len(window) if window else 0.0
     k = sum(bool(r.get("recovered")) for _s, r in ran)
     low = sum(bool(r.get("recovered")) and r.get("strategy") == "lowering" for _s, r in ran)
-    rate = k / len(ran)
+    rate = k / n  # of all the map's trips (the issue's): one not set did not recover
     unset = sum(bool(r.get("not_set")) for _s, r in rows)
     errors = len(rows) - len(ran) - unset
     left = "".join(f"; {m} {what}" for m, what in ((unset, "not set"), (errors, "raised"))
@@ -247,7 +247,7 @@ def map_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
                  f"{human}/{len(window)} ({share:.0%}{left})",
                  "yes" if share >= MAP_STRATEGY_TARGET else "no", keys),
             _row(fig_r, "stumble", ctrl, RECOVERY_TARGET, pub_r, round(rate, 4),
-                 f"{k}/{len(ran)} ({rate:.0%}; {low} by lowering{left})",
+                 f"{k}/{n} ({rate:.0%}; {low} by lowering{left})",
                  "yes" if rate >= RECOVERY_TARGET else "no", keys)]
 
 

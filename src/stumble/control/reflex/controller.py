@@ -256,7 +256,8 @@ class TouchResponse:
     AHEAD_SETS = ("ipsi_ahead", "after_ahead", "contra_ahead")  # ``by_foot``
     CROSS = "cross"  # the recovery step's set (``cross_hold_s``)
     # the touched foot has landed when its vertical load exceeds this share of body
-    # weight (ours; as ``GH2010Params.stance_load``'s 0.1)
+    # weight (ours; as ``GH2010Params.stance_load``'s 0.1), sensed through the sole's
+    # afferent delay (``Topology.load_lag``, as GH2010's crossing reads a delayed load)
     LAND_LOAD = 0.1
 
     def __init__(self, muscles: tuple[str, ...], gains: dict | None = None,
@@ -684,8 +685,9 @@ class ReflexController:
 
     def _touch_landings(self, k0: int, n: int, rows: np.ndarray) -> None:
         """Note the first tick among the block's n sensed ticks at which a touched foot
-        bears ``TouchResponse.LAND_LOAD`` of body weight, its response under way (the
-        recovery step's trigger)."""
+        bears ``TouchResponse.LAND_LOAD`` of body weight, its response under way, as the
+        tick its landing is sensed: the sole's afferent delay later
+        (``Topology.load_lag``; the recovery step's trigger)."""
         r = self.response
         for side in range(2):
             o = self._onsets[side]
@@ -695,7 +697,7 @@ class ReflexController:
             after = np.arange(k0, k0 + n) >= o + r.lag
             hit = np.flatnonzero(after & (load > r.LAND_LOAD * self.body_weight_n))
             if hit.size:
-                self._landings[side] = k0 + int(hit[0])
+                self._landings[side] = k0 + int(hit[0]) + self.net.topology.load_lag()
 
     def _add_response(self, k: int, nb: int) -> None:
         """Add the touch response to the block's excitations and clip its controls again

@@ -1183,11 +1183,11 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
         if not 1 <= trip_sample <= len(trips):
             raise ValueError(f"trip_sample must be 1-{len(trips)} (the trip set's size), "
                              f"got {trip_sample}")
-        pool = tuple(trips)
+        drawable = tuple(trips)
 
         def sample(gen: int) -> tuple:
             rng = np.random.default_rng([seed, gen])
-            return tuple(pool[i] for i in sorted(rng.choice(len(pool), trip_sample,
+            return tuple(drawable[i] for i in sorted(rng.choice(len(drawable), trip_sample,
                                                             replace=False)))
     with tempfile.TemporaryDirectory() as tmp:  # the workers load the start from a file
         path = Path(tmp) / "start.npz"

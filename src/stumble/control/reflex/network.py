@@ -134,6 +134,11 @@ class Topology:
                 out.append((s, self.touch_signal, lag))
         return out
 
+    def load_lag(self) -> int:
+        """The sole's load afferent's shortest delay (samples: ``CONTACT_NERVE_M``'s
+        shortest nerve), the network having the contact afferents or not."""
+        return self._samples(min(CONTACT_NERVE_M.values()) / self.afferent_m_per_s)
+
     def touch_inputs(self) -> list[int]:
         """Indices of the touch afferent's inputs among ``inputs()`` (none without it)."""
         return [i for i, (_s, sig, _lag) in enumerate(self.inputs())
@@ -284,18 +289,14 @@ class Network:
         have = (self.info or {}).get("touch_response")
         if have is not None and (have.get("by_foot") or not by_foot):
             return self
-        t = self.topology
         if have is not None:
-            resp = {**have, "by_foot": True, "hold_ahead_s": have["hold_s"],
-                    "after_ahead_s": have["after_s"],
-                    **{f"{k}_ahead": dict(have[k]) for k in TouchResponse.SETS if k in have}}
-            TouchResponse.from_info({"touch_response": resp}, t.muscles, t.rate_hz)
-            return Network(t, self.w, self.b, self.v, self.c, self.mean, self.std,
-                           {**self.info, "touch_response": resp}, self.walk_rates)
-        info = {**(self.info or {}), "touch_response": TouchResponse(
-            t.muscles, rate_hz=t.rate_hz, by_foot=by_foot).to_info()}
-        return Network(t, self.w, self.b, self.v, self.c, self.mean, self.std, info,
-                       self.walk_rates)
+            return self._with_response({
+                **have, "by_foot": True, "hold_ahead_s": have["hold_s"],
+                "after_ahead_s": have["after_s"],
+                **{f"{k}_ahead": dict(have[k]) for k in TouchResponse.SETS if k in have}})
+        t = self.topology
+        return self._with_response(TouchResponse(t.muscles, rate_hz=t.rate_hz,
+                                                 by_foot=by_foot).to_info())
 
     def with_cross_step(self, hold_s: float = 0.2) -> Network:
         """A copy whose touch response has the recovery step's set (``TouchResponse``'s
@@ -310,11 +311,17 @@ class Network:
                              "(--touch-response)")
         if have.get("cross_hold_s") is not None:
             return self
+        return self._with_response({**have, "cross_hold_s": float(hold_s),
+                                    TouchResponse.CROSS: {}})
+
+    def _with_response(self, resp: dict) -> Network:
+        """A copy with the touch response ``resp`` (``info['touch_response']``), checked."""
+        from stumble.control.reflex.controller import TouchResponse
+
         t = self.topology
-        resp = {**have, "cross_hold_s": float(hold_s), TouchResponse.CROSS: {}}
         TouchResponse.from_info({"touch_response": resp}, t.muscles, t.rate_hz)
         return Network(t, self.w, self.b, self.v, self.c, self.mean, self.std,
-                       {**self.info, "touch_response": resp}, self.walk_rates)
+                       {**(self.info or {}), "touch_response": resp}, self.walk_rates)
 
     def with_ahead_response(self, other: Network) -> Network:
         """A copy whose touch response, by the foot's place, takes ``other``'s sets and
@@ -329,11 +336,13 @@ class Network:
         if theirs is None or not theirs.get("by_foot"):
             raise InputError("--ahead-from: that network has no touch response by the "
                              "foot's place (--scr-phase foot)")
-        same = (self.topology == other.topology and all(
-            np.array_equal(getattr(self, k), getattr(other, k))
-            for k in ("w", "b", "v", "c", "mean", "std"))
-            and self.info.get("balance") == other.info.get("balance"))
-        if not same:
+        t = self.topology
+        untouched = [i for i in range(len(self.w)) if i not in set(t.touch_inputs())]
+        same = (t == other.topology and np.array_equal(self.w[untouched], other.w[untouched])
+                and all(np.array_equal(getattr(self, k), getattr(other, k))
+                        for k in ("b", "v", "c", "mean", "std"))
+                and self.info.get("balance") == other.info.get("balance"))
+        if not same:  # the walk before a touch (the touch afferent's weights aside)
             raise InputError("--ahead-from: that network walks differently from the start "
                              "(its weights, standardisation or trunk balance differ)")
         resp = {k: v for k, v in mine.items() if not k.endswith("_ahead")}
@@ -341,10 +350,7 @@ class Network:
                     hold_ahead_s=theirs.get("hold_ahead_s", theirs["hold_s"]),
                     after_ahead_s=theirs.get("after_ahead_s", theirs["after_s"]),
                     **{k: dict(theirs[k]) for k in TouchResponse.AHEAD_SETS if k in theirs})
-        t = self.topology
-        TouchResponse.from_info({"touch_response": resp}, t.muscles, t.rate_hz)
-        return Network(t, self.w, self.b, self.v, self.c, self.mean, self.std,
-                       {**self.info, "touch_response": resp}, self.walk_rates)
+        return self._with_response(resp)
 
     def units_of(self) -> np.ndarray:
         """(n_connections, H) hidden-unit index read by each motor path."""
