@@ -7,7 +7,8 @@ trip), run by ``simulate_trip`` in this one process, for a ``gh2010.json`` (or `
 or nothing: the default set, ``knee``); ``--start playback`` trips the recording
 instead.
 Prints the strategy map (E elevating, L lowering, - neither, x not set; * recovered),
-the recoveries of 45, the human strategy in the 30 window trips (elevating at
+the recoveries of 45 (and the falls, those in the walk-in before the trip apart), the
+human strategy in the 30 window trips (elevating at
 0.05-0.25, lowering at 0.55-0.75) and the lowering-window recoveries; ``--out FILE``
 writes each trip's figures as JSON. ``--grid held-out``: 28 other trips instead, none of
 them among the 45 or a trip stage's (swing 0.075-0.725 in steps of 0.05 at 1.1 and
@@ -81,6 +82,7 @@ def main() -> None:
                        "strategy": summ.get("strategy"),
                        "recovered": bool(summ.get("recovered")),
                        "fell": bool(summ.get("fell")),
+                       "fell_before_trip": bool(summ.get("fell_before_trip")),
                        "stop_reason": summ.get("stop_reason")}
             except TripNotSet as e:
                 row = {"swing": s, "speed": v, "set": False, "strategy": None,
@@ -103,6 +105,7 @@ def main() -> None:
     figures = {
         "recovered": rec, "of": len(rows),
         "fell": sum(bool(r.get("fell")) for r in rows),
+        "fell_in_walk_in": sum(bool(r.get("fell_before_trip")) for r in rows),
         "human_strategy": human, "window_trips": len(window),
         "human_early": sum(r["strategy"] == "elevating" for r in early),
         "human_late": sum(r["strategy"] == "lowering" for r in low),

@@ -424,7 +424,8 @@ def fit_walk_gh2010(**kw):
 @pytest.mark.parametrize("name", ["gh2010_trip.json", "gh2010_seed003.json",
                                   "gh2010_pushed_walk.json", "gh2010_pushed.json",
                                   "gh2010_knee_walk.json", "gh2010_knee.json",
-                                  "gh2010_knee_foot.json", "gh2010_knee_2ms.json"])
+                                  "gh2010_knee_foot.json", "gh2010_knee_2ms.json",
+                                  "gh2010_knee_2ms_dense.json"])
 def test_shipped_gh2010_fits_score_today_what_they_scored_in_their_fit(name):
     """Reproducibility guard: a shipped fit's own parameters, evaluated by today's
     objective on its last stage's walk and trips, give the cost its fit recorded (on this
@@ -971,5 +972,52 @@ def test_the_networks_touch_stage_fits_the_touch_alone_and_keeps_the_walk(tmp_pa
                          "--scr-phase (network --walk-es) is for --touch-response")):
         assert main(["reflex", "fit", "--walk-es", "placement-es", *argv,
                      "--out", str(tmp_path / "x")]) == 2
+        err = capsys.readouterr().err
+        assert words in err and err.count("\n") == 1, err
+
+
+def test_delay_walks_cost_what_the_slower_walker_does_not_walk(capsys, tmp_path):
+    """``delay_walks``: a candidate also walks 10 s from the same start with its delays
+    × K, the part not walked costing as a fall. The network before delay walks (the
+    ``placement-walk`` walk) walks 3 s at its own delays and falls within 2.5 s at
+    × 1.1; bad scales, or the option given to another fit, are one line and exit 2."""
+    import tempfile
+    from pathlib import Path
+
+    from stumble.cli import main
+    from stumble.control.reflex.fit_walk import (
+        W_FALL,
+        evaluate_walk,
+        init_walk_eval,
+        network_space,
+    )
+    from stumble.control.reflex.identify import default_network
+
+    net = default_network("placement-walk")
+    space = network_space(net, interneuron_biases=False)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "n.npz"
+        net.save(path)
+        init_walk_eval("network", 3.0, 1.2, {"network": str(path)}, timestep_s=0.002,
+                       names=space.names, delay_walks=(1.1,))
+        cost, terms = evaluate_walk(space.start)
+        init_walk_eval("network", 3.0, 1.2, {"network": str(path)}, timestep_s=0.002,
+                       names=space.names)
+        alone, others = evaluate_walk(space.start)
+    assert terms["fall"] == 0.0 and terms["walked_s"] == 3.0
+    assert 0.75 * W_FALL < terms["delay_1.1"] < W_FALL  # fell within 2.5 s of the 10
+    assert "delay_1.1" not in others and cost == pytest.approx(alone + terms["delay_1.1"])
+    for argv, words in ((["--walk-es", "placement", "--delay-walks", "4"],
+                         "--delay-walks takes delay scales of 0.5-3 separated by commas"),
+                        (["--walk-es", "placement", "--delay-walks", "1.5,x"],
+                         "--delay-walks takes delay scales of 0.5-3"),
+                        (["--controller", "gh2010", "--delay-walks", "1.5"],
+                         "--delay-walks is for --controller network --walk-es"),
+                        (["--delay-walks", "1.5"],
+                         "--delay-walks is for --controller network --walk-es"),
+                        (["--walk-es", "placement", "--touch-only", "--trip-set", "four",
+                          "--delay-walks", "1.5"],
+                         "--delay-walks weighs the walk: not with --touch-only")):
+        assert main(["reflex", "fit", *argv, "--out", str(tmp_path / "x")]) == 2
         err = capsys.readouterr().err
         assert words in err and err.count("\n") == 1, err

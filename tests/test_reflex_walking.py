@@ -103,6 +103,25 @@ def test_the_2ms_set_runs_at_2ms_and_recovers_an_early_trip_the_default_falls_fr
     assert d["steps"] < 3000 and d["fell"]
 
 
+def test_the_dense_2ms_set_recovers_a_mid_swing_trip_the_2ms_set_falls_from():
+    """``--params knee-2ms-dense`` (a second touch stage on ``knee-2ms``, fitted on trips
+    at 1.1 and 1.3 m/s) runs at 2 ms, walks as ``knee-2ms`` (the touch's reflexes alone
+    were fitted), and at 0.45 of swing, 1.0 m/s, a trip of the map's 45 and not of its
+    fit, walks on where ``knee-2ms`` falls (README "Geyer & Herr 2010")."""
+    from stumble.control.reflex.gh2010 import TOUCH_FIELDS, load_params
+
+    p, q = load_params("knee-2ms-dense"), load_params("knee-2ms")
+    assert p.timestep_s == 0.002
+    assert all(getattr(p, f) == getattr(q, f) for f in p.to_json()
+               if f not in TOUCH_FIELDS)
+    sc = Scenario(controller="gh2010", mechanism="obstacle", swing_fraction=0.45,
+                  speed_m_per_s=1.0)
+    s = simulate_trip(sc, gh2010=p).summary
+    assert s["strategy"] == "elevating" and s["recovered"]
+    d = simulate_trip(sc, gh2010=q).summary
+    assert d["strategy"] == "elevating" and d["fell"]
+
+
 def test_own_start_trips_at_the_fraction_of_the_walkers_own_swing():
     s = simulate_trip(Scenario(controller="gh2010", mechanism="obstacle",
                                swing_fraction=0.3, walk_in_s=3.0)).summary

@@ -19,7 +19,9 @@ from stumble.jsonio import dumps
 GH2010_NAMES = ("knee (the default: a touch stage on knee-walk), knee-walk (pushed-walk "
                 "refitted with the knee term), knee-foot (a touch stage on knee-walk by "
                 "the foot's phase: recovers some lowering trips), knee-2ms (knee's touch "
-                "stage refitted at a 2 ms step: runs at 2 ms), pushed (touch stages "
+                "stage refitted at a 2 ms step: runs at 2 ms), knee-2ms-dense (a second "
+                "touch stage on knee-2ms, on 30 trips at 1.1 and 1.3 m/s: runs at 2 ms), "
+                "pushed (touch stages "
                 "on pushed-walk), "
                 "pushed-walk (the walking fit with pushes), walk (the first walking fit), "
                 "trip (trip stages on walk) or expert-placement (seed003-wired: the "
@@ -361,6 +363,11 @@ def _parser() -> argparse.ArgumentParser:
                    "at each of these speeds (m/s, 0.7-1.6), the part not walked costing "
                    "as a fall: a walker that takes over from other walks (ours; not with "
                    "--touch-only)")
+    f.add_argument("--delay-walks", default=None, metavar="K[,K...]",
+                   help="network, --walk-es: every candidate also walks 10 s from the "
+                   "1.2 m/s recording with every delay x K (0.5-3), the part not walked "
+                   "costing as a fall: a walk that holds other delays, for delay studies "
+                   "(ours; not with --touch-only)")
     f.add_argument("--timestep", type=float, default=None, metavar="S",
                    help="gh2010: the physics step (s) of every walk and trip of the fit, "
                    "recorded with the result, whose runs then take it (default: the "
@@ -491,6 +498,25 @@ def _start_speeds(text: str | None) -> tuple[float, ...]:
             raise InputError(f"--starts takes speeds of {lo:g}-{hi:g} m/s separated by "
                              f"commas, got {text!r}")
         out.append(v)
+    return tuple(out)
+
+
+def _delay_scales(text: str | None) -> tuple[float, ...]:
+    """``--delay-walks K[,K...]``: delay scales of 0.5-3."""
+    import math
+
+    if text is None:
+        return ()
+    out = []
+    for part in text.split(","):
+        try:
+            k = float(part)
+        except ValueError:
+            k = math.nan
+        if not (math.isfinite(k) and 0.5 <= k <= 3.0):
+            raise InputError(f"--delay-walks takes delay scales of 0.5-3 separated by "
+                             f"commas, got {text!r}")
+        out.append(k)
     return tuple(out)
 
 
@@ -965,6 +991,7 @@ def cmd_reflex_fit_network_es(args) -> int:
             raise InputError(f"--timestep must be 0.0002-0.005 s, got {args.timestep}")
         tick_ratio(args.timestep, start.topology.rate_hz)
     starts = _start_speeds(args.starts)
+    delay_walks = _delay_scales(args.delay_walks)
     workers = args.workers or os.cpu_count() or 1
     if workers < 1:
         raise InputError(f"--workers must be at least 1, got {workers}")
@@ -980,7 +1007,8 @@ def cmd_reflex_fit_network_es(args) -> int:
     if args.touch_only:
         if not trips:
             raise InputError("--touch-only (network): the touch stage needs --trip-set")
-        for flag, given in (("--starts", args.starts), ("--interneuron-biases",
+        for flag, given in (("--starts", args.starts), ("--delay-walks", args.delay_walks),
+                            ("--interneuron-biases",
                                                           args.interneuron_biases or None),
                             ("--track-limit", args.track_limit)):
             if given is not None:
@@ -1021,7 +1049,8 @@ def cmd_reflex_fit_network_es(args) -> int:
                               response_by_foot=args.scr_phase == "foot",
                               ahead_from=ahead_from, trip_sample=args.trip_sample,
                               cross_step=args.cross_step, cross_only=args.cross_only,
-                              track_limit_deg=args.track_limit, **costs)
+                              track_limit_deg=args.track_limit, delay_walks=delay_walks,
+                              **costs)
     bar.done()
     walk = simulate_walk("network", 20.0, network=net)
     report = dict(net.info["fit"])
@@ -1057,6 +1086,8 @@ def cmd_reflex(args) -> int:
     if args.trip_sample is not None and (args.walk_es is None
                                          or args.controller == "gh2010"):
         raise InputError("--trip-sample is for --controller network --walk-es --trip-set")
+    if args.delay_walks is not None and (args.walk_es is None or args.controller == "gh2010"):
+        raise InputError("--delay-walks is for --controller network --walk-es")
     if args.ahead_from is not None and (args.walk_es is None or args.controller == "gh2010"):
         raise InputError("--ahead-from is for --controller network --walk-es "
                          "--touch-response --scr-phase foot")

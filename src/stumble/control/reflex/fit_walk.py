@@ -84,6 +84,12 @@ PUSHES = ((3.0, 0.2, -200.0), (6.5, 0.2, -200.0))
 # the walk played back at each of these speeds (m/s), the part not walked costing as a
 # fall (``push_term``): a walker that takes over from slower and faster walks, as the
 # network's expert must (DAgger's episodes start from 1.0-1.3 m/s walks)
+# ``--delay-walks K,...`` (ours; none unless asked): each candidate also walks PUSH_WALK_S
+# from the same start with every delay × K (``Network.with_delay_scale``, the trunk
+# balance's too), the part not walked costing as a fall (``push_term``): a walker whose
+# gait does not hang on its delays being exactly the ones it was fitted at, so that a
+# study over delay scales asks how delays change trips and not whether the walk survives
+# them (the shipped networks before it fall within 2 s at delays × 1.05)
 STRIDE_BAND = (1.0, 1.3)  # s
 SPEED_BAND = (1.0, 1.3)  # m/s
 STANCE_BAND = (0.57, 0.68)
@@ -398,7 +404,8 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                    knee_weight: float = W_KNEE, starts: tuple = (),
                    timestep_s: float | None = None, trip_start: str | None = None,
                    track_limit_deg: float | None = None,
-                   names: tuple[str, ...] | None = None) -> None:
+                   names: tuple[str, ...] | None = None,
+                   delay_walks: tuple = ()) -> None:
     """Worker set-up: what ``evaluate_walk`` simulates: a walk, and the obstacle trips
     ``trips`` ((swing fraction, speed) pairs) the walker must walk on from; GH2010
     candidates in ``gh2010_space(stumble_reflex=...)``; ``strategy_cost``: what a trip in
@@ -416,7 +423,9 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
     physics step (default ``FIT_TIMESTEP_S``; a GH2010 candidate runs at its set's);
     ``trip_start``: where the trips start (``Scenario.start``; default the controller's);
     ``track_limit_deg``: ``walk_cost``'s; ``names``: a network candidate's parameters
-    (``network_space``'s names; default inferred from its length)."""
+    (``network_space``'s names; default inferred from its length); ``delay_walks``: each
+    candidate also walks ``PUSH_WALK_S`` from the same start with its delays × each of
+    these (``push_term``)."""
     from stumble.pipeline import WalkInCache
 
     _EVAL.pop("walk", None)
@@ -431,7 +440,8 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                  placement=placement, pushes=pushes, track_weight=float(track_weight),
                  knee_weight=float(knee_weight), starts=tuple(map(float, starts)),
                  timestep_s=timestep_s, trip_start=trip_start,
-                 track_limit_deg=track_limit_deg, names=names)
+                 track_limit_deg=track_limit_deg, names=names,
+                 delay_walks=tuple(map(float, delay_walks)))
 
 
 def evaluate_walk(theta) -> tuple[float, dict]:
@@ -502,6 +512,14 @@ def evaluate_walk(theta) -> tuple[float, dict]:
                                timestep_s=r.body.model.opt.timestep).summary)
         terms[f"start_{v:g}"] = push_term(other)
         cost += terms[f"start_{v:g}"]
+    for k in _EVAL.get("delay_walks", ()):  # slower (or faster) delays, the same start
+        other = (None if terms["fall"] else
+                 simulate_walk(kind, PUSH_WALK_S, _EVAL["speed"],
+                               params=params if kind == "gh2010" else None,
+                               network=net if kind == "network" else None,
+                               delay_scale=k, timestep_s=r.body.model.opt.timestep).summary)
+        terms[f"delay_{k:g}"] = push_term(other)
+        cost += terms[f"delay_{k:g}"]
     w_strategy = _EVAL.get("strategy_cost", 0.0)
     if trips and terms["fall"] == 0.0:  # trips only once it walks: they cost 3 s each
         ok = human = 0
@@ -1110,7 +1128,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    track_limit_deg: float | None = None, touch_only: bool = False,
                    touch_response: bool = False, response_by_foot: bool = False,
                    ahead_from: tuple | None = None, trip_sample: int | None = None,
-                   cross_step: bool = False, cross_only: bool = False):
+                   cross_step: bool = False, cross_only: bool = False,
+                   delay_walks: tuple = ()):
     """CMA-ES on ``network_space(start, interneuron_biases, touch_only, touch_response)``:
     each candidate walks
     ``NETWORK_ES_WALK_S`` from the 1.2 m/s recording (and 10 s from each of ``starts``) at
@@ -1142,6 +1161,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
     candidates judged on that many of ``trips``,
     drawn afresh each generation (seeded by ``seed`` and the generation), the result the
     search's mean at the end judged on all of them (``cma_fit``'s ``sample``);
+    ``delay_walks``: each candidate also walks 10 s from the 1.2 m/s recording with its
+    delays × each of these (``init_walk_eval``'s; not with ``touch_only``);
     writes ``network.npz``,
     ``history.jsonl`` and ``best.json`` to ``out`` when given."""
     import tempfile
@@ -1154,8 +1175,11 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
 
     if touch_only and not trips:
         raise ValueError("touch_only is for trips: name a trip set")
-    if touch_only and starts:
-        raise ValueError("starts test the walk: not with touch_only")
+    if touch_only and (starts or delay_walks):
+        raise ValueError("starts and delay_walks test the walk: not with touch_only")
+    for k in delay_walks:
+        if not (math.isfinite(k) and 0.5 <= k <= 3.0):
+            raise ValueError(f"delay_walks take delay scales of 0.5-3, got {k}")
     if touch_only and interneuron_biases:
         raise ValueError("interneuron_biases change the walk: not with touch_only")
     if touch or (touch_only and not touch_response and not start.topology.touch):
@@ -1201,11 +1225,14 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                           recovery_cost=float(recovery_cost), track_weight=track_weight,
                           knee_weight=knee_weight, starts=tuple(starts), timestep_s=step,
                           trip_start=trip_start, track_limit_deg=track_limit_deg,
-                          touch_only=touch_only, names=tuple(space.names)),
+                          touch_only=touch_only, names=tuple(space.names),
+                          delay_walks=tuple(delay_walks)),
                       stage="walk+trips" if trips else "walk", sample=sample)
     net = network_with(start, res.best_theta, space.names)
     opts = [*_weight_opts(track_weight, knee_weight, knee_first=True), *_starts_opts(starts),
             f"--timestep {step:g}"]  # the step always: the default step may change
+    if delay_walks:
+        opts.append("--delay-walks " + ",".join(f"{k:g}" for k in delay_walks))
     if interneuron_biases:
         opts.append("--interneuron-biases")
     if touch and not touch_only:
@@ -1252,6 +1279,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    "walk_s": NETWORK_ES_WALK_S, "start_speed_m_per_s": GH2010_SPEED_M_PER_S,
                    "knee_weight": knee_weight, "track_weight": track_weight,
                    "starts": [float(v) for v in starts], "timestep_s": step,
+                   **({"delay_walks": [float(k) for k in delay_walks]}
+                      if delay_walks else {}),
                    "trips": [list(t) for t in trips], "strategy_cost": strategy_cost,
                    "recovery_cost": recovery_cost, "trip_start": trip_start,
                    "touch_afferent": bool(start.topology.touch), "touch_only": touch_only,

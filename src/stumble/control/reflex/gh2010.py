@@ -140,6 +140,10 @@ NAMED = {"walk": SEED003_START, "trip": "gh2010_trip.json",
          # the touch stage of ``knee`` refitted at a 2 ms step (``--timestep 0.002``): runs
          # at 2 ms, twice as fast (README "Speed"; since 2026-12-04, later that day)
          "knee-2ms": "gh2010_knee_2ms.json",
+         # a second touch stage on ``knee-2ms``, on the dense thirty (1.1 and 1.3 m/s):
+         # as many of the 45 recover, more held-out trips (README "Geyer & Herr 2010";
+         # since 2026-12-05)
+         "knee-2ms-dense": "gh2010_knee_2ms_dense.json",
          # seed003-wired: the placing expert of the ``placement`` network, reproducible
          # (README "The seed's network in closed loop"; since 2026-12-04, later that day)
          "expert-placement": "gh2010_seed003_placement.json"}
@@ -311,8 +315,8 @@ def load_params(path) -> GH2010Params:
     ``pushed-walk``, the walking fit with pushes; ``pushed``, the touch stages on it;
     ``knee-walk``, that walking fit refitted with the knee term; ``knee``, the touch stage
     on it, the default; ``knee-foot``, a touch stage on it by the foot's phase;
-    ``knee-2ms``, ``knee``'s touch stage refitted at a 2 ms step); InputError if it is not
-    one."""
+    ``knee-2ms``, ``knee``'s touch stage refitted at a 2 ms step; ``knee-2ms-dense``, a
+    second touch stage on it); InputError if it is not one."""
     from pathlib import Path
 
     shipped = named_file(path)
