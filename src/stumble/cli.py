@@ -479,15 +479,13 @@ def cmd_model(args) -> int:
     return 0
 
 
-def _start_speeds(text: str | None) -> tuple[float, ...]:
-    """``--starts V[,V...]``: walking speeds (m/s) of the reference walk's range."""
+def _numbers(text: str | None, flag: str, lo: float, hi: float, what: str,
+             unit: str = "") -> tuple[float, ...]:
+    """``FLAG V[,V...]``: numbers within [lo, hi]; InputError naming the flag otherwise."""
     import math
-
-    from stumble.gait.reference import SPEED_RANGE_M_PER_S
 
     if text is None:
         return ()
-    lo, hi = SPEED_RANGE_M_PER_S
     out = []
     for part in text.split(","):
         try:
@@ -495,29 +493,23 @@ def _start_speeds(text: str | None) -> tuple[float, ...]:
         except ValueError:
             v = math.nan
         if not (math.isfinite(v) and lo <= v <= hi):
-            raise InputError(f"--starts takes speeds of {lo:g}-{hi:g} m/s separated by "
+            raise InputError(f"{flag} takes {what} of {lo:g}-{hi:g}{unit} separated by "
                              f"commas, got {text!r}")
         out.append(v)
     return tuple(out)
 
 
+def _start_speeds(text: str | None) -> tuple[float, ...]:
+    """``--starts V[,V...]``: walking speeds (m/s) of the reference walk's range."""
+    from stumble.gait.reference import SPEED_RANGE_M_PER_S
+
+    lo, hi = SPEED_RANGE_M_PER_S
+    return _numbers(text, "--starts", lo, hi, "speeds", " m/s")
+
+
 def _delay_scales(text: str | None) -> tuple[float, ...]:
     """``--delay-walks K[,K...]``: delay scales of 0.5-3."""
-    import math
-
-    if text is None:
-        return ()
-    out = []
-    for part in text.split(","):
-        try:
-            k = float(part)
-        except ValueError:
-            k = math.nan
-        if not (math.isfinite(k) and 0.5 <= k <= 3.0):
-            raise InputError(f"--delay-walks takes delay scales of 0.5-3 separated by "
-                             f"commas, got {text!r}")
-        out.append(k)
-    return tuple(out)
+    return _numbers(text, "--delay-walks", 0.5, 3.0, "delay scales")
 
 
 def _notes(notes) -> None:
