@@ -122,6 +122,24 @@ def test_the_dense_2ms_set_recovers_a_mid_swing_trip_the_2ms_set_falls_from():
     assert d["strategy"] == "elevating" and d["fell"]
 
 
+def test_the_third_2ms_stage_recovers_a_trip_the_second_falls_from():
+    """``--params knee-2ms-dense-wide`` (a third touch stage, on the wide twelve) walks as
+    ``knee-2ms-dense`` and recovers one trip more of the 45, 0.30 of swing at 1.2 m/s
+    (one of its twelve), where ``knee-2ms-dense`` falls (README "Geyer & Herr 2010")."""
+    from stumble.control.reflex.gh2010 import TOUCH_FIELDS, load_params
+
+    p, q = load_params("knee-2ms-dense-wide"), load_params("knee-2ms-dense")
+    assert p.timestep_s == 0.002
+    assert all(getattr(p, f) == getattr(q, f) for f in p.to_json()
+               if f not in TOUCH_FIELDS)
+    sc = Scenario(controller="gh2010", mechanism="obstacle", swing_fraction=0.3,
+                  speed_m_per_s=1.2)
+    s = simulate_trip(sc, gh2010=p).summary
+    assert s["strategy"] == "elevating" and s["recovered"]
+    d = simulate_trip(sc, gh2010=q).summary
+    assert d["strategy"] == "elevating" and not d["recovered"]
+
+
 def test_own_start_trips_at_the_fraction_of_the_walkers_own_swing():
     s = simulate_trip(Scenario(controller="gh2010", mechanism="obstacle",
                                swing_fraction=0.3, walk_in_s=3.0)).summary

@@ -21,6 +21,8 @@ GH2010_NAMES = ("knee (the default: a touch stage on knee-walk), knee-walk (push
                 "the foot's phase: recovers some lowering trips), knee-2ms (knee's touch "
                 "stage refitted at a 2 ms step: runs at 2 ms), knee-2ms-dense (a second "
                 "touch stage on knee-2ms, on 30 trips at 1.1 and 1.3 m/s: runs at 2 ms), "
+                "knee-2ms-dense-wide (a third, on 12 of the 45 trips: recovers 31 of them, "
+                "runs at 2 ms), "
                 "pushed (touch stages "
                 "on pushed-walk), "
                 "pushed-walk (the walking fit with pushes), walk (the first walking fit), "

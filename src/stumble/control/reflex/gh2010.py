@@ -144,6 +144,9 @@ NAMED = {"walk": SEED003_START, "trip": "gh2010_trip.json",
          # as many of the 45 recover, more held-out trips (README "Geyer & Herr 2010";
          # since 2026-12-05)
          "knee-2ms-dense": "gh2010_knee_2ms_dense.json",
+         # and a third, on ``knee-2ms-dense``, on the wide twelve: the most of the 45
+         # recovered, the falls rising with the delay (since 2026-12-05)
+         "knee-2ms-dense-wide": "gh2010_knee_2ms_dense_wide.json",
          # seed003-wired: the placing expert of the ``placement`` network, reproducible
          # (README "The seed's network in closed loop"; since 2026-12-04, later that day)
          "expert-placement": "gh2010_seed003_placement.json"}
@@ -316,7 +319,8 @@ def load_params(path) -> GH2010Params:
     ``knee-walk``, that walking fit refitted with the knee term; ``knee``, the touch stage
     on it, the default; ``knee-foot``, a touch stage on it by the foot's phase;
     ``knee-2ms``, ``knee``'s touch stage refitted at a 2 ms step; ``knee-2ms-dense``, a
-    second touch stage on it); InputError if it is not one."""
+    second touch stage on it; ``knee-2ms-dense-wide``, a third); InputError if it is not
+    one."""
     from pathlib import Path
 
     shipped = named_file(path)
