@@ -117,6 +117,18 @@ def test_a_gh2010_trip_in_its_own_gait_from_the_command_line(tmp_path, capsys):
     assert "elevating strategy" in capsys.readouterr().out
 
 
+def test_a_2ms_gh2010_set_trips_at_its_own_step_from_the_command_line(tmp_path):
+    """``stumble trip --controller gh2010 --params knee-2ms`` runs at the 2 ms the set was
+    fitted at, as ``simulate_trip`` does (until 2026-12-05 the command line resolved the
+    step before loading the set, and ran it at 1 ms), and recovers as the README says."""
+    out = tmp_path / "t"
+    assert main(["trip", "--controller", "gh2010", "--params", "knee-2ms", "--swing", "0.1",
+                 "--speed", "1.2", "--no-video", "--out", str(out)]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    assert s["steps"] == 1500  # 3 s after the trip in 2 ms steps
+    assert s["strategy"] == "elevating" and s["recovered"]
+
+
 def test_the_closed_loop_network_tripped_in_its_own_gait_writes_uniform_motion(tmp_path):
     """Its 17 ms blocks put the trip off the 5 ms sample grid of its walk: the walk shown
     before the trip is resampled, so motion.bvh (uniform frames) is written."""

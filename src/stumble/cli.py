@@ -725,7 +725,12 @@ def cmd_trip(args) -> int:
                         mass_kg=args.mass, sex=args.sex, contact=args.contact,
                         duration_after_trip_s=args.duration, start=args.start,
                         **({} if args.walk_in is None else {"walk_in_s": args.walk_in}))
-    scenario = scenario.validated()
+    gh2010 = None
+    if args.params and args.controller == "gh2010":  # loaded first: its step is the default
+        from stumble.control.reflex.gh2010 import load_params
+
+        gh2010 = load_params(args.params)
+    scenario = scenario.validated(None if gh2010 is None else gh2010.timestep_s)
     if args.walk_in is not None and scenario.start != "own":
         raise InputError("--walk-in is for --start own")
     if args.reference is None and (args.motion_model != "auto" or args.up != "auto"
@@ -738,12 +743,8 @@ def cmd_trip(args) -> int:
 
         network = _network_arg(args.network)
         steps_per_tick(scenario.timestep_s, network.topology.rate_hz)
-    gh2010 = fsm = None
-    if args.params and args.controller == "gh2010":
-        from stumble.control.reflex.gh2010 import load_params
-
-        gh2010 = load_params(args.params)
-    elif args.params:
+    fsm = None
+    if args.params and args.controller != "gh2010":
         from stumble.control.fsm_params import load_params as load_fsm_params
 
         fsm = load_fsm_params(args.params)
