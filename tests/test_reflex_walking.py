@@ -103,37 +103,24 @@ def test_the_2ms_set_runs_at_2ms_and_recovers_an_early_trip_the_default_falls_fr
     assert d["steps"] < 3000 and d["fell"]
 
 
-def test_the_dense_2ms_set_recovers_a_mid_swing_trip_the_2ms_set_falls_from():
+@pytest.mark.parametrize("name, before, swing, speed", [
+    ("knee-2ms-dense", "knee-2ms", 0.45, 1.0),  # a trip of the 45, not of its fit
+    ("knee-2ms-dense-wide", "knee-2ms-dense", 0.3, 1.2),  # one of its wide twelve
+])
+def test_each_later_2ms_touch_stage_recovers_a_trip_its_start_does_not(name, before, swing,
+                                                                        speed):
     """``--params knee-2ms-dense`` (a second touch stage on ``knee-2ms``, fitted on trips
-    at 1.1 and 1.3 m/s) runs at 2 ms, walks as ``knee-2ms`` (the touch's reflexes alone
-    were fitted), and at 0.45 of swing, 1.0 m/s, a trip of the map's 45 and not of its
-    fit, walks on where ``knee-2ms`` falls (README "Geyer & Herr 2010")."""
+    at 1.1 and 1.3 m/s) and ``knee-2ms-dense-wide`` (a third, on the wide twelve) run at
+    2 ms, walk as the set they started from (the touch's reflexes alone were fitted), and
+    walk on from a trip where that set does not (README "Geyer & Herr 2010")."""
     from stumble.control.reflex.gh2010 import TOUCH_FIELDS, load_params
 
-    p, q = load_params("knee-2ms-dense"), load_params("knee-2ms")
-    assert p.timestep_s == 0.002
+    p, q = load_params(name), load_params(before)
+    assert p.timestep_s == q.timestep_s == 0.002
     assert all(getattr(p, f) == getattr(q, f) for f in p.to_json()
                if f not in TOUCH_FIELDS)
-    sc = Scenario(controller="gh2010", mechanism="obstacle", swing_fraction=0.45,
-                  speed_m_per_s=1.0)
-    s = simulate_trip(sc, gh2010=p).summary
-    assert s["strategy"] == "elevating" and s["recovered"]
-    d = simulate_trip(sc, gh2010=q).summary
-    assert d["strategy"] == "elevating" and d["fell"]
-
-
-def test_the_third_2ms_stage_recovers_a_trip_the_second_falls_from():
-    """``--params knee-2ms-dense-wide`` (a third touch stage, on the wide twelve) walks as
-    ``knee-2ms-dense`` and recovers one trip more of the 45, 0.30 of swing at 1.2 m/s
-    (one of its twelve), where ``knee-2ms-dense`` falls (README "Geyer & Herr 2010")."""
-    from stumble.control.reflex.gh2010 import TOUCH_FIELDS, load_params
-
-    p, q = load_params("knee-2ms-dense-wide"), load_params("knee-2ms-dense")
-    assert p.timestep_s == 0.002
-    assert all(getattr(p, f) == getattr(q, f) for f in p.to_json()
-               if f not in TOUCH_FIELDS)
-    sc = Scenario(controller="gh2010", mechanism="obstacle", swing_fraction=0.3,
-                  speed_m_per_s=1.2)
+    sc = Scenario(controller="gh2010", mechanism="obstacle", swing_fraction=swing,
+                  speed_m_per_s=speed)
     s = simulate_trip(sc, gh2010=p).summary
     assert s["strategy"] == "elevating" and s["recovered"]
     d = simulate_trip(sc, gh2010=q).summary
