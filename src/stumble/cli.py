@@ -272,8 +272,9 @@ def _parser() -> argparse.ArgumentParser:
                       "network in closed loop by CMA-ES on a documented subset of its "
                       "weights (motor-neuron gains and biases, contact afferents, trunk "
                       "balance; fit_walk.network_space) on the walking objective, with "
-                      "--knee-weight, --track-weight, --track-limit, --starts, --timestep "
-                      "(default 0.002, the network's step), --generations (default 150), "
+                      "--knee-weight, --track-weight, --track-limit, --starts, --delay-walks, "
+                      "--timestep (default 0.002, the network's step), --generations "
+                      "(default 150), "
                       "--sigma, --interneuron-biases, --touch-afferent, and trips by "
                       "--trip-set with --trip-start, --strategy-cost, --recovery-cost, "
                       "--touch-only (ours)")
@@ -454,7 +455,7 @@ def _parser() -> argparse.ArgumentParser:
                     help="speed of the walk played back before (0.7-1.6 m/s; default the "
                     "subject's 1.10); the controller then walks at its own speed")
     rw.add_argument("--timestep", type=float, default=None, metavar="S",
-                    help="physics step (s; default the controller's: 0.001 for the network, "
+                    help="physics step (s; default the controller's: 0.002 for the network, "
                     "for gh2010 the step its set was fitted at; the network also runs at "
                     "whole numbers of its 1 ms tick, gh2010 at steps that divide its set's)")
     rw.add_argument("--no-video", action="store_true", help="skip walk.mp4")

@@ -134,8 +134,8 @@ GH2010_MAX_STEP_S = 0.001  # the step of a GH2010 set that names none (``fitted_
 
 def check_gh2010_timestep(timestep_s: float, fitted_s: float = GH2010_MAX_STEP_S) -> None:
     """InputError unless the time step divides the step the GH2010 set was fitted at
-    (``GH2010Params.timestep_s``; 1 ms for every shipped set but ``knee-2ms``, and the
-    default for a set that names none): a set's trip outcomes are
+    (``GH2010Params.timestep_s``; 1 ms for every shipped set but the ``knee-2ms`` ones,
+    and the default for a set that names none): a set's trip outcomes are
     those of the step it was fitted at (README "Speed": at 2 ms the 1 ms sets walk alike
     but recover 22 of the 45 trips instead of 26, 29 of the 45 the same)."""
     n = round(fitted_s / timestep_s)
