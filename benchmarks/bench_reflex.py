@@ -6,13 +6,15 @@ For a reflex trip (CASE 1 of seed 003: obstacle at 0.13 of swing, 1.2 m/s; the n
 the default one, ``placement-both`` since 2026-12-05, and the open-loop one for
 comparison with the figures before 2026-12-04) and a 10 s and a 20 s walk of each reflex
 controller (``network``: the default one, from the 1.2 m/s walk, and the closed-loop
-one, the default before, for comparison; ``gh2010``, the default set), it
+one, the default before, for comparison; ``gh2010``, the default set,
+``knee-2ms-dense-wide`` at its 2 ms since 2026-12-05, and ``knee``, the default before,
+at its 1 ms), it
 times the whole ``sim.run`` loop and a bare loop that replays the recorded controls on
 the same model from the same state after the controller's start, doing nothing else
 (``mj_step`` per control row): the physical limit of this engine for that motion. CPU
 time of this process, best of N, so that other work on the machine matters less.
 Prints per run: steps (of 1 or 2 ms: the network runs at 2 ms by default since
-2026-12-04, at 1 ms for comparison; ``knee-2ms`` is the GH2010 set fitted at 2 ms),
+2026-12-04, at 1 ms for comparison; the default GH2010 set was fitted at 2 ms),
 simulated seconds, µs per step of each, their ratio (the
 issue's targets: at most 1.5× for the network) and the speed-up over real time (10 s
 walk and trip: 50×; 20 s walk: 25×), beside the bare replay's own: the most this engine
@@ -107,21 +109,21 @@ def main() -> None:
     gh = sc.with_(controller="gh2010", start="playback")
     pipeline.simulate_trip(gh)
     measure("reflex trip (gh2010), CASE 1", lambda: pipeline.simulate_trip(gh), args.repeats)
-    # the set fitted at 2 ms (``knee-2ms``), at its own step
+    # the default until 2026-12-05 (``knee``), fitted at 1 ms, at its own step
     from stumble.control.reflex.gh2010 import load_params
 
-    fast = load_params("knee-2ms")
-    pipeline.simulate_trip(gh, gh2010=fast)
-    measure("reflex trip (gh2010 knee-2ms), CASE 1",
-            lambda: pipeline.simulate_trip(gh, gh2010=fast), args.repeats)
+    knee = load_params("knee")
+    pipeline.simulate_trip(gh, gh2010=knee)
+    measure("reflex trip (gh2010 knee, 1 ms), CASE 1",
+            lambda: pipeline.simulate_trip(gh, gh2010=knee), args.repeats)
     # whole trips in the walker's own gait (GH2010's default start): the walk to the trip
     # (4 s and the swing) and 3 s after it, 0.10 of swing at 1.2 m/s
     own = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.10,
                    speed_m_per_s=1.2, start="own")
     for label, sc_own, kw in (("own-gait trip (network)", own, {}),
                               ("own-gait trip (gh2010)", own.with_(controller="gh2010"), {}),
-                              ("own-gait trip (gh2010 knee-2ms)",
-                               own.with_(controller="gh2010"), {"gh2010": fast})):
+                              ("own-gait trip (gh2010 knee, 1 ms)",
+                               own.with_(controller="gh2010"), {"gh2010": knee})):
         pipeline.simulate_trip(sc_own, **kw)
         measure(label, lambda s=sc_own, k=kw: pipeline.simulate_trip(s, **k), args.repeats,
                 whole=True)
@@ -135,7 +137,7 @@ def main() -> None:
                                           "timestep_s": 0.001}),
             ("network", "closed-loop network", {"network": closed, "speed_m_per_s": 1.2}),
             ("gh2010", "gh2010", {}),
-            ("gh2010", "gh2010 knee-2ms", {"params": fast})):
+            ("gh2010", "gh2010 knee, 1 ms", {"params": knee})):
         pipeline.simulate_walk(kind, 1.0, **kw)
         for dur in (10.0, 20.0):
             measure(f"{dur:.0f} s walk ({label})",

@@ -616,7 +616,11 @@ def test_the_pushed_sets_load_by_name_withstand_pushes_and_recover_mid_swing_tri
 
     for name in NAMED:
         assert load_params(name) == load_params(str(named_file(name)))
-    assert load_params("knee") == shipped_params()  # the default
+    assert load_params("knee-2ms-dense-wide") == shipped_params()  # the default
+    assert load_params("knee") != shipped_params()  # the default until 2026-12-05
+    from stumble.trip import DEFAULT_TIMESTEP_S  # a scenario runs it at its step
+
+    assert DEFAULT_TIMESTEP_S["gh2010"] == shipped_params().timestep_s == 0.002
     assert load_params("knee-walk") == shipped_params(walking_only=True)
     assert named_file("nope") is None
     walk, pushed = load_params("pushed-walk"), load_params("pushed")

@@ -383,17 +383,17 @@ def test_a_cached_walk_in_gives_the_same_trip_as_walking_it_again():
 
 
 def test_a_set_runs_at_the_step_it_was_fitted_at():
-    """A set fitted at 2 ms (``reflex fit --timestep 0.002``) walks and trips at 2 ms by
-    default and at 1 ms when asked (a step that divides its own); a 1 ms set refuses 2 ms,
-    naming the step."""
+    """A set fitted at 2 ms (``reflex fit --timestep 0.002``; the default set since
+    2026-12-05) walks and trips at 2 ms by default and at 1 ms when asked (a step that
+    divides its own); a 1 ms set refuses 2 ms, naming the step."""
     from dataclasses import replace
 
-    from stumble.control.reflex.gh2010 import shipped_params
+    from stumble.control.reflex.gh2010 import load_params
     from stumble.errors import InputError
     from stumble.pipeline import simulate_trip, simulate_walk
     from stumble.trip import Scenario
 
-    p1 = shipped_params()
+    p1 = load_params("knee")  # fitted at 1 ms
     p2 = replace(p1, timestep_s=0.002)
     assert "timestep_s" not in p1.to_json()  # the files before the step option
     assert GH2010Params.from_json(p2.to_json()).timestep_s == 0.002
@@ -406,8 +406,8 @@ def test_a_set_runs_at_the_step_it_was_fitted_at():
         simulate_walk("gh2010", 1.0, params=p1, timestep_s=0.002)
     trip = Scenario(controller="gh2010", mechanism="obstacle", swing_fraction=0.3)
     with pytest.raises(InputError, match="got 2 ms"):
-        simulate_trip(replace(trip, timestep_s=0.002))
-    r = simulate_trip(trip, gh2010=p2)
+        simulate_trip(replace(trip, timestep_s=0.002), gh2010=p1)
+    r = simulate_trip(trip)  # the default set, at its 2 ms
     assert r.summary["steps"] == 1500  # 3 s after the trip at 2 ms
     # a verdict at the end of the 3 s (the steps' summed time falls short of 3.0 s by
     # rounding: no verdict was reached until 2026-12-04)

@@ -86,10 +86,10 @@ def test_the_foot_phase_set_recovers_a_late_swing_trip_by_lowering():
     assert d["strategy"] == "lowering" and d["fell"]
 
 
-def test_the_2ms_set_runs_at_2ms_and_recovers_an_early_trip_the_default_falls_from():
+def test_the_2ms_set_runs_at_2ms_and_recovers_an_early_trip_knee_falls_from():
     """``--params knee-2ms`` (``knee``'s touch stage refitted at a 2 ms step) runs at its
-    own step, and at 0.10 of swing, 1.2 m/s, it walks on where the default falls
-    (README "Speed": 30 of the 45 against 26)."""
+    own step, and at 0.10 of swing, 1.2 m/s, it walks on where ``knee`` (the default until
+    2026-12-05, at its 1 ms) falls (README "Speed": 30 of the 45 against 26)."""
     from stumble.control.reflex.gh2010 import load_params
 
     p = load_params("knee-2ms")
@@ -99,7 +99,7 @@ def test_the_2ms_set_runs_at_2ms_and_recovers_an_early_trip_the_default_falls_fr
     s = simulate_trip(sc, gh2010=p).summary
     assert s["steps"] == 1500  # 3 s of 2 ms steps
     assert s["strategy"] == "elevating" and s["recovered"]
-    d = simulate_trip(sc).summary
+    d = simulate_trip(sc, gh2010=load_params("knee")).summary
     assert d["steps"] < 3000 and d["fell"]
 
 

@@ -16,13 +16,14 @@ from stumble.jsonio import dumps
 
 # the shipped GH2010 parameter sets by name (gh2010.NAMED; here as text, so that the
 # command line starts without importing the physics)
-GH2010_NAMES = ("knee (the default: a touch stage on knee-walk), knee-walk (pushed-walk "
+GH2010_NAMES = ("knee-2ms-dense-wide (the default: the third 2 ms touch stage, on 12 of "
+                "the 45 trips: recovers 31 of them, runs at 2 ms), "
+                "knee (a touch stage on knee-walk; the default until 2026-12-05), "
+                "knee-walk (pushed-walk "
                 "refitted with the knee term), knee-foot (a touch stage on knee-walk by "
                 "the foot's phase: recovers some lowering trips), knee-2ms (knee's touch "
                 "stage refitted at a 2 ms step: runs at 2 ms), knee-2ms-dense (a second "
                 "touch stage on knee-2ms, on 30 trips at 1.1 and 1.3 m/s: runs at 2 ms), "
-                "knee-2ms-dense-wide (a third, on 12 of the 45 trips: recovers 31 of them, "
-                "runs at 2 ms), "
                 "pushed (touch stages "
                 "on pushed-walk), "
                 "pushed-walk (the walking fit with pushes), walk (the first walking fit), "

@@ -50,7 +50,7 @@ The study (``validation_scenarios``), for each controller (``fsm``, ``reflex``,
   its own walk: the human strategy in its 30 window trips (agreement: at least
   ``MAP_STRATEGY_TARGET``) and the share recovered (at least ``RECOVERY_TARGET``).
 
-230 cases (228 distinct trips) and three walks; about 40 s on two cores. The
+230 cases (226 distinct trips) and three walks; about 40 s on two cores. The
 runs are a study in ``DIR`` (``DIR/results.parquet``), so running again reuses them.
 A figure that cannot be computed yet (the reflex controller still missing, say) is
 "not available". The exit status is 0 whatever agrees: it is a report, and

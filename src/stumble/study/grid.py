@@ -52,7 +52,7 @@ AXES: dict[str, Axis] = {a.name: a for a in (
     Axis("sex", "sex", str, "male or female (de Leva 1996 parameter set)"),
     Axis("contact", "contact", str, "foot contact: lumped (default), points, penalty or soft"),
     Axis("timestep", "timestep_s", float,
-         "physics time step in s (default: 0.002 fsm and reflex, 0.001 gh2010)"),
+         "physics time step in s (default: 0.002; gh2010 sets fitted at 1 ms need 0.001 or finer)"),
     Axis("speed", "speed_m_per_s", float, "walking speed in m/s, 0.7-1.6"),
     Axis("mechanism", "mechanism", str, "force or obstacle"),
     Axis("obstacle_height", "obstacle_height_m", float,

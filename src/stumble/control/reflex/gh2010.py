@@ -115,9 +115,10 @@ PLACE_FIELDS = ("k_place", "place_a0", "place_cd", "place_cv")
 # reflexes off, so that the leg folds under the body.
 LOAD_SOURCES = ("floor", "any")
 # optimised parameters shipped in stumble/control/reflex/data/, per wiring: for gh2010
-# (the default since 2026-12-04, later that day) the touch stage on the knee walking fit
-# (``knee``); the network's expert for seed003
-SHIPPED = {"gh2010": "gh2010_knee.json", "seed003": "gh2010_seed003.json"}
+# (the default since 2026-12-05) the third 2 ms touch stage (``knee-2ms-dense-wide``:
+# the most of the 45 trips and of the held-out 28 recovered, falls rising with the
+# delay; run at its 2 ms step); the network's expert for seed003
+SHIPPED = {"gh2010": "gh2010_knee_2ms_dense_wide.json", "seed003": "gh2010_seed003.json"}
 # the walking fit the shipped GH2010 set's touch stage started from (``--params
 # knee-walk``), where a trip stage without ``--params`` starts
 SHIPPED_WALKING: dict[str, str] = {"gh2010": "gh2010_knee_walk.json"}
@@ -131,11 +132,12 @@ SEED003_START = "gh2010_walk.json"
 # walking fit (``reflex fit --pushes``, ``pushed-walk``) and the touch stages fitted on it
 # (``pushed``, the default for part of 2026-12-04); the pushed walking fit refitted with
 # the knee term (``--knee-weight 5``, ``knee-walk``) and the touch stage on it (``knee``,
-# the default); and a touch stage on it with the response by the foot's phase
-# (``--scr-phase foot``, ``knee-foot``: the first shipped set that recovers by lowering)
+# the default from 2026-12-04 to 2026-12-05); and a touch stage on it with the response
+# by the foot's phase (``--scr-phase foot``, ``knee-foot``: the first shipped set that
+# recovers by lowering)
 NAMED = {"walk": SEED003_START, "trip": "gh2010_trip.json",
          "pushed-walk": "gh2010_pushed_walk.json", "pushed": "gh2010_pushed.json",
-         "knee-walk": SHIPPED_WALKING["gh2010"], "knee": SHIPPED["gh2010"],
+         "knee-walk": SHIPPED_WALKING["gh2010"], "knee": "gh2010_knee.json",
          "knee-foot": "gh2010_knee_foot.json",
          # the touch stage of ``knee`` refitted at a 2 ms step (``--timestep 0.002``): runs
          # at 2 ms, twice as fast (README "Speed"; since 2026-12-04, later that day)
@@ -145,8 +147,8 @@ NAMED = {"walk": SEED003_START, "trip": "gh2010_trip.json",
          # since 2026-12-05)
          "knee-2ms-dense": "gh2010_knee_2ms_dense.json",
          # and a third, on ``knee-2ms-dense``, on the wide twelve: the most of the 45
-         # recovered, the falls rising with the delay (since 2026-12-05)
-         "knee-2ms-dense-wide": "gh2010_knee_2ms_dense_wide.json",
+         # recovered, the falls rising with the delay (since 2026-12-05; the default)
+         "knee-2ms-dense-wide": SHIPPED["gh2010"],
          # seed003-wired: the placing expert of the ``placement`` network, reproducible
          # (README "The seed's network in closed loop"; since 2026-12-04, later that day)
          "expert-placement": "gh2010_seed003_placement.json"}
