@@ -426,7 +426,8 @@ def fit_walk_gh2010(**kw):
                                   "gh2010_knee_walk.json", "gh2010_knee.json",
                                   "gh2010_knee_foot.json", "gh2010_knee_2ms.json",
                                   "gh2010_knee_2ms_dense.json",
-                                  "gh2010_knee_2ms_dense_wide.json"])
+                                  "gh2010_knee_2ms_dense_wide.json",
+                                  "gh2010_knee_2ms_dense_wide_s3.json"])
 def test_shipped_gh2010_fits_score_today_what_they_scored_in_their_fit(name):
     """Reproducibility guard: a shipped fit's own parameters, evaluated by today's
     objective on its last stage's walk and trips, give the cost its fit recorded (on this
@@ -616,7 +617,7 @@ def test_the_pushed_sets_load_by_name_withstand_pushes_and_recover_mid_swing_tri
 
     for name in NAMED:
         assert load_params(name) == load_params(str(named_file(name)))
-    assert load_params("knee-2ms-dense-wide") == shipped_params()  # the default
+    assert load_params("knee-2ms-dense-wide-s3") == shipped_params()  # the default
     assert load_params("knee") != shipped_params()  # the default until 2026-12-05
     from stumble.trip import DEFAULT_TIMESTEP_S  # a scenario runs it at its step
 

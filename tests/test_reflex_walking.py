@@ -106,11 +106,13 @@ def test_the_2ms_set_runs_at_2ms_and_recovers_an_early_trip_knee_falls_from():
 @pytest.mark.parametrize("name, before, swing, speed", [
     ("knee-2ms-dense", "knee-2ms", 0.45, 1.0),  # a trip of the 45, not of its fit
     ("knee-2ms-dense-wide", "knee-2ms-dense", 0.3, 1.2),  # one of its wide twelve
+    ("knee-2ms-dense-wide-s3", "knee-2ms-dense", 0.45, 1.4),  # of the 45, not the twelve
 ])
 def test_each_later_2ms_touch_stage_recovers_a_trip_its_start_does_not(name, before, swing,
                                                                         speed):
     """``--params knee-2ms-dense`` (a second touch stage on ``knee-2ms``, fitted on trips
-    at 1.1 and 1.3 m/s) and ``knee-2ms-dense-wide`` (a third, on the wide twelve) run at
+    at 1.1 and 1.3 m/s) and ``knee-2ms-dense-wide`` (a third, on the wide twelve; and
+    by another seed, ``-s3``, the default) run at
     2 ms, walk as the set they started from (the touch's reflexes alone were fitted), and
     walk on from a trip where that set does not (README "Geyer & Herr 2010")."""
     from stumble.control.reflex.gh2010 import TOUCH_FIELDS, load_params
@@ -390,3 +392,4 @@ def test_the_default_networks_chain_of_commands_is_read_from_its_file():
                        text=True)
     assert r.returncode == 2 and "records no CMA-ES stage" in r.stderr
     assert len(r.stderr.strip().splitlines()) == 1
+

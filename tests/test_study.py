@@ -857,7 +857,7 @@ def test_a_reflex_study_is_not_resumed_with_other_default_reflex_sets(tmp_path, 
     assert main(argv) == 0 and len(got) == 2
     meta = json.loads((out / "study.json").read_text())["reflex_default_params"]
     data = resources.files("stumble.control.reflex") / "data"
-    name = "gh2010_knee_2ms_dense_wide.json"  # the default since 2026-12-05
+    name = "gh2010_knee_2ms_dense_wide_s3.json"  # the default since 2026-12-05
     assert meta == {"gh2010": {"name": name, "sha256": hashlib.sha256(
         (data / name).read_bytes()).hexdigest()}}
     assert {sc.timestep_s for sc in got} == {0.002}  # run at the default set's step

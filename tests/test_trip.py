@@ -64,7 +64,7 @@ def test_each_controller_has_its_default_step_and_the_state_machines_refuse_unst
     assert Scenario().validated().timestep_s == 0.002
     assert Scenario(controller="reflex", mechanism="obstacle").validated().timestep_s == 0.002
     gh = Scenario(controller="gh2010", mechanism="obstacle")
-    assert gh.validated().timestep_s == 0.002  # the default set's (knee-2ms-dense-wide)
+    assert gh.validated().timestep_s == 0.002  # the default set's (knee-2ms-dense-wide-s3)
     assert gh.validated(gh2010_step_s=0.001).timestep_s == 0.001  # a 1 ms set's
     assert gh.with_(timestep_s=0.001).validated().timestep_s == 0.001  # divides 2 ms
     with pytest.raises(InputError, match="got 2 ms"):  # a 1 ms set refuses 2 ms

@@ -16,8 +16,9 @@ from stumble.jsonio import dumps
 
 # the shipped GH2010 parameter sets by name (gh2010.NAMED; here as text, so that the
 # command line starts without importing the physics)
-GH2010_NAMES = ("knee-2ms-dense-wide (the default: the third 2 ms touch stage, on 12 of "
-                "the 45 trips: recovers 31 of them, runs at 2 ms), "
+GH2010_NAMES = ("knee-2ms-dense-wide-s3 (the default: the third 2 ms touch stage, on 12 of "
+                "the 45 trips, by seed 3: recovers 33 of them, runs at 2 ms), "
+                "knee-2ms-dense-wide (the same stage by seed 0: 31 of them), "
                 "knee (a touch stage on knee-walk; the default until 2026-12-05), "
                 "knee-walk (pushed-walk "
                 "refitted with the knee term), knee-foot (a touch stage on knee-walk by "

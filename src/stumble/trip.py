@@ -64,7 +64,7 @@ MAX_SEED = 2**63 - 1  # seeds are stored as 64-bit integers (study results)
 # the strategy map from the recording and in 42 of the 45 in its own gait (0.5 ms: 43),
 # and its walks within 0.3 deg RMSE (README "Speed"); its fits keep 1 ms
 # (``fit_walk.FIT_TIMESTEP_S``). GH2010: the step its set was fitted at
-# (``GH2010Params.timestep_s``), 2 ms for the shipped default (``knee-2ms-dense-wide``;
+# (``GH2010Params.timestep_s``), 2 ms for the shipped default (``knee-2ms-dense-wide-s3``;
 # a test holds the two equal).
 DEFAULT_TIMESTEP_S = {"fsm": 0.002, "reflex": 0.002, "gh2010": 0.002}
 TIMESTEP_RANGE_S = (0.0002, 0.005)  # any controller

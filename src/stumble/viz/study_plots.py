@@ -376,7 +376,7 @@ def plot_fall_rate(path, rows: Tally | Iterable[dict], scales: list[str],
         ax.set_ylabel("fall rate (falls / runs)")
         ax.legend(fontsize=8, loc="best")
         ax.grid(alpha=0.3)
-    fig.suptitle("Fall rate, 95 % Wilson intervals (runs that raised, timed out or were "
+    fig.suptitle("Fall rate, 95 % Wilson intervals\n(runs that raised, timed out or were "
                  "not set are left out)" + (f"\n{caption}" if caption else ""), fontsize=10)
     fig.savefig(path, dpi=110)
     return Path(path)
