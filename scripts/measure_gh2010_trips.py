@@ -3,9 +3,9 @@ or of a network (``--network FILE|NAME``: the seed's controller).
 
 The grid of ``stumble study --controller gh2010 --mechanism obstacle --swing
 0.05:0.75:15 --speed 1.0,1.2,1.4`` (10 cm box, the walker's own gait, 3 s after the
-trip), run by ``simulate_trip`` in this one process, for a ``gh2010.json`` (or ``walk``,
-or nothing: the default set, ``knee``); ``--start playback`` trips the recording
-instead.
+trip), run by ``simulate_trip`` in this one process, for a ``gh2010.json`` (or a
+shipped set's name, or nothing: the default set); ``--start playback`` trips the
+recording instead.
 Prints the strategy map (E elevating, L lowering, - neither, x not set; * recovered),
 the recoveries of 45 (and the falls, those in the walk-in before the trip apart), the
 human strategy in the 30 window trips (elevating at
@@ -16,7 +16,8 @@ them among the 45 or a trip stage's (swing 0.075-0.725 in steps of 0.05 at 1.1 a
 figures on the 45.
 
 Run:  python scripts/measure_gh2010_trips.py [PARAMS | --network FILE|NAME]
-      [--start own|playback] [--grid main|held-out] [--delay-scale K] [--out FILE]
+      [--start own|playback] [--grid main|held-out] [--delay-scale K]
+      [--delays all|response] [--out FILE]
 """
 
 from __future__ import annotations
@@ -54,6 +55,9 @@ def main() -> None:
     ap.add_argument("--delay-scale", type=float, default=1.0, metavar="K",
                     help="every reflex delay times K, the walk-in's too (Scenario."
                     "delay_scale; default 1)")
+    ap.add_argument("--delays", choices=("all", "response"), default="all",
+                    help="what --delay-scale multiplies (Scenario.delays): all (default) "
+                    "or response, the touch response's delays alone")
     args = ap.parse_args()
     swings, speeds = GRIDS[args.grid]
     if args.network is not None and args.params is not None:
@@ -74,7 +78,7 @@ def main() -> None:
             sc = Scenario(controller="gh2010" if net is None else "reflex",
                           mechanism="obstacle", swing_fraction=s,
                           speed_m_per_s=v, start=args.start,
-                          delay_scale=args.delay_scale)
+                          delay_scale=args.delay_scale, delays=args.delays)
             try:
                 summ = simulate_trip(sc, gh2010=p, network=net).summary
                 row = {"swing": s, "speed": v, "set": True,

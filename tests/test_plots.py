@@ -161,3 +161,12 @@ def test_fall_rate_plots_a_scale_where_every_run_falls_and_one_where_none_does(t
             for k in (1.0, 2.0) for i in range(1, 7)]
     path = plot_fall_rate(tmp_path / "fall_rate.png", rows, ["delay_scale"])
     assert path.read_bytes()[:4] == b"\x89PNG"
+    # the response's delays alone (``Scenario.delays``) are a line of their own
+    from stumble.viz.study_plots import Tally
+
+    both = rows + [{**r, "delays": "response", "fell": True, "recovered": False}
+                   for r in rows]
+    lines = {k[:5] for k in Tally.of(both).fall}
+    assert lines == {("delay_scale", "gh2010", "obstacle", "all", None),
+                     ("delay_scale", "gh2010", "obstacle", "response", None)}
+    plot_fall_rate(tmp_path / "both.png", both, ["delay_scale"])

@@ -393,3 +393,30 @@ def test_the_default_networks_chain_of_commands_is_read_from_its_file():
     assert r.returncode == 2 and "records no CMA-ES stage" in r.stderr
     assert len(r.stderr.strip().splitlines()) == 1
 
+
+@pytest.mark.parametrize("controller", ["reflex", "gh2010"])
+def test_delays_response_slows_the_touch_response_and_not_the_walk(controller):
+    """``Scenario.delays`` response: ``delay_scale`` multiplies the touch response's
+    delays alone (the network's ``TouchResponse``, Geyer & Herr's stumbling corrective
+    reflex and crossing step). The walk to the trip is the same as at × 1, and at × 1.5
+    the trip at 0.10 of swing, 1.2 m/s, that each default recovers is a fall; with
+    every delay × 1.5 the network falls in the walk-in, before the trip."""
+    from dataclasses import replace
+
+    from stumble.control.reflex.gh2010 import GH2010Params, shipped_params
+
+    sc = Scenario(controller=controller, mechanism="obstacle", swing_fraction=0.1,
+                  speed_m_per_s=1.2, start="own")
+    a = simulate_trip(sc).summary
+    b = simulate_trip(sc.with_(delay_scale=1.5, delays="response")).summary
+    assert a["recovered"] and b["fell"] and b["delays"] == "response"
+    assert b["walk_in"] == a["walk_in"] and b["trip_time_s"] == a["trip_time_s"]
+    if controller == "reflex":
+        c = simulate_trip(sc.with_(delay_scale=1.5)).summary
+        assert c["walk_in"]["fell"] and c["trip_time_s"] is None
+    else:
+        p = shipped_params()
+        assert "response_delay_scale" not in p.to_json()  # the shipped files' form
+        q = replace(p, response_delay_scale=1.5)
+        assert GH2010Params.from_json(q.to_json()) == q
+        assert "response_delay_scale" not in p.free()

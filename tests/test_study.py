@@ -164,6 +164,8 @@ def test_run_keys_are_stable_and_distinct():
     assert run_key(a) == run_key(b) and len(run_key(a)) == 16
     assert run_key(b) != run_key(b.with_(seed=1))
     assert run_key(b) != run_key(b.with_(delay_scale=1.5))
+    assert run_key(b.with_(delay_scale=1.5)) != run_key(b.with_(delay_scale=1.5,
+                                                                 delays="response"))
     # the key is a pure function of the fields: the same in a fresh interpreter
     code = "from stumble.study.grid import run_key; from stumble.trip import Scenario; " \
            "print(run_key(Scenario(swing_fraction=0.15)))"
@@ -196,7 +198,7 @@ def test_study_rows_table_and_rerun(tmp_path, fake, capsys):
     # every scenario parameter and every summary field, nested ones flattened
     for col in ("swing_fraction", "speed_m_per_s", "leg", "mechanism", "obstacle_height_m",
                 "controller", "strategy_mode", "seed", "height_m", "mass_kg", "sex",
-                "contact", "duration_after_trip_s", "delay_scale", "strength_scale",
+                "contact", "duration_after_trip_s", "delay_scale", "delays", "strength_scale",
                 "timestep_s", "strategy", "variant", "recovered", "fell", "diverged",
                 "durations_s.recovery_step", "durations_s.trip_to_recovery_contact",
                 "states", "steps", "error", "key", "stumble_version"):

@@ -43,6 +43,7 @@ def test_force_width_is_a_parameter():
     ({"speed_m_per_s": 2.0}, "speed"), ({"leg": "middle"}, "leg"),
     ({"mechanism": "banana"}, "mechanism"), ({"obstacle_height_m": 0.5}, "obstacle height"),
     ({"strategy": "jump"}, "strategy"), ({"delay_scale": 0.0}, "delay scale"),
+    ({"delays": "nerves"}, "delays 'nerves' is not one of all, response"),
     ({"timestep_s": 0.05}, "time step"),
 ])
 def test_bad_scenarios_are_named(change, word):

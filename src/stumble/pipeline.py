@@ -323,8 +323,8 @@ def _no_trip(sc: Scenario, controller, rec: Recording, walk_in: dict, body: Body
                "leg": sc.leg, "trip_time_s": None, "stop_reason": why,
                "sim_time_s": walk_in["walked_s"], "wall_time_s": round(rec.wall_time_s, 4),
                "steps": rec.steps, "seed": sc.seed, "contact": sc.contact,
-               "delay_scale": sc.delay_scale, "strength_scale": sc.strength_scale,
-               "start": sc.start, "walk_in": walk_in,
+               "delay_scale": sc.delay_scale, "delays": sc.delays,
+               "strength_scale": sc.strength_scale, "start": sc.start, "walk_in": walk_in,
                "states": [{"name": n, "start_s": t} for n, t in controller.log]}
     return TripResult(summary, rec, body, pb, sc, [("walk", 0.0)],
                       controller.net if sc.controller == "reflex" else None)
@@ -421,6 +421,7 @@ def _summary(sc: Scenario, strategy: str, controller, rec: Recording, stop: Stop
         "seed": sc.seed,
         "contact": sc.contact,
         "delay_scale": sc.delay_scale,
+        "delays": sc.delays,
         "strength_scale": sc.strength_scale,
         "strength_model": sc.strength_model,
         "population": sc.population,

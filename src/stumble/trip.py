@@ -126,6 +126,8 @@ RECOVERY_RULES = ("step", "walk_on")  # Scenario.recovery
 # the state machines walking on, 6 s (issue 11: walking on until the time budget ends,
 # default 6 s after the trip); otherwise 3 s (the reflex controllers' "still walking 3 s
 # after the trip", issue 9; the 1 s rule stops 1 s after the recovery step anyway)
+# what ``Scenario.delay_scale`` multiplies (``Scenario.delays``)
+DELAYS = ("all", "response")
 WALK_ON_DURATION_S = 6.0
 DURATION_S = 3.0
 
@@ -218,6 +220,14 @@ class Scenario:
     # machines walking on, DURATION_S otherwise (``resolved``)
     duration_after_trip_s: float | None = None
     delay_scale: float = 1.0  # multiplies every response latency
+    # which latencies ``delay_scale`` multiplies (``DELAYS``; ours, a parameter): all,
+    # every delay of the controller (the reflex controllers' nerves and reflex loops,
+    # their walk-in too: the default), or response, only those of the response to the
+    # trip (the reflex controllers' touch response: the network's ``TouchResponse``,
+    # Geyer & Herr's stumbling corrective reflex and crossing step), the walk's reflexes
+    # at their own delays. The state machines' delays are all their response's: for
+    # them the two are the same
+    delays: str = "all"
     strength_scale: float = 1.0  # multiplies every servo torque limit and muscle F_max
     # servo torque limits: fixed (build.TORQUE_LIMIT_NM × build.body_scale, the default
     # until the state machines are retuned on human strength) or anderson2007 (hip, knee
@@ -286,6 +296,8 @@ class Scenario:
             raise InputError(f"walk-in {self.walk_in_s} s is outside {lo_w:g}-{hi_w:g} s")
         if not 0.2 <= self.delay_scale <= 5.0:
             raise InputError(f"delay scale {self.delay_scale} is outside 0.2-5")
+        if self.delays not in DELAYS:
+            raise InputError(f"delays {self.delays!r} is not one of {', '.join(DELAYS)}")
         if not 0.1 <= self.strength_scale <= 5.0:
             raise InputError(f"strength scale {self.strength_scale} is outside 0.1-5")
         if self.strength_model not in STRENGTH_MODELS:

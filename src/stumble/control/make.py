@@ -28,10 +28,13 @@ def trip_controller(sc: Scenario, strategy: str | None, params: FSMParams | None
     scenario's strength model and recovery rule), ``network`` seed 003's
     (default the shipped one), ``gh2010`` Geyer & Herr's parameters (default shipped);
     the scenario's delay scale and population applied."""
+    response_only = sc.delays == "response"
     if sc.controller == "reflex":
-        return network_controller(network, pb, t_trip, sc.delay_scale, trunk_balance)
+        return network_controller(network, pb, t_trip, sc.delay_scale, trunk_balance,
+                                  response_only)
     if sc.controller == "gh2010":
-        return walk_controller("gh2010", pb, t_trip, gh2010, delay_scale=sc.delay_scale)
+        return walk_controller("gh2010", pb, t_trip, gh2010, delay_scale=sc.delay_scale,
+                               response_only=response_only)
     p = replace(params or default_params(sc.strength_model, sc.recovery),
                 delay_scale=sc.delay_scale)
     pop = POPULATIONS[sc.population]
@@ -44,13 +47,16 @@ def trip_controller(sc: Scenario, strategy: str | None, params: FSMParams | None
 
 
 def network_controller(network, pb: Playback, t: float, delay_scale: float,
-                       trunk_balance: bool):
+                       trunk_balance: bool, response_only: bool = False):
     """The reflex network (given or shipped) taking over from the walk at time ``t`` (s),
-    its delays (and its trunk balance's) × ``delay_scale``."""
+    its delays (and its trunk balance's) × ``delay_scale``; ``response_only``: its touch
+    response's alone."""
     from stumble.control.reflex.controller import ReflexController, TrunkBalance
     from stumble.control.reflex.identify import default_network, history_before
 
-    net = (network or default_network()).with_delay_scale(delay_scale)
+    net = (network or default_network()).with_delay_scale(delay_scale, response_only)
+    if response_only:
+        delay_scale = 1.0  # the nerves and the trunk balance at their own
     history = None
     if net.walk_rates is not None:
         history = history_before(net.walk_rates, stride_phase(pb, t),
@@ -71,15 +77,20 @@ def network_steps_per_tick(net, m: mujoco.MjModel) -> int:
 
 
 def walk_controller(kind: str, pb: Playback, t: float, params=None, network=None,
-                    delay_scale: float = 1.0, trunk_balance: bool = True):
+                    delay_scale: float = 1.0, trunk_balance: bool = True,
+                    response_only: bool = False):
     """The reflex controller ``kind`` (``network``: seed 003's; ``gh2010``) taking over
-    from the walk at time ``t`` (s)."""
+    from the walk at time ``t`` (s), its delays × ``delay_scale`` (``response_only``:
+    those of the response to a touch alone, ``Scenario.delays``)."""
     if kind == "gh2010":
         from stumble.control.reflex.gh2010 import GH2010Controller, shipped_params
 
-        return GH2010Controller(replace(params or shipped_params(), delay_scale=delay_scale))
+        p = params or shipped_params()
+        p = (replace(p, response_delay_scale=delay_scale) if response_only
+             else replace(p, delay_scale=delay_scale))
+        return GH2010Controller(p)
     if kind == "network":
-        return network_controller(network, pb, t, delay_scale, trunk_balance)
+        return network_controller(network, pb, t, delay_scale, trunk_balance, response_only)
     raise InputError(f"reflex controller {kind!r} is not 'network' or 'gh2010'")
 
 

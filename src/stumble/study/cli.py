@@ -22,8 +22,9 @@ example:  stumble study --swing 0.05:0.75:15 --speed 0.8,1.1,1.4 --out s/
 
 
 HELP_ORDER = ("controller", "strategy", "swing", "speed", "mechanism", "obstacle_height", "leg",
-              "delay_scale", "strength_scale", "strength", "population", "recovery", "height",
-              "mass", "sex", "contact", "seed", "duration", "timestep", "start", "walk_in")
+              "delay_scale", "delays", "strength_scale", "strength", "population", "recovery",
+              "height", "mass", "sex", "contact", "seed", "duration", "timestep", "start",
+              "walk_in")
 
 
 def workers_arg(text: str) -> int:

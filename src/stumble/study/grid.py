@@ -60,6 +60,10 @@ AXES: dict[str, Axis] = {a.name: a for a in (
     Axis("leg", "leg", str, "tripped leg: left or right"),
     Axis("strategy", "strategy", str, "strategy mode: auto, elevating or lowering"),
     Axis("delay_scale", "delay_scale", float, "response latencies multiplied by this"),
+    Axis("delays", "delays", str, "what --delay-scale multiplies: all (every delay: the "
+         "reflex controllers' nerves and reflexes, the walk-in too; default) or response "
+         "(the response to the trip's alone: the reflex controllers' touch response; for "
+         "fsm the same)"),
     Axis("strength_scale", "strength_scale", float,
          "servo torque limits (fsm) or muscle F_max (reflex, gh2010) multiplied by this"),
     Axis("strength", "strength_model", str, "servo torque limits: fixed (default) or "

@@ -47,7 +47,8 @@ POOLED = ("leg", "strategy_mode", "obstacle_height_m", "delay_scale", "strength_
           "height_m", "mass_kg", "sex", "contact", "seed", "duration_after_trip_s",
           "timestep_s")
 SCALES = ("delay_scale", "strength_scale")
-PLOT_COLUMNS = ("swing_fraction", "speed_m_per_s", *FACETS, *POOLED, "strategy", "error",
+PLOT_COLUMNS = ("swing_fraction", "speed_m_per_s", *FACETS, *POOLED, "delays", "strategy",
+                "error",
                 "timed_out", "diverged", "recovered", "fell", "not_set")  # what they read
 
 
@@ -115,7 +116,8 @@ class Tally:
             if r.get(scale) is None:
                 continue
             others = tuple(r.get(o) for o in SCALES if o != scale)
-            entry = self.fall[(scale, *facet, *others)][float(r[scale])]
+            delays = r.get("delays") or "all"  # what the delay scale multiplies
+            entry = self.fall[(scale, *facet, delays, *others)][float(r[scale])]
             entry[0] += what == "fell"
             entry[1] += 1
 
@@ -346,16 +348,21 @@ def plot_fall_rate(path, rows: Tally | Iterable[dict], scales: list[str],
     axes = fig.subplots(1, len(scales), squeeze=False)[0]
     labels = {"delay_scale": "response delay scale (× every latency)",
               "strength_scale": "strength scale (× every torque limit)"}
+    kinds = {k[3] for k in t.fall}  # what the delay scale multiplies (``delays``)
+    if kinds == {"response"}:
+        labels["delay_scale"] = "delay scale (× the response's latencies)"
+    elif len(kinds) > 1:
+        labels["delay_scale"] = "delay scale (× every latency, or the response's)"
     for ax, scale in zip(axes, scales, strict=True):
         others = [o for o in SCALES if o != scale]
         shown = [o for o in others if o in scales]
         lines: dict[tuple, dict[float, list[int]]] = defaultdict(lambda: defaultdict(
             lambda: [0, 0]))
-        for (sc, ctrl, mech, *other_vals), by_x in t.fall.items():
+        for (sc, ctrl, mech, delays, *other_vals), by_x in t.fall.items():
             if sc != scale:
                 continue
-            g = (ctrl, mech, *(v for o, v in zip(others, other_vals, strict=True)
-                               if o in shown))
+            g = (ctrl, mech, delays, *(v for o, v in zip(others, other_vals, strict=True)
+                                       if o in shown))
             for x, (falls, runs) in by_x.items():
                 lines[g][x][0] += falls
                 lines[g][x][1] += runs
@@ -367,8 +374,9 @@ def plot_fall_rate(path, rows: Tally | Iterable[dict], scales: list[str],
             ci = [wilson_interval(a, b) for a, b in zip(k, n, strict=True)]
             err = np.array([[pi - lo for pi, (lo, _) in zip(p, ci, strict=True)],
                             [hi - pi for pi, (_, hi) in zip(p, ci, strict=True)]])
-            label = f"{g[0]}, {g[1]}" + "".join(
-                f", {o.split('_')[0]} ×{v:g}" for o, v in zip(shown, g[2:], strict=True))
+            label = f"{g[0]}, {g[1]}" + (", the response's delays only"
+                                         if g[2] == "response" else "") + "".join(
+                f", {o.split('_')[0]} ×{v:g}" for o, v in zip(shown, g[3:], strict=True))
             ax.errorbar(xs, p, yerr=err, marker="o", capsize=3, label=label)
         ax.axvline(1.0, color="0.6", ls=":", lw=1)
         ax.set_ylim(-0.03, 1.03)

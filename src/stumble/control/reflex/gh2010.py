@@ -239,6 +239,10 @@ class GH2010Params:
     place_cd: float = 0.0  # rad/m
     place_cv: float = 0.0  # rad per m/s
     delay_scale: float = 1.0  # every delay multiplied by this
+    # the delays of the reflexes a touch triggers (the stumbling corrective reflex's
+    # latency and holds, the crossing step's hold) multiplied by this too
+    # (``Scenario.delays`` response: the response to the trip slower, the walk not)
+    response_delay_scale: float = 1.0
     wiring: str = "gh2010"  # "gh2010" or "seed003" (see GH2010Controller)
     load_from: str = "floor"  # "floor" or "any" (``LOAD_SOURCES``)
     # the physics step (s) the gains were fitted at (``reflex fit --timestep``): runs take
@@ -249,8 +253,8 @@ class GH2010Params:
     def free(self) -> list[str]:
         """Names of the gains a closed-loop fit may change (not the delays, the wiring)."""
         return [f.name for f in fields(self)
-                if f.name not in ("delay_scale", "wiring", "scr_latency_s", "scr_phase",
-                                  "load_from", "timestep_s")]
+                if f.name not in ("delay_scale", "response_delay_scale", "wiring",
+                                  "scr_latency_s", "scr_phase", "load_from", "timestep_s")]
 
     @property
     def stumble_reflex(self) -> bool:
@@ -273,9 +277,11 @@ class GH2010Params:
 
     def to_json(self) -> dict:
         """Plain numbers and the wiring (for the shipped file and fit reports; the fitted
-        step only when not 1 ms, as the files before it)."""
+        step only when not 1 ms, as the files before it; the response's delay scale only
+        when not 1)."""
+        omit = {"timestep_s": 0.001, "response_delay_scale": 1.0}
         return {k: v if isinstance(v, str) else float(v) for k, v in asdict(self).items()
-                if k != "timestep_s" or v != 0.001}
+                if k not in omit or v != omit[k]}
 
     @classmethod
     def from_json(cls, obj: dict) -> GH2010Params:
@@ -465,6 +471,8 @@ class GH2010Controller:
 
         p, nm, ix, names = self.p, self.nm, self.idx, self.names
         ticks = lambda s: max(1, round(s * p.delay_scale / dt))  # noqa: E731
+        resp = p.delay_scale * p.response_delay_scale  # the touch's reflexes
+        rticks = lambda s: max(1, round(s * resp / dt))  # noqa: E731
         joint = {j: ticks(d) for j, d in DELAY_BY_JOINT_S.items()}
         if self.wiring == "gh2010":
             own = [joint[JOINT_OF[n]] for n in names]
@@ -512,8 +520,8 @@ class GH2010Controller:
             if ds is not None:
                 tap(("ds_load", leg), c_load + leg, ds)
                 tap(("ds_x", leg), c_x + leg, ds)
-            tap(("touch", leg), c_touch + leg, ticks(p.scr_latency_s))
-            tap(("x_touch", leg), c_x + leg, ticks(p.scr_latency_s))
+            tap(("touch", leg), c_touch + leg, rticks(p.scr_latency_s))
+            tap(("x_touch", leg), c_x + leg, rticks(p.scr_latency_s))
         tap("lean", c_lean, vest)
         tap("lean_v", c_lean_v, vest)
         n_channels = c_lean + 1
@@ -575,7 +583,8 @@ class GH2010Controller:
         """What the reflexes a touch triggers add, from the parameters (``TOUCH_FIELDS``):
         no state, so that ``retouch`` can set them again."""
         p, nm, ix, dt = self.p, self.nm, self.idx, self._dt
-        self._scr_hold = max(1, round(p.scr_hold_s * p.delay_scale / dt))
+        scale = p.delay_scale * p.response_delay_scale
+        self._scr_hold = max(1, round(p.scr_hold_s * scale / dt))
         w = np.zeros((3, 2, 2, nm))  # (set, touched leg, leg, muscle): the tripped
         # leg's flexion set, its extension set, the other leg's
         for leg in range(2):
@@ -592,7 +601,7 @@ class GH2010Controller:
         self._scr_by_foot = p.scr_phase == "foot"
         # ``any``: the three sets act together, one matrix (touched leg, leg, muscle)
         self._w_scr = w if self._scr_by_foot else w.sum(axis=0)
-        self._scr_vas_after = round(p.scr_vas_after_s * p.delay_scale / dt)
+        self._scr_vas_after = round(p.scr_vas_after_s * scale / dt)
         self._w_scr_vas = np.zeros((2, 2, nm))
         for leg in range(2):
             self._w_scr_vas[leg, leg, ix["VAS"]] = p.g_scr_vas
@@ -601,13 +610,14 @@ class GH2010Controller:
         for name, gain in ((self.flexor, p.g_cross_flex), ("HAMS", p.g_cross_ham),
                            ("TA", p.g_cross_ta), ("GAS", p.g_cross_gas)):
             self._w_cross[ix[name]] += gain
-        self._cross_hold = max(1, round(p.cross_hold_s * p.delay_scale / dt))
+        self._cross_hold = max(1, round(p.cross_hold_s * scale / dt))
 
     def walk_key(self) -> tuple:
         """What the walk before a first touch depends on: every parameter but those of
         the reflexes a touch triggers (``TOUCH_FIELDS``), and whether they are on."""
         p = self.p
-        return (*(getattr(p, f.name) for f in fields(p) if f.name not in TOUCH_FIELDS),
+        return (*(getattr(p, f.name) for f in fields(p)
+                  if f.name not in TOUCH_FIELDS and f.name != "response_delay_scale"),
                 p.stumble_reflex, p.crossing)
 
     def touch_settings(self) -> GH2010Params:

@@ -239,13 +239,15 @@ class Network:
             mask[i, s * H:(s + 1) * H] = 1.0
         return mask
 
-    def with_delay_scale(self, scale: float) -> Network:
+    def with_delay_scale(self, scale: float, response_only: bool = False) -> Network:
         """A copy whose every nerve delay is ``scale`` times as long (slower nerves), and
         its touch response's latency and durations too (as ``GH2010Params.delay_scale``
-        scales its touch reflexes' holds)."""
+        scales its touch reflexes' holds); ``response_only``: the touch response's alone
+        (``Scenario.delays`` response)."""
         t = self.topology
-        slower = Topology(t.rate_hz, t.hidden, t.contact, t.afferent_m_per_s / scale,
-                          t.efferent_m_per_s / scale, t.muscles, t.touch)
+        slower = t if response_only else Topology(
+            t.rate_hz, t.hidden, t.contact, t.afferent_m_per_s / scale,
+            t.efferent_m_per_s / scale, t.muscles, t.touch)
         info = dict(self.info)
         if info.get("touch_response") is not None:
             info["touch_response"] = {**info["touch_response"], **{
