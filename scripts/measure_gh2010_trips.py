@@ -54,7 +54,8 @@ def main() -> None:
                     "name); not with PARAMS")
     ap.add_argument("--delay-scale", type=float, default=1.0, metavar="K",
                     help="every reflex delay times K, the walk-in's too (Scenario."
-                    "delay_scale; default 1)")
+                    "delay_scale; default 1), or the touch response's alone (--delays "
+                    "response)")
     ap.add_argument("--delays", choices=("all", "response"), default="all",
                     help="what --delay-scale multiplies (Scenario.delays): all (default) "
                     "or response, the touch response's delays alone")

@@ -1027,3 +1027,46 @@ def test_delay_walks_cost_what_the_slower_walker_does_not_walk(capsys, tmp_path)
         assert main(["reflex", "fit", *argv, "--out", str(tmp_path / "x")]) == 2
         err = capsys.readouterr().err
         assert words in err and err.count("\n") == 1, err
+
+
+def test_network_pushes_cost_what_the_pushed_network_does_not_walk(capsys, tmp_path):
+    """``reflex fit --controller network --walk-es NET --pushes``: each candidate also
+    walks 10 s through the pelvis pushes (``PUSHES``), as Geyer & Herr's fits do, the part
+    not walked costing as a fall. ``placement-walk`` walks 3 s unpushed and falls about
+    1.9 s after the first push (3 s): half the pushed walk is lost. Refused with
+    ``--touch-only`` in one line."""
+    import tempfile
+    from pathlib import Path
+
+    from stumble.cli import main
+    from stumble.control.reflex.fit_walk import (
+        W_FALL,
+        evaluate_walk,
+        init_walk_eval,
+        network_space,
+    )
+    from stumble.control.reflex.identify import default_network
+
+    net = default_network("placement-walk")
+    space = network_space(net, interneuron_biases=False)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "n.npz"
+        net.save(path)
+        init_walk_eval("network", 3.0, 1.2, {"network": str(path)}, timestep_s=0.002,
+                       names=space.names, pushes=True)
+        _cost, terms = evaluate_walk(space.start)
+    assert terms["fall"] == 0.0 and terms["walked_s"] == 3.0
+    assert 0.4 * W_FALL < terms["push"] < 0.6 * W_FALL
+    assert main(["reflex", "fit", "--walk-es", "placement", "--touch-only", "--trip-set",
+                 "four", "--pushes", "--out", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err
+    assert "--pushes weighs the walk: not with --touch-only" in err and err.count("\n") == 1
+    # from the command line to the record: the start judged once (--generations 0)
+    import json
+
+    assert main(["reflex", "fit", "--walk-es", "placement-walk", "--pushes", "--generations",
+                 "0", "--workers", "1", "--out", str(tmp_path / "p")]) == 0
+    fit = json.loads((tmp_path / "p" / "fit.json").read_text())
+    assert "--pushes" in fit["command"] and fit["pushes"] == [[3.0, 0.2, -200.0],
+                                                              [6.5, 0.2, -200.0]]
+    assert fit["terms"]["push"] > 0.4 * W_FALL  # the start falls after the first push

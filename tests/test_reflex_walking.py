@@ -404,19 +404,32 @@ def test_delays_response_slows_the_touch_response_and_not_the_walk(controller):
     from dataclasses import replace
 
     from stumble.control.reflex.gh2010 import GH2010Params, shipped_params
+    from stumble.control.reflex.identify import default_network
+    from stumble.errors import InputError
 
     sc = Scenario(controller=controller, mechanism="obstacle", swing_fraction=0.1,
                   speed_m_per_s=1.2, start="own")
-    a = simulate_trip(sc).summary
+    a = simulate_trip(sc)
+    one = simulate_trip(sc.with_(delays="response"))  # × 1: the same run, bit for bit
+    assert np.array_equal(one.recording.qpos, a.recording.qpos)
+    a = a.summary
     b = simulate_trip(sc.with_(delay_scale=1.5, delays="response")).summary
     assert a["recovered"] and b["fell"] and b["delays"] == "response"
     assert b["walk_in"] == a["walk_in"] and b["trip_time_s"] == a["trip_time_s"]
     if controller == "reflex":
         c = simulate_trip(sc.with_(delay_scale=1.5)).summary
         assert c["walk_in"]["fell"] and c["trip_time_s"] is None
+        with pytest.raises(InputError, match="this network has none"):  # no response
+            simulate_trip(sc.with_(delay_scale=1.5, delays="response"),
+                          network=default_network("placement-walk"))
     else:
         p = shipped_params()
-        assert "response_delay_scale" not in p.to_json()  # the shipped files' form
-        q = replace(p, response_delay_scale=1.5)
-        assert GH2010Params.from_json(q.to_json()) == q
-        assert "response_delay_scale" not in p.free()
+        q = replace(p, response_delay_scale=1.5)  # a run's setting, not a parameter:
+        assert q.to_json() == p.to_json() and "response_delay_scale" not in p.free()
+        with pytest.raises(InputError, match="unknown GH2010 parameter"):
+            GH2010Params.from_json({**p.to_json(), "response_delay_scale": 2.0})
+        # the walk to a first touch does not depend on it, but a controller's taps do:
+        # a walk-in cached with one is not gone on with the other (``retouch`` refuses)
+        from stumble.control.reflex.gh2010 import GH2010Controller
+
+        assert GH2010Controller(q).walk_key() != GH2010Controller(p).walk_key()

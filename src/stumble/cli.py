@@ -16,9 +16,10 @@ from stumble.jsonio import dumps
 
 # the shipped GH2010 parameter sets by name (gh2010.NAMED; here as text, so that the
 # command line starts without importing the physics)
-GH2010_NAMES = ("knee-2ms-dense-wide-s3 (the default: the third 2 ms touch stage, on 12 of "
-                "the 45 trips, by seed 3: recovers 33 of them, runs at 2 ms), "
-                "knee-2ms-dense-wide (the same stage by seed 0: 31 of them), "
+GH2010_NAMES = ("knee-2ms-dense-wide-s3 (the default: the third 2 ms touch stage, fitted "
+                "on 12 of the strategy map's 45 trips, by seed 3: recovers 33 of the 45, "
+                "runs at 2 ms), "
+                "knee-2ms-dense-wide (the same stage by seed 0: 31 of the 45), "
                 "knee (a touch stage on knee-walk; the default until 2026-12-05), "
                 "knee-walk (pushed-walk "
                 "refitted with the knee term), knee-foot (a touch stage on knee-walk by "
@@ -275,6 +276,7 @@ def _parser() -> argparse.ArgumentParser:
                       "weights (motor-neuron gains and biases, contact afferents, trunk "
                       "balance; fit_walk.network_space) on the walking objective, with "
                       "--knee-weight, --track-weight, --track-limit, --starts, --delay-walks, "
+                      "--pushes, "
                       "--timestep (default 0.002, the network's step), --generations "
                       "(default 150), "
                       "--sigma, --interneuron-biases, --touch-afferent, and trips by "
@@ -359,10 +361,10 @@ def _parser() -> argparse.ArgumentParser:
                    "extension beyond straight (default 0; 5 in knee-walk's fit; ours: the "
                    "fitted walkers stand their stance knee on the model's +5° stop)")
     f.add_argument("--pushes", action="store_true",
-                   help="gh2010: every candidate also walks 10 s with two backward pushes "
-                   "on the pelvis (200 N for 0.2 s at 3 and 6.5 s), the part not walked "
-                   "costing as a fall: a gait that gets its speed back (ours; not with "
-                   "--touch-only)")
+                   help="gh2010, network --walk-es: every candidate also walks 10 s with "
+                   "two backward pushes on the pelvis (200 N for 0.2 s at 3 and 6.5 s), "
+                   "the part not walked costing as a fall: a gait that gets its speed back "
+                   "(ours; not with --touch-only)")
     f.add_argument("--starts", default=None, metavar="V[,V...]",
                    help="gh2010: every candidate also walks 10 s from the walk played back "
                    "at each of these speeds (m/s, 0.7-1.6), the part not walked costing "
@@ -958,7 +960,7 @@ def cmd_reflex_fit_network_es(args) -> int:
     for flag, given in (("--trips", args.trips or None), ("--params", args.params),
                         ("--crossing", args.crossing or None),
                         ("--load-from", args.load_from), ("--placement", args.placement or None),
-                        ("--pushes", args.pushes or None), ("--expert", args.expert),
+                        ("--expert", args.expert),
                         ("--passes", args.passes), ("--foot-angle", args.foot_angle or None),
                         ("--stride-time", args.stride_time or None),
                         ("--stance-weight", args.stance_weight),
@@ -1006,6 +1008,7 @@ def cmd_reflex_fit_network_es(args) -> int:
         if not trips:
             raise InputError("--touch-only (network): the touch stage needs --trip-set")
         for flag, given in (("--starts", args.starts), ("--delay-walks", args.delay_walks),
+                            ("--pushes", args.pushes or None),
                             ("--interneuron-biases",
                                                           args.interneuron_biases or None),
                             ("--track-limit", args.track_limit)):
@@ -1048,7 +1051,7 @@ def cmd_reflex_fit_network_es(args) -> int:
                               ahead_from=ahead_from, trip_sample=args.trip_sample,
                               cross_step=args.cross_step, cross_only=args.cross_only,
                               track_limit_deg=args.track_limit, delay_walks=delay_walks,
-                              **costs)
+                              pushes=args.pushes, **costs)
     bar.done()
     walk = simulate_walk("network", 20.0, network=net)
     report = dict(net.info["fit"])
@@ -1116,7 +1119,7 @@ def cmd_reflex(args) -> int:
                          "--knee-weight, --placement, --pushes, --starts, --timestep and "
                          "--ta-bound "
                          "are for "
-                         "--controller gh2010")
+                         "--controller gh2010 (some also for network --walk-es)")
     from stumble.control.reflex.identify import ITERATIONS, REFINE_ITERATIONS, fit
     from stumble.outputs import prepare_dir, write_fit
 

@@ -54,9 +54,16 @@ def network_controller(network, pb: Playback, t: float, delay_scale: float,
     from stumble.control.reflex.controller import ReflexController, TrunkBalance
     from stumble.control.reflex.identify import default_network, history_before
 
-    net = (network or default_network()).with_delay_scale(delay_scale, response_only)
+    net = network or default_network()
     if response_only:
+        if (net.info or {}).get("touch_response") is None and delay_scale != 1.0:
+            raise InputError("--delays response slows the touch response, and this "
+                             "network has none (the placement-touch, placement-foot and "
+                             "placement-both networks have one)")
+        net = net.with_delay_scale(delay_scale, response_only=True)
         delay_scale = 1.0  # the nerves and the trunk balance at their own
+    else:
+        net = net.with_delay_scale(delay_scale)
     history = None
     if net.walk_rates is not None:
         history = history_before(net.walk_rates, stride_phase(pb, t),
@@ -86,8 +93,8 @@ def walk_controller(kind: str, pb: Playback, t: float, params=None, network=None
         from stumble.control.reflex.gh2010 import GH2010Controller, shipped_params
 
         p = params or shipped_params()
-        p = (replace(p, response_delay_scale=delay_scale) if response_only
-             else replace(p, delay_scale=delay_scale))
+        p = (replace(p, delay_scale=1.0, response_delay_scale=delay_scale) if response_only
+             else replace(p, delay_scale=delay_scale, response_delay_scale=1.0))
         return GH2010Controller(p)
     if kind == "network":
         return network_controller(network, pb, t, delay_scale, trunk_balance, response_only)

@@ -43,12 +43,11 @@ SHORT = {"fell": "fell", "diverged": "div.", "neither": "not yet", "not set": "�
 LEGEND = {"neither": "neither (not recovered in time)",
           "not set": "not set (no room for the trip at that instant)"}
 FACETS = ("controller", "mechanism")  # one panel per combination present
-POOLED = ("leg", "strategy_mode", "obstacle_height_m", "delay_scale", "strength_scale",
-          "height_m", "mass_kg", "sex", "contact", "seed", "duration_after_trip_s",
-          "timestep_s")
+POOLED = ("leg", "strategy_mode", "obstacle_height_m", "delay_scale", "delays",
+          "strength_scale", "height_m", "mass_kg", "sex", "contact", "seed",
+          "duration_after_trip_s", "timestep_s")
 SCALES = ("delay_scale", "strength_scale")
-PLOT_COLUMNS = ("swing_fraction", "speed_m_per_s", *FACETS, *POOLED, "delays", "strategy",
-                "error",
+PLOT_COLUMNS = ("swing_fraction", "speed_m_per_s", *FACETS, *POOLED, "strategy", "error",
                 "timed_out", "diverged", "recovered", "fell", "not_set")  # what they read
 
 
@@ -92,7 +91,7 @@ class Tally:
     pooled_values: dict = field(default_factory=lambda: defaultdict(set))
     outcomes: Counter = field(default_factory=Counter)
     scale_values: dict = field(default_factory=lambda: defaultdict(set))
-    # (scale, controller, mechanism, other scales' values) → value → [falls, runs]
+    # (scale, controller, mechanism, delays, other scales' values) → value → [falls, runs]
     fall: dict = field(default_factory=lambda: defaultdict(lambda: defaultdict(lambda: [0, 0])))
 
     def add(self, r: dict) -> None:
@@ -346,7 +345,7 @@ def plot_fall_rate(path, rows: Tally | Iterable[dict], scales: list[str],
     fig = Figure(figsize=(5.2 * len(scales) + 0.6, 3.8), constrained_layout=True)
     FigureCanvasAgg(fig)
     axes = fig.subplots(1, len(scales), squeeze=False)[0]
-    labels = {"delay_scale": "response delay scale (× every latency)",
+    labels = {"delay_scale": "delay scale (× every latency)",
               "strength_scale": "strength scale (× every torque limit)"}
     kinds = {k[3] for k in t.fall}  # what the delay scale multiplies (``delays``)
     if kinds == {"response"}:

@@ -1129,7 +1129,7 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    touch_response: bool = False, response_by_foot: bool = False,
                    ahead_from: tuple | None = None, trip_sample: int | None = None,
                    cross_step: bool = False, cross_only: bool = False,
-                   delay_walks: tuple = ()):
+                   delay_walks: tuple = (), pushes: bool = False):
     """CMA-ES on ``network_space(start, interneuron_biases, touch_only, touch_response)``:
     each candidate walks
     ``NETWORK_ES_WALK_S`` from the 1.2 m/s recording (and 10 s from each of ``starts``) at
@@ -1162,7 +1162,9 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
     drawn afresh each generation (seeded by ``seed`` and the generation), the result the
     search's mean at the end judged on all of them (``cma_fit``'s ``sample``);
     ``delay_walks``: each candidate also walks 10 s from the 1.2 m/s recording with its
-    delays × each of these (``init_walk_eval``'s; not with ``touch_only``);
+    delays × each of these (``init_walk_eval``'s; not with ``touch_only``); ``pushes``:
+    each candidate also walks 10 s from it through the pelvis pushes ``PUSHES``
+    (``init_walk_eval``'s, as Geyer & Herr's ``--pushes``; not with ``touch_only``);
     writes ``network.npz``,
     ``history.jsonl`` and ``best.json`` to ``out`` when given."""
     import tempfile
@@ -1175,8 +1177,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
 
     if touch_only and not trips:
         raise ValueError("touch_only is for trips: name a trip set")
-    if touch_only and (starts or delay_walks):
-        raise ValueError("starts and delay_walks test the walk: not with touch_only")
+    if touch_only and (starts or delay_walks or pushes):
+        raise ValueError("starts, delay_walks and pushes test the walk: not with touch_only")
     for k in delay_walks:
         if not (math.isfinite(k) and 0.5 <= k <= 3.0):
             raise ValueError(f"delay_walks take delay scales of 0.5-3, got {k}")
@@ -1226,13 +1228,15 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                           knee_weight=knee_weight, starts=tuple(starts), timestep_s=step,
                           trip_start=trip_start, track_limit_deg=track_limit_deg,
                           touch_only=touch_only, names=tuple(space.names),
-                          delay_walks=tuple(delay_walks)),
+                          delay_walks=tuple(delay_walks), pushes=pushes),
                       stage="walk+trips" if trips else "walk", sample=sample)
     net = network_with(start, res.best_theta, space.names)
     opts = [*_weight_opts(track_weight, knee_weight, knee_first=True), *_starts_opts(starts),
             f"--timestep {step:g}"]  # the step always: the default step may change
     if delay_walks:
         opts.append("--delay-walks " + ",".join(f"{k:g}" for k in delay_walks))
+    if pushes:
+        opts.append("--pushes")
     if interneuron_biases:
         opts.append("--interneuron-biases")
     if touch and not touch_only:
@@ -1281,6 +1285,7 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    "starts": [float(v) for v in starts], "timestep_s": step,
                    **({"delay_walks": [float(k) for k in delay_walks]}
                       if delay_walks else {}),
+                   **({"pushes": [list(q) for q in PUSHES]} if pushes else {}),
                    "trips": [list(t) for t in trips], "strategy_cost": strategy_cost,
                    "recovery_cost": recovery_cost, "trip_start": trip_start,
                    "touch_afferent": bool(start.topology.touch), "touch_only": touch_only,

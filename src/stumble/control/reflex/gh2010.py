@@ -277,16 +277,15 @@ class GH2010Params:
 
     def to_json(self) -> dict:
         """Plain numbers and the wiring (for the shipped file and fit reports; the fitted
-        step only when not 1 ms, as the files before it; the response's delay scale only
-        when not 1)."""
-        omit = {"timestep_s": 0.001, "response_delay_scale": 1.0}
+        step only when not 1 ms, as the files before it; not the response's delay scale,
+        a run's setting, ``Scenario.delays``)."""
         return {k: v if isinstance(v, str) else float(v) for k, v in asdict(self).items()
-                if k not in omit or v != omit[k]}
+                if (k != "timestep_s" or v != 0.001) and k != "response_delay_scale"}
 
     @classmethod
     def from_json(cls, obj: dict) -> GH2010Params:
         """Read ``to_json``'s form; InputError naming an unknown or non-finite field."""
-        names = {f.name for f in fields(cls)}
+        names = {f.name for f in fields(cls)} - {"response_delay_scale"}  # a run's
         bad = sorted(set(obj) - names)
         if bad:
             raise InputError(f"unknown GH2010 parameter(s): {', '.join(bad)}")
@@ -616,8 +615,7 @@ class GH2010Controller:
         """What the walk before a first touch depends on: every parameter but those of
         the reflexes a touch triggers (``TOUCH_FIELDS``), and whether they are on."""
         p = self.p
-        return (*(getattr(p, f.name) for f in fields(p)
-                  if f.name not in TOUCH_FIELDS and f.name != "response_delay_scale"),
+        return (*(getattr(p, f.name) for f in fields(p) if f.name not in TOUCH_FIELDS),
                 p.stumble_reflex, p.crossing)
 
     def touch_settings(self) -> GH2010Params:
