@@ -427,7 +427,8 @@ def fit_walk_gh2010(**kw):
                                   "gh2010_knee_foot.json", "gh2010_knee_2ms.json",
                                   "gh2010_knee_2ms_dense.json",
                                   "gh2010_knee_2ms_dense_wide.json",
-                                  "gh2010_knee_2ms_dense_wide_s3.json"])
+                                  "gh2010_knee_2ms_dense_wide_s3.json",
+                                  "gh2010_seed003_touch.json"])
 def test_shipped_gh2010_fits_score_today_what_they_scored_in_their_fit(name):
     """Reproducibility guard: a shipped fit's own parameters, evaluated by today's
     objective on its last stage's walk and trips, give the cost its fit recorded (on this

@@ -433,3 +433,30 @@ def test_delays_response_slows_the_touch_response_and_not_the_walk(controller):
         from stumble.control.reflex.gh2010 import GH2010Controller
 
         assert GH2010Controller(q).walk_key() != GH2010Controller(p).walk_key()
+
+
+def test_the_experts_touch_stage_recovers_a_trip_the_expert_falls_from(capsys, tmp_path):
+    """``--params expert-touch`` (``reflex fit --wiring seed003 --trips --params
+    expert-placement --touch-only ...``): the network's expert, seed003-wired, with the
+    touch's reflexes fitted, walks as the expert (the touch's reflexes alone changed) and
+    walks on from the trip at 0.10 of swing, 1.2 m/s, where the expert falls. A seed003
+    trip stage without a seed003-wired start is one line and exit 2."""
+    from stumble.cli import main
+    from stumble.control.reflex.gh2010 import TOUCH_FIELDS, load_params
+
+    p, q = load_params("expert-touch"), load_params("expert-placement")
+    assert p.wiring == q.wiring == "seed003"
+    assert all(getattr(p, f) == getattr(q, f) for f in p.to_json() if f not in TOUCH_FIELDS)
+    sc = Scenario(controller="gh2010", mechanism="obstacle", swing_fraction=0.1,
+                  speed_m_per_s=1.2)
+    s = simulate_trip(sc, gh2010=p).summary
+    assert s["strategy"] == "elevating" and s["recovered"]
+    assert not simulate_trip(sc, gh2010=q).summary["recovered"]
+    for argv, words in ((["--wiring", "seed003", "--trips"],
+                         "--trips --wiring seed003 starts from a seed003-wired set"),
+                        (["--wiring", "seed003", "--trips", "--params", "knee"],
+                         "is wired gh2010: the trip stage starts from a seed003-wired set")):
+        assert main(["reflex", "fit", "--controller", "gh2010", *argv,
+                     "--out", str(tmp_path / "x")]) == 2
+        err = capsys.readouterr().err
+        assert words in err and err.count("\n") == 1, err

@@ -29,8 +29,9 @@ GH2010_NAMES = ("knee-2ms-dense-wide-s3 (the default: the third 2 ms touch stage
                 "pushed (touch stages "
                 "on pushed-walk), "
                 "pushed-walk (the walking fit with pushes), walk (the first walking fit), "
-                "trip (trip stages on walk) or expert-placement (seed003-wired: the "
-                "placement network's expert)")
+                "trip (trip stages on walk), expert-placement (seed003-wired: the "
+                "placement network's expert) or expert-touch (a touch stage on it: "
+                "recovers 25 of the 45)")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -834,8 +835,9 @@ def cmd_reflex_fit_gh2010(args) -> int:
     )
     from stumble.outputs import prepare_dir, write_gh2010_fit
 
-    if args.trips and args.wiring != "gh2010":
-        raise InputError("--trips is for --wiring gh2010")
+    if args.trips and args.wiring != "gh2010" and args.params is None:
+        raise InputError(f"--trips --wiring {args.wiring} starts from a {args.wiring}-wired "
+                         "set: give it by --params (e.g. expert-placement)")
     if args.expert is not None or args.closed_loop or args.passes is not None:
         raise InputError("--expert, --closed-loop and --passes are for --controller network")
     for flag, given in (("--trip-set", args.trip_set),

@@ -156,7 +156,11 @@ NAMED = {"walk": SEED003_START, "trip": "gh2010_trip.json",
          "knee-2ms-dense-wide-s3": SHIPPED["gh2010"],
          # seed003-wired: the placing expert of the ``placement`` network, reproducible
          # (README "The seed's network in closed loop"; since 2026-12-04, later that day)
-         "expert-placement": "gh2010_seed003_placement.json"}
+         "expert-placement": "gh2010_seed003_placement.json",
+         # a touch stage on it (``reflex fit --wiring seed003 --trips --params
+         # expert-placement``): the first seed003-wired set that recovers trips, 25 of the
+         # 45 (docs/reflex-fits.md; since 2026-12-05, third session)
+         "expert-touch": "gh2010_seed003_touch.json"}
 
 
 @dataclass(frozen=True)
