@@ -983,21 +983,13 @@ def test_the_networks_touch_stage_fits_the_touch_alone_and_keeps_the_walk(tmp_pa
         assert words in err and err.count("\n") == 1, err
 
 
-def test_delay_walks_cost_what_the_slower_walker_does_not_walk(capsys, tmp_path):
-    """``delay_walks``: a candidate also walks 10 s from the same start with its delays
-    × K, the part not walked costing as a fall. The network before delay walks (the
-    ``placement-walk`` walk) walks 3 s at its own delays and falls within 2.5 s at
-    × 1.1; bad scales, or the option given to another fit, are one line and exit 2."""
+def _placement_walk_evaluated(**extra) -> tuple[float, dict]:
+    """``evaluate_walk`` of ``placement-walk`` as it is (3 s from 1.2 m/s at 2 ms), set
+    up with ``init_walk_eval``'s ``extra`` options (the extra walks of a network fit)."""
     import tempfile
     from pathlib import Path
 
-    from stumble.cli import main
-    from stumble.control.reflex.fit_walk import (
-        W_FALL,
-        evaluate_walk,
-        init_walk_eval,
-        network_space,
-    )
+    from stumble.control.reflex.fit_walk import evaluate_walk, init_walk_eval, network_space
     from stumble.control.reflex.identify import default_network
 
     net = default_network("placement-walk")
@@ -1006,11 +998,20 @@ def test_delay_walks_cost_what_the_slower_walker_does_not_walk(capsys, tmp_path)
         path = Path(tmp) / "n.npz"
         net.save(path)
         init_walk_eval("network", 3.0, 1.2, {"network": str(path)}, timestep_s=0.002,
-                       names=space.names, delay_walks=(1.1,))
-        cost, terms = evaluate_walk(space.start)
-        init_walk_eval("network", 3.0, 1.2, {"network": str(path)}, timestep_s=0.002,
-                       names=space.names)
-        alone, others = evaluate_walk(space.start)
+                       names=space.names, **extra)
+        return evaluate_walk(space.start)
+
+
+def test_delay_walks_cost_what_the_slower_walker_does_not_walk(capsys, tmp_path):
+    """``delay_walks``: a candidate also walks 10 s from the same start with its delays
+    × K, the part not walked costing as a fall. The network before delay walks (the
+    ``placement-walk`` walk) walks 3 s at its own delays and falls within 2.5 s at
+    × 1.1; bad scales, or the option given to another fit, are one line and exit 2."""
+    from stumble.cli import main
+    from stumble.control.reflex.fit_walk import W_FALL
+
+    cost, terms = _placement_walk_evaluated(delay_walks=(1.1,))
+    alone, others = _placement_walk_evaluated()
     assert terms["fall"] == 0.0 and terms["walked_s"] == 3.0
     assert 0.75 * W_FALL < terms["delay_1.1"] < W_FALL  # fell within 2.5 s of the 10
     assert "delay_1.1" not in others and cost == pytest.approx(alone + terms["delay_1.1"])
@@ -1036,26 +1037,10 @@ def test_network_pushes_cost_what_the_pushed_network_does_not_walk(capsys, tmp_p
     not walked costing as a fall. ``placement-walk`` walks 3 s unpushed and falls about
     1.9 s after the first push (3 s): half the pushed walk is lost. Refused with
     ``--touch-only`` in one line."""
-    import tempfile
-    from pathlib import Path
-
     from stumble.cli import main
-    from stumble.control.reflex.fit_walk import (
-        W_FALL,
-        evaluate_walk,
-        init_walk_eval,
-        network_space,
-    )
-    from stumble.control.reflex.identify import default_network
+    from stumble.control.reflex.fit_walk import W_FALL
 
-    net = default_network("placement-walk")
-    space = network_space(net, interneuron_biases=False)
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "n.npz"
-        net.save(path)
-        init_walk_eval("network", 3.0, 1.2, {"network": str(path)}, timestep_s=0.002,
-                       names=space.names, pushes=True)
-        _cost, terms = evaluate_walk(space.start)
+    _cost, terms = _placement_walk_evaluated(pushes=True)
     assert terms["fall"] == 0.0 and terms["walked_s"] == 3.0
     assert 0.4 * W_FALL < terms["push"] < 0.6 * W_FALL
     assert main(["reflex", "fit", "--walk-es", "placement", "--touch-only", "--trip-set",
