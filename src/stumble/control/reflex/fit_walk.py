@@ -495,31 +495,21 @@ def evaluate_walk(theta) -> tuple[float, dict]:
                             _EVAL.get("track_limit_deg"))
     terms["walked_s"] = r.summary["walked_s"]
     terms["speed_m_per_s"] = r.summary["speed_m_per_s"]
-    if _EVAL.get("pushes"):  # a walker that falls unpushed falls pushed: not run again
-        pushed = (None if terms["fall"] else
-                  simulate_walk(kind, PUSH_WALK_S, _EVAL["speed"],
-                                params=params if kind == "gh2010" else None,
-                                network=net if kind == "network" else None,
-                                pushes=PUSHES, timestep_s=r.body.model.opt.timestep
-                                ).summary)
-        terms["push"] = push_term(pushed)
-        cost += terms["push"]
-    for v in _EVAL.get("starts", ()):  # the other starts (a fall costs them all)
+    # the extra walks, each PUSH_WALK_S, the part not walked costing as a fall
+    # (``push_term``): through the pushes, from the other starts, at the other delays;
+    # not run for a walker that falls in its own walk (it costs them all)
+    extra = [("push", _EVAL["speed"], {"pushes": PUSHES})] if _EVAL.get("pushes") else []
+    extra += [(f"start_{v:g}", v, {}) for v in _EVAL.get("starts", ())]
+    extra += [(f"delay_{k:g}", _EVAL["speed"], {"delay_scale": k})
+              for k in _EVAL.get("delay_walks", ())]
+    for name, speed, kw in extra:
         other = (None if terms["fall"] else
-                 simulate_walk(kind, PUSH_WALK_S, v,
+                 simulate_walk(kind, PUSH_WALK_S, speed,
                                params=params if kind == "gh2010" else None,
                                network=net if kind == "network" else None,
-                               timestep_s=r.body.model.opt.timestep).summary)
-        terms[f"start_{v:g}"] = push_term(other)
-        cost += terms[f"start_{v:g}"]
-    for k in _EVAL.get("delay_walks", ()):  # slower (or faster) delays, the same start
-        other = (None if terms["fall"] else
-                 simulate_walk(kind, PUSH_WALK_S, _EVAL["speed"],
-                               params=params if kind == "gh2010" else None,
-                               network=net if kind == "network" else None,
-                               delay_scale=k, timestep_s=r.body.model.opt.timestep).summary)
-        terms[f"delay_{k:g}"] = push_term(other)
-        cost += terms[f"delay_{k:g}"]
+                               timestep_s=r.body.model.opt.timestep, **kw).summary)
+        terms[name] = push_term(other)
+        cost += terms[name]
     w_strategy = _EVAL.get("strategy_cost", 0.0)
     if trips and terms["fall"] == 0.0:  # trips only once it walks: they cost 3 s each
         ok = human = 0

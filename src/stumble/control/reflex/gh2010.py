@@ -333,10 +333,11 @@ def load_params(path) -> GH2010Params:
     (``NAMED``: ``walk``, the first walking fit; ``trip``, the trip stages on it;
     ``pushed-walk``, the walking fit with pushes; ``pushed``, the touch stages on it;
     ``knee-walk``, that walking fit refitted with the knee term; ``knee``, the touch stage
-    on it, the default; ``knee-foot``, a touch stage on it by the foot's phase;
-    ``knee-2ms``, ``knee``'s touch stage refitted at a 2 ms step; ``knee-2ms-dense``, a
-    second touch stage on it; ``knee-2ms-dense-wide``, a third); InputError if it is not
-    one."""
+    on it; ``knee-foot``, a touch stage on it by the foot's phase; ``knee-2ms``,
+    ``knee``'s touch stage refitted at a 2 ms step; ``knee-2ms-dense``, a second touch
+    stage on it; ``knee-2ms-dense-wide``, a third; ``knee-2ms-dense-wide-s3``, the third
+    by another seed, the default; ``expert-placement``, the network's expert, and
+    ``expert-touch``, a touch stage on it); InputError if it is not one."""
     from pathlib import Path
 
     shipped = named_file(path)
