@@ -201,25 +201,38 @@ class _Buffers:
         self.time = np.zeros(self.n)
         self.states = np.zeros((self.n, self.nstate))
         self.rows = np.zeros((self.n, self.nsens))
-        self.names: list[str] = []
+        self._runs: list[tuple[int, str]] = []  # (first sample, state name) per change
+
+    def _name(self, k: int, name: str) -> None:
+        if not self._runs or self._runs[-1][1] != name:
+            self._runs.append((k, name))
 
     def add(self, t: float, state: np.ndarray, row: np.ndarray, name: str) -> None:
         k = self.k
         self.time[k], self.states[k], self.rows[k] = t, state, row
-        self.names.append(name)
+        self._name(k, name)
         self.k = k + 1
 
     def extend(self, t: np.ndarray, states: np.ndarray, rows: np.ndarray, name: str) -> None:
         """``add`` of several samples at once."""
         k, n = self.k, len(t)
         self.time[k:k + n], self.states[k:k + n], self.rows[k:k + n] = t, states, rows
-        self.names.extend([name] * n)
+        if n:
+            self._name(k, name)
         self.k = k + n
 
     def truncate(self, n: int) -> None:
         """Keep the first ``n`` samples."""
         self.k = n
-        del self.names[n:]
+        while self._runs and self._runs[-1][0] >= n:
+            self._runs.pop()
+
+    @property
+    def names(self) -> list[str]:
+        """Each sample's state name."""
+        ends = [k for k, _ in self._runs[1:]] + [self.k]
+        return [name for (k0, name), k1 in zip(self._runs, ends, strict=True)
+                for _ in range(k1 - k0)]
 
     def recording(self, lay: SensorLayout, force: Callable | None, loads) -> Recording:
         """The samples as a ``Recording`` (vectorised decoding of the sensor rows)."""
@@ -234,7 +247,7 @@ class _Buffers:
                                                                ).reshape(k, 3)
         return Recording(t.copy(), st[:, 1:1 + nq].copy(), st[:, 1 + nq:1 + nq + nv].copy(),
                          rows[:, lay.com].copy(), rows[:, lay.com_vel].copy(),
-                         fz > CONTACT_FORCE_MIN_N, ob, trip, list(self.names), seg,
+                         fz > CONTACT_FORCE_MIN_N, ob, trip, self.names, seg,
                          rows[:, lay.actuator_force].copy(),
                          st[:, 1 + nq + nv:1 + nq + nv + na].copy(), fz.copy(),
                          sensordata=rows.copy())

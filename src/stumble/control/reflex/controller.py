@@ -383,6 +383,18 @@ class TouchResponse:
             out[a | b, 1 - side] += w[2]
         return out
 
+    def end_tick(self, onsets: np.ndarray, landings: np.ndarray | None = None) -> float:
+        """The first tick from which ``drive`` adds nothing, given each foot's last touch
+        onset and (``cross``) landing (ticks; −inf when none): −inf without either."""
+        end = -math.inf
+        for side in range(2):
+            o = onsets[side]
+            if math.isfinite(o):
+                end = max(end, o + self.lag + self.span)
+            if self.cross and landings is not None and math.isfinite(landings[side]):
+                end = max(end, landings[side] + self.cross_hold)
+        return end
+
     def running(self, tick: int, onset: float) -> bool:
         """Whether a response from ``onset`` is still pending or running at ``tick``."""
         return np.isfinite(onset) and tick < onset + self.lag + self.span
@@ -485,6 +497,7 @@ class ReflexController:
             mv[k * H:(k + 1) * H, j] = net.v[k]
         self.mv = mv
         self._in_at: dict[int, np.ndarray] = {}  # ``_gather_idx``'s, per ring slot
+        self._in_bufs: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # ``_in_scratch``'s
         self._mn_at: dict[int, np.ndarray] = {}
         self._slots_at: dict[tuple[int, int], np.ndarray] = {}  # ``_slots``'
         self._bal_at: dict[tuple[int, int], np.ndarray] = {}  # balance buffer rows
@@ -512,8 +525,10 @@ class ReflexController:
         self.place_buf = (np.zeros((len(self.bal_buf), 5)) if self.balance is not None
                           and self.balance.k_place else None)
         # the compiled block's (``_next_block_compiled``) scratch and constants
-        self._scratch = tuple(np.empty((self.block, 2 * self.nm)) for _ in range(5))
+        self._scratch = tuple(np.empty((self.block, 2 * self.nm)) for _ in range(7))
         self._no_balance = np.zeros((0, 2, 3))
+        self._out_bufs = (np.empty((self.block, 2, len(self.c_lag))),
+                          np.empty((self.block, 2, self.nm)))
         self._bal_cols = (self.balance.cols.astype(np.int64) if self.balance is not None
                           else np.zeros(3, dtype=np.int64))
 
@@ -552,6 +567,16 @@ class ReflexController:
             return
         n = upto - self.h_done
         kern = kernels()
+        if kern is not None and self.trace is None:  # compiled, into kept buffers
+            x, h = self._in_scratch(n)
+            kern["ring_take"](self.sig_buf, self.h_done, self.in_lag, self.in_off,
+                              self.sig_row, self.n_buf, x)
+            np.matmul(x, self.w, out=h)  # (the numbers of the expression below)
+            np.add(h, self.b, out=h)
+            np.tanh(h, out=h)
+            kern["store_rows"](h, self.hid_buf.reshape(self.n_buf, -1), self.h_done)
+            self.h_done = upto
+            return
         if kern is not None:  # the same gather, compiled
             x = np.empty((n, 2, len(self.in_lag)))
             kern["ring_take"](self.sig_buf, self.h_done, self.in_lag, self.in_off,
@@ -568,6 +593,15 @@ class ReflexController:
         else:
             self.hid_buf.reshape(self.n_buf, -1)[self._slots(self.h_done, n)] = h.reshape(n, -1)
         self.h_done = upto
+
+    def _in_scratch(self, n: int) -> tuple[np.ndarray, np.ndarray]:
+        """Kept buffers for ``n`` ticks' delayed inputs (n, 2, n_inputs) and interneurons
+        (n, 2, S·H) (the compiled path; the same few n recur)."""
+        got = self._in_bufs.get(n)
+        if got is None:
+            got = self._in_bufs[n] = (np.empty((n, 2, len(self.in_lag))),
+                                      np.empty((n, 2, self.w.shape[1])))
+        return got
 
     def _motor(self, first: int, n: int) -> np.ndarray:
         """Excitation (n, 2, 7) of ticks first … first+n−1."""
@@ -607,9 +641,11 @@ class ReflexController:
         elementwise (``kernels``; NumPy's power, log and SciPy's filter): the same numbers."""
         d, v, absv, fin = (a[:n] for a in self._scratch[:4])
         kern["net_pre"](self.sensed[:n], self.k_mm, self.l_ref, IB_FORCE_N, d, v, absv, fin)
-        p = absv ** IA_VELOCITY_EXPONENT
+        p = np.power(absv, IA_VELOCITY_EXPONENT, out=self._scratch[5][:n])  # absv ** exp
         ib = self._scratch[4][:n]
-        kern["iir2"](self.gto.b, self.gto.a, IB_GAIN * np.log(fin), self.gto.z, ib)
+        g = np.log(fin, out=self._scratch[6][:n])
+        np.multiply(g, IB_GAIN, out=g)  # IB_GAIN * log(fin)
+        kern["iir2"](self.gto.b, self.gto.a, g, self.gto.z, ib)
         kern["net_push"](d, v, p, ib, self.loads[:n], self.body_weight_n, self.contact,
                          self.net.mean, self.inv_std, self.sig_buf.reshape(self.n_buf, -1),
                          first, _RATE_GAINS)
@@ -627,10 +663,10 @@ class ReflexController:
         if k > self.block_start:
             self._rates_push_compiled(kern, self.block_start, k - self.block_start)
         self._interneurons(k + self.a_min)
-        hid = np.empty((nb, 2, len(self.c_lag)))
+        hid, t = self._out_bufs
         kern["ring_take"](self.hid_buf, k, self.c_lag, self.hid_off, self.hid_row, self.n_buf,
                           hid)
-        t = hid @ self.mv
+        np.matmul(hid, self.mv, out=t)  # (hid @ mv, into a kept buffer)
         kern["net_drive"](t, self.c)
         e = np.exp(t, out=t)
         if self.balance is not None:
@@ -702,6 +738,8 @@ class ReflexController:
     def _add_response(self, k: int, nb: int) -> None:
         """Add the touch response to the block's excitations and clip its controls again
         (blocks it does not reach are left as they were)."""
+        if k >= self.response.end_tick(self._onsets, self._landings):
+            return  # no response under way (``drive`` would add nothing)
         r = self.response.drive(k, nb, self._onsets, self._ahead, self._landings)
         if r is None:
             return
