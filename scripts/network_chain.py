@@ -6,7 +6,8 @@ record) and its wall time. This walks the record back to the first stage and pri
 commands in the order to run them, each ``--out`` named after the directory the next
 stage starts from, with the recorded minutes; a start that is a shipped network is named
 as such (its own chain: run this script on that name), and so is a response taken from
-another network (``--ahead-from``). The network ``placement``, where the CMA-ES chains
+another network (``--ahead-from``); ``stumble reflex reproduce NAME`` runs them as one
+job (``stumble.control.reflex.reproduce``). The network ``placement``, where the CMA-ES chains
 start, was trained by DAgger from the placing expert (README "The seed's network in
 closed loop").
 
@@ -20,23 +21,13 @@ import sys
 from pathlib import Path
 
 
-def stages(fit: dict | None) -> list[dict]:
-    """The record's stages, oldest first: each ``{"command", "minutes", "start",
-    "ahead_from"}``."""
-    out = []
-    while fit:
-        start = (fit.get("from") or {}).get("network")
-        out.append({"command": fit.get("command") or fit.get("method", "?"),
-                    "minutes": (fit.get("wall_time_s") or 0.0) / 60.0, "start": start,
-                    "ahead_from": (fit.get("ahead_from") or {}).get("network")})
-        fit = (fit.get("from") or {}).get("its_fit")
-    return out[::-1]
-
-
 def commands(fit: dict | None, names: set[str]) -> list[str]:
     """The lines to print: a comment and a command per stage, ``--out`` set to what the
     next stage starts from."""
-    st = stages(fit)
+    from stumble.control.reflex.reproduce import stages
+
+    st = [{"command": s.command, "minutes": s.minutes, "start": s.start,
+           "ahead_from": s.ahead_from} for s in stages(fit)]
     lines = []
     if st and st[0]["start"] in names:
         lines.append(f"# starts from the shipped network {st[0]['start']!r}")

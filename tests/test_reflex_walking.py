@@ -361,7 +361,8 @@ def test_the_default_network_recovers_early_and_late_trips_with_both_strategies(
 
 
 def test_the_default_networks_chain_of_commands_is_read_from_its_file():
-    """``scripts/network_chain.py``: the commands that made ``placement-both``, oldest
+    """``scripts/network_chain.py`` (``reproduce.stages``): the commands that made
+    ``placement-both``, oldest
     first, from ``placement`` (shipped) through six CMA-ES stages, each ``--out`` the next
     one's start, the last the combination by ``--ahead-from`` with no search; a network
     without CMA-ES stages is one clear error."""
@@ -376,13 +377,15 @@ def test_the_default_networks_chain_of_commands_is_read_from_its_file():
     spec = importlib.util.spec_from_file_location("network_chain", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
+    from stumble.control.reflex.reproduce import stages
+
     fit = default_network("placement-both").info["fit"]
-    st = mod.stages(fit)
-    assert len(st) == 6 and st[0]["start"] == "placement"
-    assert [s["start"] for s in st[1:]] == ["es1/network.npz", "placement-es",
-                                            "placement-walk", "tr3/network.npz",
-                                            "placement-touch"]
-    assert st[-1]["ahead_from"] == "placement-foot"
+    st = stages(fit)
+    assert len(st) == 6 and st[0].start == "placement"
+    assert [s.start for s in st[1:]] == ["es1/network.npz", "placement-es",
+                                         "placement-walk", "tr3/network.npz",
+                                         "placement-touch"]
+    assert st[-1].ahead_from == "placement-foot"
     lines = mod.commands(fit, set(NETWORK_NAMES))
     cmds = [ln for ln in lines if ln.startswith("stumble ")]
     assert "--out es1/" in cmds[0] and "--out tr3/" in cmds[3]

@@ -464,6 +464,25 @@ def _parser() -> argparse.ArgumentParser:
                     "for gh2010 the step its set was fitted at; the network also runs at "
                     "whole numbers of its 1 ms tick, gh2010 at steps that divide its set's)")
     rw.add_argument("--no-video", action="store_true", help="skip walk.mp4")
+
+    rp = rsub.add_parser("reproduce", help="re-run the fits that made a shipped set",
+                         description="Re-run, as one job, the chain of closed-loop fits "
+                         "recorded in a shipped Geyer & Herr set or network (each stage's "
+                         "command, each starting from the stage before's result), each "
+                         "stage into DIR/<its name>/, and compare each result that is "
+                         "shipped too with the shipped parameters. Writes "
+                         "DIR/reproduce.json after every stage; a stopped job run again "
+                         "keeps the stages already done.")
+    rp.add_argument("name", metavar="NAME",
+                    help="a shipped set (e.g. knee-2ms-dense-wide-s3, the Geyer & Herr "
+                    "default: five fits from the paper's gains, about 32 min on 2 "
+                    "workers) or network (e.g. placement-both, the default: eight fits "
+                    "from the shipped placement network, about 1.5 h)")
+    rp.add_argument("--out", required=True, type=out_dir_arg, metavar="DIR",
+                    help="output directory")
+    rp.add_argument("--from", dest="start_after", metavar="NAME",
+                    help="start from this shipped result of the chain: its own fits are "
+                    "not run (e.g. --from placement-touch)")
     return p
 
 
@@ -1074,10 +1093,25 @@ def cmd_reflex_fit_network_es(args) -> int:
     return 0
 
 
+def cmd_reflex_reproduce(args) -> int:
+    """``stumble reflex reproduce``: the recorded chain of fits of a shipped set, re-run."""
+    from stumble.control.reflex.reproduce import run
+
+    rep = run(args.name, args.out, start_after=args.start_after)
+    same = rep["same_as_shipped"]
+    print(f"{args.name}: {len(rep['stages'])} stage(s) in {rep['minutes']:.1f} min; "
+          + ("the shipped parameters, bit for bit" if same else
+             "differs from the shipped file (see reproduce.json)" if same is False else
+             "not compared") + f"; wrote {rep['result']} and {args.out / 'reproduce.json'}")
+    return 0
+
+
 def cmd_reflex(args) -> int:
     """``stumble reflex fit``: identify the network and write its files."""
     if args.reflex_command == "walk":
         return cmd_reflex_walk(args)
+    if args.reflex_command == "reproduce":
+        return cmd_reflex_reproduce(args)
     if args.trip_start is not None and args.walk_es is None:
         raise InputError("--trip-start is for --walk-es (with --trip-set)")
     if args.cross_step and (args.walk_es is None or args.controller == "gh2010"

@@ -1,0 +1,131 @@
+"""The recorded chains of fits of the shipped sets, read back and re-run as one job."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import shutil
+from importlib import resources
+from pathlib import Path
+
+import pytest
+
+from stumble.cli import main
+from stumble.control.reflex.gh2010 import NAMED
+from stumble.control.reflex.identify import NETWORK_NAMES
+from stumble.control.reflex.reproduce import plan, run
+from stumble.errors import InputError
+
+DATA = resources.files("stumble.control.reflex") / "data"
+
+
+def _arg(argv: list[str], opt: str) -> str | None:
+    return argv[argv.index(opt) + 1] if opt in argv else None
+
+
+def test_the_gh2010_default_is_five_fits_from_the_papers_gains(tmp_path):
+    kind, stages = plan("knee-2ms-dense-wide-s3", tmp_path)
+    assert kind == "gh2010"
+    assert [s.tag for s in stages] == ["pushed-walk", "knee-walk", "knee-2ms",
+                                       "knee-2ms-dense", "knee-2ms-dense-wide-s3"]
+    assert _arg(stages[0].argv, "--params") is None  # the paper's gains
+    for before, st in itertools.pairwise(stages):
+        assert _arg(st.argv, "--params") == str(tmp_path / before.tag / "gh2010.json")
+    for st in stages:
+        assert _arg(st.argv, "--out") == str(tmp_path / st.tag)
+        assert st.argv[:2] == ["reflex", "fit"]
+    assert _arg(stages[-1].argv, "--seed") == "3"
+    assert 25 < sum(s.minutes for s in stages) < 40  # the README's 32 min
+
+
+def test_the_default_network_runs_both_branches_and_their_shared_stages_once(tmp_path):
+    kind, stages = plan("placement-both", tmp_path)
+    tags = [s.tag for s in stages]
+    assert kind == "network"
+    assert tags == ["es1", "placement-es", "placement-walk", "tr3", "placement-touch",
+                    "tr4", "placement-foot", "placement-both"]
+    assert _arg(stages[0].argv, "--walk-es") == "placement"  # DAgger's, shipped
+    last = stages[-1].argv
+    assert _arg(last, "--walk-es") == str(tmp_path / "placement-touch" / "network.npz")
+    assert _arg(last, "--ahead-from") == str(tmp_path / "placement-foot" / "network.npz")
+    assert _arg(stages[5].argv, "--walk-es") == str(tmp_path / "placement-walk" /
+                                                    "network.npz")
+
+
+def _copying_runner(calls: list, change=None):
+    """Stands in for ``stumble``: writes the shipped file of the stage's name (the last
+    part of its ``--out``), as a fit that reproduces it would; ``change(path)`` edits it."""
+    def runner(argv: list[str]) -> int:
+        calls.append(argv)
+        out = Path(_arg(argv, "--out"))
+        out.mkdir(parents=True, exist_ok=True)
+        name = out.name
+        if "--controller" in argv and _arg(argv, "--controller") == "network":
+            src = DATA / NETWORK_NAMES[name] if name in NETWORK_NAMES else DATA / NETWORK_NAMES[
+                "placement-walk"]
+            dst = out / "network.npz"
+        else:
+            src, dst = DATA / NAMED[name], out / "gh2010.json"
+        shutil.copyfile(src, dst)
+        if change is not None:
+            change(dst)
+        return 0
+    return runner
+
+
+def test_a_run_compares_each_shipped_result_and_resumes(tmp_path):
+    calls: list = []
+    rep = run("knee-2ms-dense-wide-s3", tmp_path, runner=_copying_runner(calls))
+    assert len(calls) == 5
+    assert [s["same_as_shipped"] for s in rep["stages"]] == [True] * 5
+    assert rep["same_as_shipped"] is True
+    saved = json.loads((tmp_path / "reproduce.json").read_text())
+    assert saved["stages"][-1]["tag"] == "knee-2ms-dense-wide-s3"
+    assert saved["result"] == str(tmp_path / "knee-2ms-dense-wide-s3" / "gh2010.json")
+    # run again: every result is there, nothing is re-run
+    again: list = []
+    rep2 = run("knee-2ms-dense-wide-s3", tmp_path, runner=_copying_runner(again))
+    assert again == []
+    assert all("kept" in s["note"] for s in rep2["stages"])
+
+
+def test_a_result_that_differs_names_the_parameter(tmp_path):
+    def nudge(path: Path) -> None:
+        d = json.loads(path.read_text())
+        d["params"]["g_scr_ta"] = d["params"]["g_scr_ta"] + 1e-12
+        path.write_text(json.dumps(d))
+
+    rep = run("knee-2ms-dense-wide-s3", tmp_path, start_after="knee-2ms-dense",
+              runner=_copying_runner([], change=nudge))
+    (only,) = rep["stages"]
+    assert only["same_as_shipped"] is False
+    assert only["difference"].startswith("g_scr_ta")
+
+
+def test_from_a_shipped_result_starts_there(tmp_path):
+    calls: list = []
+    rep = run("placement-both", tmp_path, start_after="placement-touch",
+              runner=_copying_runner(calls))
+    assert [Path(_arg(a, "--out")).name for a in calls] == ["tr4", "placement-foot",
+                                                            "placement-both"]
+    assert _arg(calls[0], "--walk-es") == "placement-walk"  # the shipped file
+    assert _arg(calls[-1], "--walk-es") == "placement-touch"
+    assert rep["stages"][-1]["same_as_shipped"] is True
+
+
+def test_a_failing_stage_stops_the_job_and_says_which(tmp_path):
+    with pytest.raises(InputError, match=r"stage 1 \(pushed-walk\) failed \(exit status 2\)"):
+        run("knee-2ms-dense-wide-s3", tmp_path, runner=lambda argv: 2)
+    saved = json.loads((tmp_path / "reproduce.json").read_text())
+    assert saved["stages"][0]["error"] == "exit status 2"
+
+
+@pytest.mark.parametrize("args, says", [
+    (["nothing"], "'nothing' is not a shipped parameter set or network"),
+    (["closed-loop"], "'closed-loop' records no fit command"),
+    (["placement-both", "--from", "knee-walk"], "--from 'knee-walk': not a shipped result"),
+])
+def test_bad_names_get_one_line(tmp_path, capsys, args, says):
+    assert main(["reflex", "reproduce", *args, "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and says in err
