@@ -129,3 +129,20 @@ def test_bad_names_get_one_line(tmp_path, capsys, args, says):
     assert main(["reflex", "reproduce", *args, "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and says in err
+
+
+def test_a_record_that_names_two_results_alike_is_refused(tmp_path, monkeypatch):
+    import stumble.control.reflex.reproduce as rp
+
+    def fit(cmd, start, before=None):
+        return {"command": cmd, "wall_time_s": 60.0,
+                "from": {"network": start, **({"its_fit": before} if before else {})}}
+
+    first = fit("stumble reflex fit --walk-es placement --seed 0 --out DIR", "placement")
+    second = fit("stumble reflex fit --walk-es a/network.npz --seed 1 --out DIR",
+                 "a/network.npz", first)
+    third = fit("stumble reflex fit --walk-es a/network.npz --seed 2 --out DIR",
+                "a/network.npz", second)
+    monkeypatch.setattr(rp, "_record", lambda name: ("network", third))
+    with pytest.raises(InputError, match="names two stages' results alike"):
+        plan("x", tmp_path)

@@ -83,6 +83,14 @@ def stages(fit: dict | None) -> list[Stage]:
     return out[::-1]
 
 
+def _shipped() -> set[str]:
+    """Every shipped set's and network's name."""
+    from stumble.control.reflex.gh2010 import NAMED
+    from stumble.control.reflex.identify import NETWORK_NAMES
+
+    return set(NAMED) | set(NETWORK_NAMES)
+
+
 def _tag(start: str) -> str:
     """The directory name of the stage that made ``start``: a shipped name as it is, a
     recorded path by its directory's name (``tr3/network.npz``: ``tr3``)."""
@@ -100,10 +108,18 @@ def plan(name: str, root: Path) -> tuple[str, list[Stage]]:
                          "or a DAgger network: see the README)")
     out_file = "gh2010.json" if kind == "gh2010" else "network.npz"
     for i, st in enumerate(chain):
-        st.tag = chain[i + 1].start and _tag(chain[i + 1].start) if i + 1 < len(chain) else name
+        nxt = chain[i + 1].start if i + 1 < len(chain) else None
+        st.tag = name if i + 1 == len(chain) else _tag(nxt) if nxt else f"stage{i + 1}"
+    tags = [st.tag for st in chain]
+    if len(set(tags)) < len(tags):
+        raise InputError(f"{name!r}: its record names two stages' results alike "
+                         f"({', '.join(tags)}); run its commands by hand")
     done: list[Stage] = []
     for i, st in enumerate(chain):
         if st.ahead_from:
+            if st.ahead_from not in _shipped():
+                raise InputError(f"{name!r}: stage {st.tag} takes a response from "
+                                 f"{st.ahead_from!r}, not a shipped network")
             for sub in plan(st.ahead_from, root)[1]:
                 if not any(d.argv == sub.argv for d in done):
                     done.append(sub)
@@ -174,15 +190,12 @@ def run(name: str, root: Path, start_after: str | None = None,
     kept: a stopped job resumes); ``start_after``: a shipped result of the chain to start
     from (its own stages are not run: later stages start from the shipped file). Writes
     ``root/reproduce.json`` after every stage; returns it."""
-    from stumble.control.reflex.gh2010 import NAMED
-    from stumble.control.reflex.identify import NETWORK_NAMES
-
     if runner is None:
         from stumble.cli import main as runner
     root = Path(root)
     kind, todo = plan(name, root)
     out_file = "gh2010.json" if kind == "gh2010" else "network.npz"
-    shipped = set(NAMED) | set(NETWORK_NAMES)
+    shipped = _shipped()
     if start_after is not None:
         tags = [s.tag for s in todo]
         if start_after not in tags or start_after == name:
