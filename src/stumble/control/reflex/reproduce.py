@@ -221,6 +221,9 @@ def run(name: str, root: Path, start_after: str | None = None,
             tic = time.perf_counter()
             rc = runner(list(st.argv))
             entry["minutes"] = round((time.perf_counter() - tic) / 60.0, 2)
+            if rc == 130:  # the stage was interrupted (Ctrl-C): so is the job
+                _write(root, report)
+                raise KeyboardInterrupt
             if rc != 0 or not result.exists():
                 entry["error"] = f"exit status {rc}"
                 report["stages"].append(entry)
