@@ -38,18 +38,24 @@ def test_the_gh2010_default_is_five_fits_from_the_papers_gains(tmp_path):
     assert 25 < sum(s.minutes for s in stages) < 40  # the README's 32 min
 
 
-def test_the_default_network_runs_both_branches_and_their_shared_stages_once(tmp_path):
+def test_the_default_network_runs_from_the_papers_gains_both_branches_shared_once(tmp_path):
+    """Its expert's five fits from the paper's gains, DAgger (``placement``, a root whose
+    command is known, ``reproduce.ROOTS``), then the eight CMA-ES fits."""
     kind, stages = plan("placement-both", tmp_path)
     tags = [s.tag for s in stages]
     assert kind == "network"
-    assert tags == ["es1", "placement-es", "placement-walk", "tr3", "placement-touch",
+    assert tags == ["pushed-walk", "knee-walk", "e2", "e3", "expert-placement", "placement",
+                    "es1", "placement-es", "placement-walk", "tr3", "placement-touch",
                     "tr4", "placement-foot", "placement-both"]
-    assert _arg(stages[0].argv, "--walk-es") == "placement"  # DAgger's, shipped
+    dagger = stages[5].argv
+    assert "--closed-loop" in dagger and _arg(dagger, "--seed") == "0"
+    assert _arg(dagger, "--expert") == str(tmp_path / "expert-placement" / "gh2010.json")
+    assert _arg(stages[6].argv, "--walk-es") == str(tmp_path / "placement" / "network.npz")
     last = stages[-1].argv
     assert _arg(last, "--walk-es") == str(tmp_path / "placement-touch" / "network.npz")
     assert _arg(last, "--ahead-from") == str(tmp_path / "placement-foot" / "network.npz")
-    assert _arg(stages[5].argv, "--walk-es") == str(tmp_path / "placement-walk" /
-                                                    "network.npz")
+    assert _arg(stages[11].argv, "--walk-es") == str(tmp_path / "placement-walk" /
+                                                     "network.npz")
 
 
 def _copying_runner(calls: list, change=None):
@@ -60,7 +66,7 @@ def _copying_runner(calls: list, change=None):
         out = Path(_arg(argv, "--out"))
         out.mkdir(parents=True, exist_ok=True)
         name = out.name
-        if "--controller" in argv and _arg(argv, "--controller") == "network":
+        if "--closed-loop" in argv or _arg(argv, "--controller") == "network":
             src = DATA / NETWORK_NAMES[name] if name in NETWORK_NAMES else DATA / NETWORK_NAMES[
                 "placement-walk"]
             dst = out / "network.npz"
@@ -123,7 +129,8 @@ def test_a_failing_stage_stops_the_job_and_says_which(tmp_path):
 @pytest.mark.parametrize("args, says", [
     (["nothing"], "'nothing' is not a shipped parameter set or network"),
     (["closed-loop"], "'closed-loop' records no fit command"),
-    (["placement-both", "--from", "knee-walk"], "--from 'knee-walk': not a shipped result"),
+    (["open-loop"], "'open-loop' records no fit command"),
+    (["placement-both", "--from", "knee-2ms"], "--from 'knee-2ms': not a shipped result"),
 ])
 def test_bad_names_get_one_line(tmp_path, capsys, args, says):
     assert main(["reflex", "reproduce", *args, "--out", str(tmp_path / "o")]) == 2

@@ -11,9 +11,10 @@ After each stage whose result is shipped too, the parameters are compared with t
 shipped ones, value for value: the same machine and versions give them bit for bit (a
 fit is deterministic for its seed); another machine may not, and says so.
 
-Where a chain starts: Geyer & Herr's default from the paper's gains (five fits, about
-32 min on 2 workers); the networks from the shipped ``placement``, DAgger's network
-(``reflex fit --closed-loop --expert expert-placement``, not recorded as a stage).
+Where a chain starts: from the paper's gains. Geyer & Herr's default is five fits (32.5
+min on 2 workers); the networks start from ``placement``, DAgger's network, whose file
+records no command but whose command is known (``ROOTS``: ``reflex fit --closed-loop
+--seed 0 --expert expert-placement``), after its expert's five fits.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ import shlex
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +34,7 @@ from stumble.errors import InputError
 
 START_OPTIONS = ("--params", "--walk-es")  # the option naming a fit's start
 AHEAD_OPTION = "--ahead-from"
+EXPERT_OPTION = "--expert"  # DAgger's expert (a seed003-wired Geyer & Herr set)
 
 
 @dataclass
@@ -48,7 +50,19 @@ class Stage:
     minutes: float
     tag: str = ""
     ahead_from: str | None = None
+    expert: str | None = None  # DAgger's expert, a shipped set made by its own chain first
     argv: list[str] = field(default_factory=list)  # the command to run (set by ``plan``)
+
+
+# Shipped networks that record no fit command but whose command is known and re-runs
+# them bit for bit: ``placement``, DAgger from the placing expert (README "The seed's
+# network in closed loop"), where the CMA-ES chains of the network start (re-run
+# 2026-12-05, fourth session: the shipped weights and trunk balance bit for bit, 50.6
+# min on 2 workers with other work on the machine). A chain that starts from one runs it
+# first, its expert's chain before it.
+ROOTS = {"placement": Stage("stumble reflex fit --closed-loop --seed 0 --expert "
+                            "expert-placement --no-video --out DIR", None, 50.6,
+                            expert="expert-placement")}
 
 
 def _record(name: str) -> tuple[str, dict | None]:
@@ -103,6 +117,10 @@ def plan(name: str, root: Path) -> tuple[str, list[Stage]]:
     ``argv`` pointing at ``root``: ``--ahead-from`` chains first, shared stages once."""
     kind, fit = _record(name)
     chain = stages(fit)
+    if name in ROOTS:
+        chain = [replace(ROOTS[name])]
+    elif chain and chain[0].start in ROOTS:
+        chain.insert(0, replace(ROOTS[chain[0].start]))
     if not chain:
         raise InputError(f"{name!r} records no fit command to re-run (an identification "
                          "or a DAgger network: see the README)")
@@ -116,11 +134,13 @@ def plan(name: str, root: Path) -> tuple[str, list[Stage]]:
                          f"({', '.join(tags)}); run its commands by hand")
     done: list[Stage] = []
     for i, st in enumerate(chain):
-        if st.ahead_from:
-            if st.ahead_from not in _shipped():
-                raise InputError(f"{name!r}: stage {st.tag} takes a response from "
-                                 f"{st.ahead_from!r}, not a shipped network")
-            for sub in plan(st.ahead_from, root)[1]:
+        for need in (st.expert, st.ahead_from):
+            if not need:
+                continue
+            if need not in _shipped():
+                raise InputError(f"{name!r}: stage {st.tag} takes {need!r}, which is not "
+                                 "shipped")
+            for sub in plan(need, root)[1]:
                 if not any(d.argv == sub.argv for d in done):
                     done.append(sub)
         prev = chain[i - 1].tag if i else None
@@ -147,6 +167,9 @@ def _argv(st: Stage, prev: str | None, root: Path, out_file: str) -> list[str]:
             i += 2
         elif w == AHEAD_OPTION and val is not None:
             out += [w, str(root / _tag(val) / out_file)]
+            i += 2
+        elif w == EXPERT_OPTION and val is not None:
+            out += [w, str(root / _tag(val) / "gh2010.json")]
             i += 2
         elif w == "--out" and val is not None:
             out += [w, str(root / st.tag)]
@@ -251,7 +274,7 @@ def _refs(st: Stage) -> list[tuple[int, str]]:
     """(argv index, tag) of every result the stage starts from (its start, its
     ``--ahead-from``) that a stage of the job makes."""
     return [(j + 1, Path(st.argv[j + 1]).parent.name) for j, w in enumerate(st.argv[:-1])
-            if w in (*START_OPTIONS, AHEAD_OPTION)]
+            if w in (*START_OPTIONS, AHEAD_OPTION, EXPERT_OPTION)]
 
 
 def _after(todo: list[Stage], start_after: str, shipped: set[str]) -> list[Stage]:
@@ -277,7 +300,7 @@ def _after(todo: list[Stage], start_after: str, shipped: set[str]) -> list[Stage
                     raise InputError(f"--from {start_after!r}: stage {st.tag} starts from "
                                      f"{t}, which is not run and not shipped")
                 argv[j] = t  # the shipped file, by its name
-        keep.append(Stage(st.command, st.start, st.minutes, st.tag, st.ahead_from, argv))
+        keep.append(replace(st, argv=argv))
     return keep
 
 
