@@ -70,8 +70,9 @@ def _copying_runner(calls: list, change=None):
             src = DATA / NETWORK_NAMES[name] if name in NETWORK_NAMES else DATA / NETWORK_NAMES[
                 "placement-walk"]
             dst = out / "network.npz"
-        else:
-            src, dst = DATA / NAMED[name], out / "gh2010.json"
+        else:  # (an unshipped expert stage: any seed003-wired set)
+            src = DATA / NAMED.get(name, NAMED["expert-placement"])
+            dst = out / "gh2010.json"
         shutil.copyfile(src, dst)
         if change is not None:
             change(dst)
@@ -93,6 +94,22 @@ def test_a_run_compares_each_shipped_result_and_resumes(tmp_path):
     rep2 = run("knee-2ms-dense-wide-s3", tmp_path, runner=_copying_runner(again))
     assert again == []
     assert all("kept" in s["note"] for s in rep2["stages"])
+
+
+def test_the_default_network_from_the_papers_gains_checks_each_kind_of_result(tmp_path):
+    """The expert's stages write Geyer & Herr sets, DAgger and the rest networks: each
+    result is looked for, and compared, as what its stage fits."""
+    calls: list = []
+    rep = run("placement-both", tmp_path, runner=_copying_runner(calls))
+    assert len(calls) == 14
+    by_tag = {s["tag"]: s for s in rep["stages"]}
+    assert (tmp_path / "expert-placement" / "gh2010.json").exists()
+    assert (tmp_path / "placement" / "network.npz").exists()
+    for tag in ("pushed-walk", "knee-walk", "expert-placement", "placement", "placement-es",
+                "placement-walk", "placement-touch", "placement-foot", "placement-both"):
+        assert by_tag[tag]["same_as_shipped"] is True, tag
+    assert "same_as_shipped" not in by_tag["e2"]  # not shipped: not compared
+    assert rep["same_as_shipped"] is True
 
 
 def test_a_result_that_differs_names_the_parameter(tmp_path):

@@ -567,27 +567,21 @@ class ReflexController:
             return
         n = upto - self.h_done
         kern = kernels()
-        if kern is not None and self.trace is None:  # compiled, into kept buffers
-            x, h = self._in_scratch(n)
-            kern["ring_take"](self.sig_buf, self.h_done, self.in_lag, self.in_off,
-                              self.sig_row, self.n_buf, x)
-            np.matmul(x, self.w, out=h)  # (the numbers of the expression below)
-            np.add(h, self.b, out=h)
-            np.tanh(h, out=h)
-            kern["store_rows"](h, self.hid_buf.reshape(self.n_buf, -1), self.h_done)
-            self.h_done = upto
-            return
-        if kern is not None:  # the same gather, compiled
-            x = np.empty((n, 2, len(self.in_lag)))
+        if kern is not None:  # the same gather, compiled (into kept buffers unless traced)
+            x, h = (self._in_scratch(n) if self.trace is None else
+                    (np.empty((n, 2, len(self.in_lag))), np.empty((n, 2, self.w.shape[1]))))
             kern["ring_take"](self.sig_buf, self.h_done, self.in_lag, self.in_off,
                               self.sig_row, self.n_buf, x)
         else:
             idx = self._gather_idx(self._in_at, self.in_lag, self.sig_row, self.in_off,
                                    self.h_done, n)
             x = self.sig_buf.take(idx)  # (n, 2, n_inputs): the delayed standardised inputs
+            h = np.empty((n, 2, self.w.shape[1]))
         if self.trace is not None:
             self.trace["inputs"].append(x)
-        h = np.tanh(x @ self.w + self.b)  # (n, 2, S·H)
+        np.matmul(x, self.w, out=h)  # h = tanh(x @ w + b), (n, 2, S·H)
+        np.add(h, self.b, out=h)
+        np.tanh(h, out=h)
         if kern is not None:
             kern["store_rows"](h, self.hid_buf.reshape(self.n_buf, -1), self.h_done)
         else:
@@ -596,7 +590,7 @@ class ReflexController:
 
     def _in_scratch(self, n: int) -> tuple[np.ndarray, np.ndarray]:
         """Kept buffers for ``n`` ticks' delayed inputs (n, 2, n_inputs) and interneurons
-        (n, 2, S·H) (the compiled path; the same few n recur)."""
+        (n, 2, S·H) (the compiled path untraced; the same few n recur)."""
         got = self._in_bufs.get(n)
         if got is None:
             got = self._in_bufs[n] = (np.empty((n, 2, len(self.in_lag))),

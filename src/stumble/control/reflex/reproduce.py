@@ -51,6 +51,7 @@ class Stage:
     tag: str = ""
     ahead_from: str | None = None
     expert: str | None = None  # DAgger's expert, a shipped set made by its own chain first
+    kind: str = ""  # what it fits: ``gh2010`` or ``network`` (set by ``plan``)
     argv: list[str] = field(default_factory=list)  # the command to run (set by ``plan``)
 
 
@@ -124,8 +125,9 @@ def plan(name: str, root: Path) -> tuple[str, list[Stage]]:
     if not chain:
         raise InputError(f"{name!r} records no fit command to re-run (an identification "
                          "or a DAgger network: see the README)")
-    out_file = "gh2010.json" if kind == "gh2010" else "network.npz"
+    out_file = _out_file(kind)
     for i, st in enumerate(chain):
+        st.kind = kind
         nxt = chain[i + 1].start if i + 1 < len(chain) else None
         st.tag = name if i + 1 == len(chain) else _tag(nxt) if nxt else f"stage{i + 1}"
     tags = [st.tag for st in chain]
@@ -148,6 +150,11 @@ def plan(name: str, root: Path) -> tuple[str, list[Stage]]:
         if not any(d.argv == st.argv for d in done):
             done.append(st)
     return kind, done
+
+
+def _out_file(kind: str) -> str:
+    """The file a fit of ``kind`` writes its result to."""
+    return "gh2010.json" if kind == "gh2010" else "network.npz"
 
 
 def _argv(st: Stage, prev: str | None, root: Path, out_file: str) -> list[str]:
@@ -217,7 +224,6 @@ def run(name: str, root: Path, start_after: str | None = None,
         from stumble.cli import main as runner
     root = Path(root)
     kind, todo = plan(name, root)
-    out_file = "gh2010.json" if kind == "gh2010" else "network.npz"
     shipped = _shipped()
     if start_after is not None:
         tags = [s.tag for s in todo]
@@ -230,7 +236,7 @@ def run(name: str, root: Path, start_after: str | None = None,
     report = {"name": name, "kind": kind, "from": start_after, "stages": []}
     t_all = time.perf_counter()
     for i, st in enumerate(todo, 1):
-        result = root / st.tag / out_file
+        result = root / st.tag / _out_file(st.kind)  # (an expert's chain: gh2010)
         entry = {"stage": i, "of": len(todo), "tag": st.tag,
                  "command": "stumble " + shlex.join(st.argv),
                  "recorded_minutes": round(st.minutes, 2)}
@@ -254,7 +260,7 @@ def run(name: str, root: Path, start_after: str | None = None,
                 raise InputError(f"reproduce: stage {i} ({st.tag}) failed (exit status "
                                  f"{rc}); its command is in {root / 'reproduce.json'}")
         if st.tag in shipped:
-            same, why = same_as_shipped(kind, result, st.tag)
+            same, why = same_as_shipped(st.kind, result, st.tag)
             entry["same_as_shipped"] = same
             if not same:
                 entry["difference"] = why
@@ -264,7 +270,7 @@ def run(name: str, root: Path, start_after: str | None = None,
         report["stages"].append(entry)
         _write(root, report)
     report["minutes"] = round((time.perf_counter() - t_all) / 60.0, 2)
-    report["result"] = str(root / name / out_file)
+    report["result"] = str(root / name / _out_file(kind))
     report["same_as_shipped"] = report["stages"][-1].get("same_as_shipped")
     _write(root, report)
     return report
