@@ -49,6 +49,45 @@ def test_training_on_the_labels_lowers_the_loss(episodes):
     assert trained is not net and net.pack().tolist() != trained.pack().tolist()
 
 
+def test_training_on_two_processes_gives_the_same_numbers(episodes):
+    """``SetPool``: the sets split over this process and a worker, each loss and gradient
+    summed in the sets' order: the one-process loss, gradient and trained weights, bit
+    for bit (the shipped closed-loop networks re-run on any number of workers)."""
+    from stumble.control.reflex.dagger import SetPool, _loss_grad
+
+    net, eps = episodes
+    data = [(ep.inputs[:, side], ep.targets[:, side], ep.mask.astype(float))
+            for ep in eps.values() for side in range(2)]
+    pool = SetPool(2)
+    try:
+        pool.hold(data[:3])
+        pool.hold(data)  # the sets come as DAgger's passes add them
+        pool.start(net)
+        loss, grad = pool.loss_grad(net, net.pack())
+        ref_loss, ref_grad = _loss_grad(net, data)
+        assert loss == ref_loss and np.array_equal(grad, ref_grad)
+        a, la = train_on(net, data, iterations=5)
+        b, lb = train_on(net, data, iterations=5, pool=pool)
+        assert la == lb and np.array_equal(a.pack(), b.pack())
+    finally:
+        pool.close()
+    assert not any(p.is_alive() for p in pool._procs)
+
+
+def test_judging_on_workers_gives_the_same_figures():
+    """``judge(pool=...)``: the walks from each start run on worker processes, the
+    figures those of one process (2 s walks here)."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    from stumble.control.reflex import dagger as D
+
+    net = default_network("placement")
+    alone = D.judge(net, (1.1, 1.3), duration_s=2.0)
+    with ProcessPoolExecutor(2) as pool:
+        shared = D.judge(net, (1.1, 1.3), pool=pool, duration_s=2.0)
+    assert shared == alone and alone["walked_s_by_start"] == {"1.1": 2.0, "1.3": 2.0}
+
+
 def test_each_pass_is_written_as_it_ends(tmp_path, monkeypatch):
     """``dagger(out_dir=...)``: every pass's row is appended to ``passes.jsonl`` when it
     ends and the best network so far saved whole (``best_network.npz``), so that a
@@ -60,9 +99,10 @@ def test_each_pass_is_written_as_it_ends(tmp_path, monkeypatch):
 
     net, expert = default_network("closed-loop"), shipped_params("seed003")
     costs = iter([50.0, 40.0, 45.0])  # the start, pass 0 (better), pass 1 (worse)
-    monkeypatch.setattr(D, "judge", lambda n, speeds: {"cost": next(costs)})
+    monkeypatch.setattr(D, "judge", lambda n, speeds, pool=None: {"cost": next(costs)})
     monkeypatch.setattr(D, "_collect_job", lambda a: collect(*a, duration_s=0.3))
-    monkeypatch.setattr(D, "train_on", lambda n, data: (train_on(n, data, 2)[0], 0.5))
+    monkeypatch.setattr(D, "train_on",
+                        lambda n, data, pool=None: (train_on(n, data, 2)[0], 0.5))
     monkeypatch.setattr(D, "ident_data", lambda n, ident: [])
     res = D.dagger(net, None, expert, passes=2, episode_speeds=(1.2,), judge_speeds=(1.2,),
                    out_dir=tmp_path)

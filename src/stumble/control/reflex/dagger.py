@@ -170,26 +170,132 @@ def collect(net: Network, params: GH2010Params, beta: float, seed: int,
     return Episode(x, np.clip(y, 0.01, 0.99), mask, float(rec.time_s[-1]))
 
 
-def _loss_grad(net: Network, data: list[tuple[np.ndarray, np.ndarray, np.ndarray]]):
-    """Weighted squared excitation error over (inputs (T, n_in), target, weight) sets."""
+def _set_loss_grad(net: Network, xd: np.ndarray, tgt: np.ndarray,
+                   wt: np.ndarray) -> tuple[float, np.ndarray, float]:
+    """One (inputs, target, weight) set's share of ``_loss_grad``: half its weighted
+    squared error, its gradient and its weight."""
+    u, cache_ = net.forward(xd)
+    err = (u - tgt) * wt[:, None]
+    return 0.5 * float((err * (u - tgt)).sum()), net.gradient(xd, err, cache_), float(wt.sum())
+
+
+def _sum_sets(parts) -> tuple[float, np.ndarray]:
+    """The loss and gradient from the sets' shares, summed in the sets' order: the same
+    numbers wherever each share was computed."""
     loss, grad, n = 0.0, 0.0, 0.0
-    for xd, tgt, wt in data:
-        u, cache_ = net.forward(xd)
-        err = (u - tgt) * wt[:, None]
-        loss += 0.5 * float((err * (u - tgt)).sum())
-        grad = grad + net.gradient(xd, err, cache_)
-        n += float(wt.sum())
+    for loss_k, grad_k, n_k in parts:
+        loss += loss_k
+        grad = grad + grad_k
+        n += n_k
     return loss / n, grad / n
 
 
-def train_on(net: Network, data, iterations: int = 300) -> tuple[Network, float]:
-    """L-BFGS from the network's weights on the data; returns the trained copy, loss."""
+def _loss_grad(net: Network, data: list[tuple[np.ndarray, np.ndarray, np.ndarray]]):
+    """Weighted squared excitation error over (inputs (T, n_in), target, weight) sets."""
+    return _sum_sets(_set_loss_grad(net, *s) for s in data)
+
+
+def _set_worker(conn) -> None:
+    """A ``SetPool`` process: holds its sets, and on each theta sends back their shares."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent stops it
+    sets: list = []
+    net = None
+    while True:
+        msg = conn.recv()
+        try:
+            if msg[0] == "add":
+                sets += msg[1]
+            elif msg[0] == "net":
+                net = msg[1]
+            elif msg[0] == "eval":
+                net.unpack(msg[1])
+                conn.send(("ok", [(k, _set_loss_grad(net, *s)) for k, s in sets]))
+            else:
+                return
+        except Exception as e:  # handed to the parent, which raises it
+            conn.send(("error", f"{type(e).__name__}: {e}"))
+
+
+class SetPool:
+    """The training sets spread over ``processes`` (this one and ``processes`` − 1
+    workers), set k on process k mod ``processes``: each loss and gradient is computed
+    where its sets live, at once, and summed in the sets' order, so that training gives
+    the numbers of ``_loss_grad`` in one process, bit for bit, in about 1/``processes``
+    of the time (the sets are alike in size). ``close`` stops the workers."""
+
+    def __init__(self, processes: int):
+        import multiprocessing
+
+        ctx = multiprocessing.get_context()
+        self.n = max(1, int(processes))
+        self._conns, self._procs = [], []
+        self._local: list = []  # (k, set) of this process's share
+        self._count = 0
+        for _ in range(self.n - 1):
+            mine, theirs = ctx.Pipe()
+            proc = ctx.Process(target=_set_worker, args=(theirs,), daemon=True)
+            proc.start()
+            theirs.close()
+            self._conns.append(mine)
+            self._procs.append(proc)
+
+    def hold(self, data: list) -> None:
+        """Hand out the sets of ``data`` not held yet (``data`` only grows, in order)."""
+        new: list[list] = [[] for _ in range(self.n)]
+        for k in range(self._count, len(data)):
+            new[k % self.n].append((k, data[k]))
+        self._local += new[0]
+        for conn, sets in zip(self._conns, new[1:], strict=True):
+            if sets:
+                conn.send(("add", sets))
+        self._count = len(data)
+
+    def start(self, net: Network) -> None:
+        """The network whose free parameters each ``loss_grad`` sets (its structure)."""
+        for conn in self._conns:
+            conn.send(("net", net))
+
+    def loss_grad(self, net: Network, theta: np.ndarray) -> tuple[float, np.ndarray]:
+        """``_loss_grad`` over the held sets of ``net`` with ``theta`` unpacked."""
+        for conn in self._conns:
+            conn.send(("eval", theta))
+        parts = {k: _set_loss_grad(net, *s) for k, s in self._local}
+        for conn in self._conns:
+            status, got = conn.recv()
+            if status != "ok":
+                raise RuntimeError(f"a training worker failed: {got}")
+            parts.update(got)
+        return _sum_sets(parts[k] for k in range(self._count))
+
+    def close(self) -> None:
+        """Stop the workers."""
+        for conn in self._conns:
+            try:
+                conn.send(("stop",))
+            except (BrokenPipeError, OSError):
+                pass
+        for proc in self._procs:
+            proc.join(timeout=5)
+            if proc.is_alive():
+                proc.terminate()
+        self._conns, self._procs = [], []
+
+
+def train_on(net: Network, data, iterations: int = 300,
+             pool: SetPool | None = None) -> tuple[Network, float]:
+    """L-BFGS from the network's weights on the data; returns the trained copy, loss.
+    ``pool``: its processes share the work (the same numbers)."""
     net = replace(net, info=dict(net.info))
     theta0 = net.pack()
+    if pool is not None:
+        pool.hold(data)
+        pool.start(net)
 
     def fun(th):
         net.unpack(th)
-        return _loss_grad(net, data)
+        return pool.loss_grad(net, th) if pool is not None else _loss_grad(net, data)
 
     res = minimize(fun, theta0, jac=True, method="L-BFGS-B",
                    options={"maxiter": iterations, "maxfun": 2 * iterations})
@@ -224,19 +330,26 @@ def _collect_job(args) -> Episode:
     return collect(net, params, beta, seed, speed)
 
 
-def judge(net: Network, speeds: tuple[float, ...] = JUDGE_SPEEDS) -> dict:
-    """The walking objective of the network on its own (``fit_walk.walk_cost``), from
-    each start speed of ``speeds`` (m/s): the mean cost, the figures of the first and
-    the time walked from each."""
+def _judge_walk(args) -> tuple[float, dict, dict]:
+    """One of ``judge``'s walks, (network, start m/s, s): (cost, terms, summary)."""
     from stumble.control.reflex.fit_walk import FIT_TIMESTEP_S, effort_of, walk_cost
     from stumble.pipeline import simulate_walk
 
-    rows = []
-    for v in speeds:
-        r = simulate_walk("network", EVAL_S, v, network=net, timestep_s=FIT_TIMESTEP_S)
-        cost, terms = walk_cost(r.summary, effort_of(r))
-        rows.append((cost, terms, r.summary))
-    cost, terms, s = rows[0]
+    net, v, duration_s = args
+    r = simulate_walk("network", duration_s, v, network=net, timestep_s=FIT_TIMESTEP_S)
+    cost, terms = walk_cost(r.summary, effort_of(r))
+    return cost, terms, r.summary
+
+
+def judge(net: Network, speeds: tuple[float, ...] = JUDGE_SPEEDS, pool=None,
+          duration_s: float = EVAL_S) -> dict:
+    """The walking objective of the network on its own (``fit_walk.walk_cost``) over
+    ``duration_s`` from each start speed of ``speeds`` (m/s): the mean cost, the figures
+    of the first and the time walked from each. ``pool``: an executor that runs the
+    walks (the same numbers)."""
+    jobs = [(net, v, duration_s) for v in speeds]
+    rows = list(pool.map(_judge_walk, jobs) if pool is not None else map(_judge_walk, jobs))
+    _cost, terms, s = rows[0]
     out = {"cost": float(np.mean([c for c, _t, _s in rows])), "walked_s": s["walked_s"],
            "speed_m_per_s": s["speed_m_per_s"], "rmse_deg": s["rmse_deg"],
            "stance_fraction": s["stance_fraction"], "terms": terms,
@@ -264,25 +377,33 @@ def dagger(net: Network, ident, params: GH2010Params, passes: int = PASSES, seed
     base = ident_data(net, ident)
     data: list = []
     out = DaggerResult(net) if expert is None else DaggerResult(net, expert=expert)
-    best_cost = judge(net, judge_speeds)["cost"]
+    sets = SetPool(workers) if workers > 1 else None  # training, the same numbers
     pool = ProcessPoolExecutor(workers) if workers > 1 else None
     try:
+        best_cost = judge(net, judge_speeds, pool=pool)["cost"]
         for i in range(passes):
             beta = BETA_DECAY ** i
             jobs = [(net, params, beta, seed * 1000 + 10 * i + j, speed)
                     for j, speed in enumerate(episode_speeds)]
+            tic = time.perf_counter()
             eps = list(pool.map(_collect_job, jobs) if pool else map(_collect_job, jobs))
+            collect_s = time.perf_counter() - tic
             for ep in eps:
                 for side in range(2):
                     data.append((ep.inputs[:, side], ep.targets[:, side],
                                  ep.mask.astype(float)))
-            net, loss = train_on(net, base + data)
+            tic = time.perf_counter()
+            net, loss = train_on(net, base + data, pool=sets)
+            train_s = time.perf_counter() - tic
             net.info["balance"] = balance_of(params).to_info()
+            tic = time.perf_counter()
+            judged = judge(net, judge_speeds, pool=pool)
             row = {"pass": i, "beta": beta, "loss": loss,
                    "samples": int(sum(w.sum() for _x, _y, w in data)),
-                   "episodes_walked_s": [ep.walked_s for ep in eps],
-                   **judge(net, judge_speeds),
-                   "wall_time_s": round(time.perf_counter() - t0, 1)}
+                   "episodes_walked_s": [ep.walked_s for ep in eps], **judged,
+                   "wall_time_s": round(time.perf_counter() - t0, 1),
+                   "collect_s": round(collect_s, 1), "train_s": round(train_s, 1),
+                   "judge_s": round(time.perf_counter() - tic, 1)}
             if row["cost"] < best_cost:
                 best_cost, out.network = row["cost"], net
                 if out_dir is not None:  # written whole, then renamed
@@ -298,5 +419,7 @@ def dagger(net: Network, ident, params: GH2010Params, passes: int = PASSES, seed
     finally:
         if pool is not None:
             pool.shutdown()
+        if sets is not None:
+            sets.close()
     out.wall_time_s = time.perf_counter() - t0
     return out

@@ -59,10 +59,11 @@ class Stage:
 # them bit for bit: ``placement``, DAgger from the placing expert (README "The seed's
 # network in closed loop"), where the CMA-ES chains of the network start (re-run
 # 2026-12-05, fourth session: the shipped weights and trunk balance bit for bit, 50.6
-# min on 2 workers with other work on the machine). A chain that starts from one runs it
-# first, its expert's chain before it.
+# min on 2 workers with other work on the machine; fifth session, its training shared
+# by the workers (``dagger.SetPool``): bit for bit again, 20.5 min on 2 workers, idle).
+# A chain that starts from one runs it first, its expert's chain before it.
 ROOTS = {"placement": Stage("stumble reflex fit --closed-loop --seed 0 --expert "
-                            "expert-placement --no-video --out DIR", None, 50.6,
+                            "expert-placement --no-video --out DIR", None, 20.5,
                             expert="expert-placement")}
 
 
