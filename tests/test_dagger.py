@@ -69,9 +69,13 @@ def test_training_on_two_processes_gives_the_same_numbers(episodes):
         a, la = train_on(net, data, iterations=5)
         b, lb = train_on(net, data, iterations=5, pool=pool)
         assert la == lb and np.array_equal(a.pack(), b.pack())
+        with pytest.raises(ValueError, match="the sets it holds"):
+            pool.hold(data[1:])  # not the data it holds
+        workers = list(pool._procs)
+        assert len(workers) == 1 and workers[0].is_alive()
     finally:
         pool.close()
-    assert not any(p.is_alive() for p in pool._procs)
+    assert not workers[0].is_alive()
 
 
 def test_judging_on_workers_gives_the_same_figures():

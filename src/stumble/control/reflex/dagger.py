@@ -223,7 +223,11 @@ class SetPool:
     workers), set k on process k mod ``processes``: each loss and gradient is computed
     where its sets live, at once, and summed in the sets' order, so that training gives
     the numbers of ``_loss_grad`` in one process, bit for bit, in about 1/``processes``
-    of the time (the sets are alike in size). ``close`` stops the workers."""
+    of the time (the sets are alike in size; 1.7 times as fast on two processes,
+    ``benchmarks/bench_dagger.py``). That needs OpenBLAS's idle threads to sleep at once,
+    which ``import stumble`` asks for before NumPy loads OpenBLAS (``stumble/__init__``):
+    where NumPy was loaded first they spin on the other process's core, and two
+    processes train no faster than one (the same numbers). ``close`` stops the workers."""
 
     def __init__(self, processes: int):
         import multiprocessing
@@ -232,6 +236,7 @@ class SetPool:
         self.n = max(1, int(processes))
         self._conns, self._procs = [], []
         self._local: list = []  # (k, set) of this process's share
+        self._held: list = []  # every set handed out, in order (to check ``hold``'s data)
         self._count = 0
         for _ in range(self.n - 1):
             mine, theirs = ctx.Pipe()
@@ -242,7 +247,12 @@ class SetPool:
             self._procs.append(proc)
 
     def hold(self, data: list) -> None:
-        """Hand out the sets of ``data`` not held yet (``data`` only grows, in order)."""
+        """Hand out the sets of ``data`` not held yet (``data`` only grows, in order: the
+        sets held must be its first, the same objects, or ValueError)."""
+        if len(data) < self._count or any(
+                a is not b for a, b in zip(data[:self._count], self._held, strict=True)):
+            raise ValueError("SetPool.hold: the data must start with the sets it holds")
+        self._held += data[self._count:]
         new: list[list] = [[] for _ in range(self.n)]
         for k in range(self._count, len(data)):
             new[k % self.n].append((k, data[k]))
