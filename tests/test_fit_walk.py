@@ -500,6 +500,23 @@ def _noisy_quadratic(arg):
     return cost, {"sampled": float(sample is not None)}
 
 
+def test_a_touch_stage_spread_trip_by_trip_over_the_workers_gives_the_same_fit():
+    """A touch stage with workers evaluates each candidate as jobs, its walk and each of
+    its trips (``WALK_SPLIT``): the same history, best candidate and terms as whole
+    candidates in one process (one generation of four, a 2 s walk and two trips)."""
+    from stumble.control.reflex.fit_walk import fit_gh2010
+
+    stages = ((1, 2.0, ((0.15, 1.2), (0.6, 1.2))),)
+    runs = [fit_gh2010(seed=4, stages=stages, popsize=4, trips=True, touch_only=True,
+                       crossing=True, recovery_cost=5.0, workers=w) for w in (1, 2)]
+    one, two = runs
+    assert [h["generation_median"] for h in one.history] == [
+        h["generation_median"] for h in two.history]
+    assert one.best_cost == two.best_cost and one.best_terms == two.best_terms
+    assert np.array_equal(one.best_theta, two.best_theta)
+    assert {"trip_0.15_1.2", "unrecovered_0.6_1.2", "trips_recovered"} <= set(one.best_terms)
+
+
 def test_a_sampled_fit_judges_each_generation_on_its_sample_and_returns_the_mean():
     """``cma_fit(sample=...)``: every candidate of a generation gets that generation's
     sample; the result is the search's mean, judged without a sample (its whole set),

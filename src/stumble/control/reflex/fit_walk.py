@@ -208,7 +208,8 @@ def cma_fit(evaluate: Callable[[np.ndarray], tuple[float, dict]], space: Space,
             sigma: float = 0.5, workers: int = 1, out: Path | None = None,
             progress: Callable[[dict], None] | None = None, initializer=None,
             initargs: tuple = (), target: float | None = None, first_generation: int = 0,
-            stage: str = "", fixed: dict | None = None, sample=None) -> FitResult:
+            stage: str = "", fixed: dict | None = None, sample=None,
+            split=None) -> FitResult:
     """Minimise ``evaluate(theta)`` (a picklable, top-level function returning (J, terms))
     over ``space`` with seeded CMA-ES, ``workers`` processes evaluating each generation.
     Stops after ``generations`` or once the best J is below ``target``; ``generations``
@@ -232,7 +233,8 @@ def cma_fit(evaluate: Callable[[np.ndarray], tuple[float, dict]], space: Space,
     t0 = time.perf_counter()
     pool = (ProcessPoolExecutor(workers, initializer=initializer, initargs=initargs)
             if workers > 1 else None)
-    if pool is None and initializer is not None:
+    split = split if pool is not None else None
+    if (pool is None or split is not None) and initializer is not None:
         initializer(*initargs)
     hist_file = None
     if out is not None:
@@ -246,7 +248,14 @@ def cma_fit(evaluate: Callable[[np.ndarray], tuple[float, dict]], space: Space,
             thetas = [space.to_params(x) for x in xs]
             drawn = None if sample is None else sample(gen)
             args = thetas if sample is None else [(t, drawn) for t in thetas]
-            results = list(pool.map(evaluate, args) if pool else map(evaluate, args))
+            if split is not None:  # each candidate as its jobs, spread over the workers
+                jobs_of, run_job, combine = split
+                jobs = [jobs_of(a) for a in args]
+                outs = iter(pool.map(run_job, [j for js in jobs for j in js]))
+                results = [combine(a, [next(outs) for _j in js])
+                           for a, js in zip(args, jobs, strict=True)]
+            else:
+                results = list(pool.map(evaluate, args) if pool else map(evaluate, args))
             if generations:
                 opt.tell([(x, r[0]) for x, r in zip(xs, results, strict=True)])
             best.evaluations += len(xs)
@@ -444,15 +453,9 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                  delay_walks=tuple(map(float, delay_walks)))
 
 
-def evaluate_walk(theta) -> tuple[float, dict]:
-    """J of one candidate of the controller set up by ``init_walk_eval``; ``theta`` may be
-    ``(theta, trips)``: judged on those trips instead of the set's (``cma_fit``'s
-    ``sample``)."""
-    from stumble.pipeline import simulate_walk
-
-    trips = _EVAL.get("trips") or ()
-    if isinstance(theta, tuple):
-        theta, trips = theta
+def _candidate(theta) -> tuple:
+    """(params, network) of a candidate of the controller set up by ``init_walk_eval``
+    (the one a ``gh2010`` fit does not have is None)."""
     kind = _EVAL["kind"]
     if kind == "gh2010":
         from stumble.control.reflex.gh2010 import GH2010Params
@@ -462,31 +465,33 @@ def evaluate_walk(theta) -> tuple[float, dict]:
                              crossing=_EVAL.get("crossing", False),
                              touch_only=_EVAL.get("touch_only", False),
                              placement=_EVAL.get("placement", False)).names
-        params = GH2010Params(**{**_EVAL["base"],
-                                 **dict(zip(names, map(float, theta), strict=True))})
-        if _EVAL.get("touch_only") and "walk" in _EVAL:  # no obstacle, no touch: the same
-            r = _EVAL["walk"]  # walk for every candidate, run once per process
-        else:
-            r = simulate_walk("gh2010", _EVAL["duration_s"], _EVAL["speed"], params=params)
-            if _EVAL.get("touch_only"):
-                _EVAL["walk"] = r
-    elif kind == "network":
+        return GH2010Params(**{**_EVAL["base"],
+                               **dict(zip(names, map(float, theta), strict=True))}), None
+    if kind == "network":
         from stumble.control.reflex.network import Network
 
         if "start_net" not in _EVAL:  # loaded once per process
             _EVAL["start_net"] = Network.load(_EVAL["base"]["network"])
-        start = _EVAL["start_net"]
-        touch_only = _EVAL.get("touch_only", False)
-        net = network_with(start, theta, _EVAL.get("names"))
-        if touch_only and "walk" in _EVAL:  # no obstacle, no touch: the same walk for
-            r = _EVAL["walk"]  # every candidate, run once per process
-        else:
-            r = simulate_walk("network", _EVAL["duration_s"], _EVAL["speed"], network=net,
-                              timestep_s=_EVAL.get("timestep_s") or FIT_TIMESTEP_S)
-            if touch_only:
-                _EVAL["walk"] = r
+        return None, network_with(_EVAL["start_net"], theta, _EVAL.get("names"))
+    raise ValueError(kind)
+
+
+def _walk_part(theta) -> tuple[float, dict]:
+    """A candidate's walk and extra walks (``evaluate_walk`` without its trips): J, terms."""
+    from stumble.pipeline import simulate_walk
+
+    kind = _EVAL["kind"]
+    params, net = _candidate(theta)
+    touch_only = _EVAL.get("touch_only", False)
+    if touch_only and "walk" in _EVAL:  # no obstacle, no touch: the same walk for every
+        r = _EVAL["walk"]  # candidate, run once per process
+    elif kind == "gh2010":
+        r = simulate_walk("gh2010", _EVAL["duration_s"], _EVAL["speed"], params=params)
     else:
-        raise ValueError(kind)
+        r = simulate_walk("network", _EVAL["duration_s"], _EVAL["speed"], network=net,
+                          timestep_s=_EVAL.get("timestep_s") or FIT_TIMESTEP_S)
+    if touch_only:
+        _EVAL["walk"] = r
     cost, terms = walk_cost(r.summary, effort_of(r), _EVAL.get("foot_angle", 0.0),
                             _EVAL.get("stride_time", False),
                             _EVAL.get("stance_weight", W_STANCE),
@@ -504,22 +509,28 @@ def evaluate_walk(theta) -> tuple[float, dict]:
               for k in _EVAL.get("delay_walks", ())]
     for name, speed, kw in extra:
         other = (None if terms["fall"] else
-                 simulate_walk(kind, PUSH_WALK_S, speed,
-                               params=params if kind == "gh2010" else None,
-                               network=net if kind == "network" else None,
+                 simulate_walk(kind, PUSH_WALK_S, speed, params=params, network=net,
                                timestep_s=r.body.model.opt.timestep, **kw).summary)
         terms[name] = push_term(other)
         cost += terms[name]
+    return cost, terms
+
+
+def _trip_part(theta, swing: float, speed: float) -> tuple[float, str | None]:
+    """One trip of a candidate (``trip_outcome``): time walked on after it, strategy."""
+    params, net = _candidate(theta)
+    return trip_outcome(_EVAL["kind"], swing, speed, params, net,
+                        walk_in_cache=_EVAL.get("walk_ins"), start=_EVAL.get("trip_start"),
+                        timestep_s=_EVAL.get("timestep_s"))
+
+
+def _with_trips(cost: float, terms: dict, trips: tuple, outcomes) -> tuple[float, dict]:
+    """The walk's J and terms with the trips' (``outcomes``: (time walked on, strategy)
+    per trip, not looked at for a walker that falls)."""
     w_strategy = _EVAL.get("strategy_cost", 0.0)
     if trips and terms["fall"] == 0.0:  # trips only once it walks: they cost 3 s each
         ok = human = 0
-        for swing, speed in trips:
-            t_walked, strategy = trip_outcome(kind, swing, speed,
-                                              params if kind == "gh2010" else None,
-                                              net if kind == "network" else None,
-                                              walk_in_cache=_EVAL.get("walk_ins"),
-                                              start=_EVAL.get("trip_start"),
-                                              timestep_s=_EVAL.get("timestep_s"))
+        for (swing, speed), (t_walked, strategy) in zip(trips, outcomes, strict=True):
             terms.update(trip_terms(swing, speed, t_walked, strategy, w_strategy,
                                     _EVAL.get("recovery_cost", 0.0)))
             ok += t_walked >= WALK_ON_TRIP_S
@@ -533,6 +544,48 @@ def evaluate_walk(theta) -> tuple[float, dict]:
         cost += (W_TRIP + _EVAL.get("recovery_cost", 0.0)) * len(trips) + w_strategy * sum(
             human_strategy(s) is not None for s, _v in trips)
     return cost, terms
+
+
+def _theta_trips(arg) -> tuple:
+    """(theta, trips) of ``evaluate_walk``'s argument."""
+    if isinstance(arg, tuple):
+        return arg
+    return arg, _EVAL.get("trips") or ()
+
+
+def evaluate_walk(theta) -> tuple[float, dict]:
+    """J of one candidate of the controller set up by ``init_walk_eval``; ``theta`` may be
+    ``(theta, trips)``: judged on those trips instead of the set's (``cma_fit``'s
+    ``sample``)."""
+    theta, trips = _theta_trips(theta)
+    cost, terms = _walk_part(theta)
+    outcomes = ([_trip_part(theta, s, v) for s, v in trips] if trips and not terms["fall"]
+                else [None] * len(trips))
+    return _with_trips(cost, terms, trips, outcomes)
+
+
+# ``evaluate_walk`` as jobs (``cma_fit``'s ``split``): for the touch stages, whose walk is
+# the same for every candidate, each trip of each candidate is a job of its own, so that
+# a generation's work spreads evenly over the workers; the same J and terms
+def walk_jobs(arg) -> list[tuple]:
+    """The jobs of one candidate: its walk, then each of its trips."""
+    theta, trips = _theta_trips(arg)
+    return [("walk", theta)] + [("trip", theta, s, v) for s, v in trips]
+
+
+def run_walk_job(job: tuple):
+    """One job of ``walk_jobs``."""
+    return _walk_part(job[1]) if job[0] == "walk" else _trip_part(*job[1:])
+
+
+def combine_walk_jobs(arg, results: list) -> tuple[float, dict]:
+    """``evaluate_walk``'s J and terms from its jobs' results, in ``walk_jobs``' order."""
+    _theta, trips = _theta_trips(arg)
+    cost, terms = results[0]
+    return _with_trips(cost, terms, trips, results[1:])
+
+
+WALK_SPLIT = (walk_jobs, run_walk_job, combine_walk_jobs)
 
 
 W_TRIP = 20.0  # a trip the walker does not walk on from costs this (partly, if later)
@@ -802,7 +855,7 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                                 placement, pushes, track_weight, knee_weight,
                                 tuple(starts)),
                       first_generation=total, stage="walk" if not trips else "walk+trips",
-                      fixed=fixed)
+                      fixed=fixed, split=WALK_SPLIT if touch_only and trips else None)
         params = replace(params, **dict(zip(space.names, map(float, res.best_theta),
                                             strict=True)))
         total += gens
@@ -1219,7 +1272,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                           trip_start=trip_start, track_limit_deg=track_limit_deg,
                           touch_only=touch_only, names=tuple(space.names),
                           delay_walks=tuple(delay_walks), pushes=pushes),
-                      stage="walk+trips" if trips else "walk", sample=sample)
+                      stage="walk+trips" if trips else "walk", sample=sample,
+                      split=WALK_SPLIT if touch_only and trips else None)
     net = network_with(start, res.best_theta, space.names)
     opts = [*_weight_opts(track_weight, knee_weight, knee_first=True), *_starts_opts(starts),
             f"--timestep {step:g}"]  # the step always: the default step may change
