@@ -501,10 +501,10 @@ def _noisy_quadratic(arg):
 
 
 def test_candidates_spread_walk_by_walk_and_trip_by_trip_give_the_same_fit():
-    """With workers, a touch stage and a walking fit evaluate each candidate as jobs, its
-    walk, each extra walk and each trip (``WALK_SPLIT``): the same history, best
-    candidate and terms as whole candidates in one process (one generation of four: a 2 s
-    walk and two trips; a 2 s walk, the pushes' walk and a walk from 1.0 m/s)."""
+    """With workers, a touch stage evaluates each candidate as jobs, its walk and each of
+    its trips (``WALK_SPLIT``): the same history, best candidate and terms as whole
+    candidates in one process (one generation of four: a 2 s walk and two trips); a
+    candidate's jobs with extra walks too give ``evaluate_walk``'s J and terms."""
     from stumble.control.reflex.fit_walk import fit_gh2010
 
     stages = ((1, 2.0, ((0.15, 1.2), (0.6, 1.2))),)
@@ -516,14 +516,26 @@ def test_candidates_spread_walk_by_walk_and_trip_by_trip_give_the_same_fit():
     assert one.best_cost == two.best_cost and one.best_terms == two.best_terms
     assert np.array_equal(one.best_theta, two.best_theta)
     assert {"trip_0.15_1.2", "unrecovered_0.6_1.2", "trips_recovered"} <= set(one.best_terms)
-    # a walking fit: each candidate's walk and its extra walks (the pushes, another start)
-    runs = [fit_gh2010(seed=4, stages=((1, 2.0, ()),), popsize=4, pushes=True,
-                       starts=(1.0,), placement=True, workers=w) for w in (1, 2)]
-    one, two = runs
-    assert one.best_cost == two.best_cost and one.best_terms == two.best_terms
-    assert [h["generation_median"] for h in one.history] == [
-        h["generation_median"] for h in two.history]
-    assert {"push", "start_1"} <= set(one.best_terms)
+    # the jobs of a candidate with extra walks (the pushes, another start) and trips give
+    # evaluate_walk's J and terms (the fits do not split walking fits: see WALK_SPLIT)
+    from stumble.control.reflex.fit_walk import (
+        WALK_SPLIT,
+        evaluate_walk,
+        gh2010_space,
+        init_walk_eval,
+    )
+    from stumble.control.reflex.gh2010 import load_params
+
+    p = load_params("knee-walk").to_json()
+    init_walk_eval("gh2010", 2.0, 1.2, p, trips=((0.15, 1.2),), pushes=True, starts=(1.0,),
+                   placement=True, recovery_cost=5.0)
+    space = gh2010_space(load_params("knee-walk"), placement=True)
+    jobs_of, run_job, combine = WALK_SPLIT
+    jobs = jobs_of(space.start)
+    assert [j[0] for j in jobs] == ["walk", "extra", "extra", "trip"]
+    split = combine(space.start, [run_job(j) for j in jobs])
+    assert split == evaluate_walk(space.start)
+    assert {"push", "start_1", "trip_0.15_1.2", "unrecovered_0.15_1.2"} <= set(split[1])
 
 
 def test_a_sampled_fit_judges_each_generation_on_its_sample_and_returns_the_mean():
