@@ -476,19 +476,20 @@ def _candidate(theta) -> tuple:
     raise ValueError(kind)
 
 
-def _main_walk(theta) -> tuple[float, dict]:
-    """A candidate's own walk (``evaluate_walk``'s first part): J, terms."""
+def _walk_part(theta) -> tuple[float, dict]:
+    """A candidate's walk and extra walks (``evaluate_walk`` without its trips): J, terms."""
     from stumble.pipeline import simulate_walk
 
+    kind = _EVAL["kind"]
     params, net = _candidate(theta)
     touch_only = _EVAL.get("touch_only", False)
     if touch_only and "walk" in _EVAL:  # no obstacle, no touch: the same walk for every
         r = _EVAL["walk"]  # candidate, run once per process
-    elif _EVAL["kind"] == "gh2010":
+    elif kind == "gh2010":
         r = simulate_walk("gh2010", _EVAL["duration_s"], _EVAL["speed"], params=params)
     else:
         r = simulate_walk("network", _EVAL["duration_s"], _EVAL["speed"], network=net,
-                          timestep_s=_walk_step(params))
+                          timestep_s=_EVAL.get("timestep_s") or FIT_TIMESTEP_S)
     if touch_only:
         _EVAL["walk"] = r
     cost, terms = walk_cost(r.summary, effort_of(r), _EVAL.get("foot_angle", 0.0),
@@ -499,52 +500,20 @@ def _main_walk(theta) -> tuple[float, dict]:
                             _EVAL.get("track_limit_deg"))
     terms["walked_s"] = r.summary["walked_s"]
     terms["speed_m_per_s"] = r.summary["speed_m_per_s"]
-    return cost, terms
-
-
-def _walk_step(params) -> float:
-    """The step (s) of a candidate's walks: a GH2010 set's own, or the network fit's."""
-    if _EVAL["kind"] == "gh2010":
-        return params.timestep_s
-    return _EVAL.get("timestep_s") or FIT_TIMESTEP_S
-
-
-def _extras() -> list[tuple]:
-    """A candidate's extra walks, each PUSH_WALK_S, the part not walked costing as a fall
-    (``push_term``): (term's name, start m/s, ``simulate_walk`` options): through the
-    pushes, from the other starts, at the other delays."""
+    # the extra walks, each PUSH_WALK_S, the part not walked costing as a fall
+    # (``push_term``): through the pushes, from the other starts, at the other delays;
+    # not run for a walker that falls in its own walk (it costs them all)
     extra = [("push", _EVAL["speed"], {"pushes": PUSHES})] if _EVAL.get("pushes") else []
     extra += [(f"start_{v:g}", v, {}) for v in _EVAL.get("starts", ())]
     extra += [(f"delay_{k:g}", _EVAL["speed"], {"delay_scale": k})
               for k in _EVAL.get("delay_walks", ())]
-    return extra
-
-
-def _extra_walk(theta, speed: float, kw: dict) -> float:
-    """One extra walk of a candidate (``_extras``): its ``push_term``."""
-    from stumble.pipeline import simulate_walk
-
-    params, net = _candidate(theta)
-    return push_term(simulate_walk(_EVAL["kind"], PUSH_WALK_S, speed, params=params,
-                                   network=net, timestep_s=_walk_step(params),
-                                   **kw).summary)
-
-
-def _with_extras(cost: float, terms: dict, extra_terms) -> tuple[float, dict]:
-    """The walk's J and terms with its extra walks' (``extra_terms``: each one's
-    ``push_term``, not looked at for a walker that falls in its own walk: it costs them
-    all)."""
-    for (name, _speed, _kw), term in zip(_extras(), extra_terms, strict=True):
-        terms[name] = push_term(None) if terms["fall"] else term
+    for name, speed, kw in extra:
+        other = (None if terms["fall"] else
+                 simulate_walk(kind, PUSH_WALK_S, speed, params=params, network=net,
+                               timestep_s=r.body.model.opt.timestep, **kw).summary)
+        terms[name] = push_term(other)
         cost += terms[name]
     return cost, terms
-
-
-def _walk_part(theta) -> tuple[float, dict]:
-    """A candidate's walk and extra walks (``evaluate_walk`` without its trips): J, terms."""
-    cost, terms = _main_walk(theta)
-    return _with_extras(cost, terms, [None if terms["fall"] else _extra_walk(theta, v, kw)
-                                      for _name, v, kw in _extras()])
 
 
 def _trip_part(theta, swing: float, speed: float) -> tuple[float, str | None]:
@@ -595,35 +564,28 @@ def evaluate_walk(theta) -> tuple[float, dict]:
     return _with_trips(cost, terms, trips, outcomes)
 
 
-# ``evaluate_walk`` as jobs (``cma_fit``'s ``split``): a candidate's own walk, each of its
-# extra walks and each of its trips, a job apiece, so that a generation's work spreads
-# evenly over the workers; the same J and terms. The extra walks and trips run whether or
-# not the walk falls (their results are then not looked at, as ``evaluate_walk`` does
-# not run them), so the fits use it only in the touch stages, whose walk is the same for
-# every candidate. Walking fits are not split: there the extra walks of candidates that
-# fall cost more than the even spread gains (measured: 40 generations of pushed-walk's
-# command 14.6 % faster, 12 of knee-walk's 8.7 % slower, the whole pushed-walk stage 8 %
-# faster and knee-walk's 7 % slower)
+# ``evaluate_walk`` as jobs (``cma_fit``'s ``split``): a candidate's walk (with its extra
+# walks), then each of its trips, a job apiece, so that a generation's work spreads evenly
+# over the workers; the same J and terms. The trips run whether or not the walk falls
+# (their results are then not looked at, as ``evaluate_walk`` does not run them), so the
+# fits use it in the touch stages alone, whose walk is the same for every candidate.
+# (Walking fits split walk by walk, the extra walks run for candidates that fall too,
+# were measured and not kept: pushed-walk's stage 8 % faster, knee-walk's 7 % slower.)
 def walk_jobs(arg) -> list[tuple]:
-    """The jobs of one candidate: its walk, its extra walks, then each of its trips."""
+    """The jobs of one candidate: its walk, then each of its trips."""
     theta, trips = _theta_trips(arg)
-    return ([("walk", theta)] + [("extra", theta, v, kw) for _n, v, kw in _extras()]
-            + [("trip", theta, s, v) for s, v in trips])
+    return [("walk", theta)] + [("trip", theta, s, v) for s, v in trips]
 
 
 def run_walk_job(job: tuple):
     """One job of ``walk_jobs``."""
-    if job[0] == "walk":
-        return _main_walk(job[1])
-    return _extra_walk(*job[1:]) if job[0] == "extra" else _trip_part(*job[1:])
+    return _walk_part(job[1]) if job[0] == "walk" else _trip_part(*job[1:])
 
 
 def combine_walk_jobs(arg, results: list) -> tuple[float, dict]:
     """``evaluate_walk``'s J and terms from its jobs' results, in ``walk_jobs``' order."""
     _theta, trips = _theta_trips(arg)
-    k = 1 + len(_extras())
-    cost, terms = _with_extras(*results[0], results[1:k])
-    return _with_trips(cost, terms, trips, results[k:])
+    return _with_trips(*results[0], trips, results[1:])
 
 
 WALK_SPLIT = (walk_jobs, run_walk_job, combine_walk_jobs)
