@@ -500,11 +500,13 @@ def _noisy_quadratic(arg):
     return cost, {"sampled": float(sample is not None)}
 
 
-def test_candidates_spread_walk_by_walk_and_trip_by_trip_give_the_same_fit():
-    """With workers, a touch stage evaluates each candidate as jobs, its walk and each of
-    its trips (``WALK_SPLIT``): the same history, best candidate and terms as whole
-    candidates in one process (one generation of four: a 2 s walk and two trips); a
-    candidate's jobs with extra walks in its walk give ``evaluate_walk``'s J and terms."""
+def test_candidates_spread_job_by_job_give_the_same_fit():
+    """With workers, a fit evaluates each candidate as jobs (``WALK_SPLIT``): its walk,
+    then, once it walks, each extra walk and each trip: the same history, best candidate
+    and terms as whole candidates in one process (a touch stage: one generation of four,
+    a 2 s walk and two trips; a walking fit with the pushes' walk: two generations of
+    six, some falling); a candidate's jobs give ``evaluate_walk``'s J and terms, and a
+    walker that falls has no jobs after its walk."""
     from stumble.control.reflex.fit_walk import fit_gh2010
 
     stages = ((1, 2.0, ((0.15, 1.2), (0.6, 1.2))),)
@@ -516,8 +518,15 @@ def test_candidates_spread_walk_by_walk_and_trip_by_trip_give_the_same_fit():
     assert one.best_cost == two.best_cost and one.best_terms == two.best_terms
     assert np.array_equal(one.best_theta, two.best_theta)
     assert {"trip_0.15_1.2", "unrecovered_0.6_1.2", "trips_recovered"} <= set(one.best_terms)
+    # a walking fit with an extra walk, from the paper's gains (most candidates fall)
+    walking = [fit_gh2010(seed=2, stages=((2, 2.0, ()),), popsize=6, pushes=True,
+                          workers=w) for w in (1, 2)]
+    assert [h["generation_median"] for h in walking[0].history] == [
+        h["generation_median"] for h in walking[1].history]
+    assert walking[0].best_terms == walking[1].best_terms and "push" in walking[0].best_terms
+    assert np.array_equal(walking[0].best_theta, walking[1].best_theta)
     # the jobs of a candidate with extra walks (the pushes, another start) and trips give
-    # evaluate_walk's J and terms (the fits do not split walking fits: see WALK_SPLIT)
+    # evaluate_walk's J and terms
     from stumble.control.reflex.fit_walk import (
         WALK_SPLIT,
         evaluate_walk,
@@ -530,12 +539,21 @@ def test_candidates_spread_walk_by_walk_and_trip_by_trip_give_the_same_fit():
     init_walk_eval("gh2010", 2.0, 1.2, p, trips=((0.15, 1.2),), pushes=True, starts=(1.0,),
                    placement=True, recovery_cost=5.0)
     space = gh2010_space(load_params("knee-walk"), placement=True)
-    jobs_of, run_job, combine = WALK_SPLIT
-    jobs = jobs_of(space.start)
-    assert [j[0] for j in jobs] == ["walk", "trip"]
-    split = combine(space.start, [run_job(j) for j in jobs])
+    first_job, follow_jobs, run_job, combine = WALK_SPLIT
+    first = run_job(first_job(space.start))
+    assert first[1]["fall"] == 0.0 and first[2] == load_params("knee-walk").timestep_s
+    jobs = follow_jobs(space.start, first)
+    assert [j[0] for j in jobs] == ["extra", "extra", "trip"]
+    split = combine(space.start, first, [run_job(j) for j in jobs])
     assert split == evaluate_walk(space.start)
     assert {"push", "start_1", "trip_0.15_1.2", "unrecovered_0.15_1.2"} <= set(split[1])
+    # a walker that falls: nothing after its walk, every extra walk and trip lost
+    fallen = space.start * 0.0 + space.lo
+    first = run_job(first_job(fallen))
+    assert first[1]["fall"] > 0.0 and follow_jobs(fallen, first) == []
+    cost, terms = combine(fallen, first, [])
+    assert (cost, terms) == evaluate_walk(fallen)
+    assert terms["push"] > 0.0 and "trips_recovered" not in terms
 
 
 def test_a_sampled_fit_judges_each_generation_on_its_sample_and_returns_the_mean():

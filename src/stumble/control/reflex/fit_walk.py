@@ -42,7 +42,7 @@ import math
 import os
 import time
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -221,7 +221,10 @@ def cma_fit(evaluate: Callable[[np.ndarray], tuple[float, dict]], space: Space,
     function of the generation giving what each of its candidates is judged on, passed to
     ``evaluate`` as ``(theta, that)`` (a noisy objective: every candidate of a generation
     on the same sample); the result is then the search's mean at the end, judged by
-    ``evaluate(theta)`` alone (its whole set), not the best of the samples."""
+    ``evaluate(theta)`` alone (its whole set), not the best of the samples. ``split``
+    (with workers): ``evaluate`` as jobs, (first job, jobs that follow from its result,
+    run a job, combine the results), spread over the workers by ``_run_split``; it must
+    give ``evaluate``'s results (``WALK_SPLIT``)."""
     from cmaes import CMA
 
     from stumble.jsonio import dumps
@@ -249,11 +252,7 @@ def cma_fit(evaluate: Callable[[np.ndarray], tuple[float, dict]], space: Space,
             drawn = None if sample is None else sample(gen)
             args = thetas if sample is None else [(t, drawn) for t in thetas]
             if split is not None:  # each candidate as its jobs, spread over the workers
-                jobs_of, run_job, combine = split
-                jobs = [jobs_of(a) for a in args]
-                outs = iter(pool.map(run_job, [j for js in jobs for j in js]))
-                results = [combine(a, [next(outs) for _j in js])
-                           for a, js in zip(args, jobs, strict=True)]
+                results = _run_split(pool, split, args)
             else:
                 results = list(pool.map(evaluate, args) if pool else map(evaluate, args))
             if generations:
@@ -299,6 +298,30 @@ def cma_fit(evaluate: Callable[[np.ndarray], tuple[float, dict]], space: Space,
             hist_file.close()
     best.wall_time_s = time.perf_counter() - t0
     return best
+
+
+def _run_split(pool, split, args: list) -> list[tuple[float, dict]]:
+    """Each candidate's (J, terms) from its jobs on the pool's workers (``split``: its
+    first job, the jobs that follow from that job's result, how a job runs, how the
+    results combine): every first job at once, each follow-up as soon as the job it
+    follows is done; combined per candidate in its jobs' order, so the results do not
+    depend on which worker ran what, or when."""
+    first_job, follow_jobs, run_job, combine = split
+    pending = {pool.submit(run_job, first_job(a)): (i, -1) for i, a in enumerate(args)}
+    firsts: list = [None] * len(args)
+    follows: list[list] = [[] for _a in args]
+    while pending:
+        done, _ = wait(pending, return_when=FIRST_COMPLETED)
+        for fut in done:
+            i, j = pending.pop(fut)
+            if j >= 0:
+                follows[i][j] = fut.result()
+                continue
+            firsts[i] = fut.result()
+            jobs = follow_jobs(args[i], firsts[i])
+            follows[i] = [None] * len(jobs)
+            pending.update({pool.submit(run_job, job): (i, k) for k, job in enumerate(jobs)})
+    return [combine(a, firsts[i], follows[i]) for i, a in enumerate(args)]
 
 
 def _write_json(path: Path, obj: dict) -> None:
@@ -476,8 +499,9 @@ def _candidate(theta) -> tuple:
     raise ValueError(kind)
 
 
-def _walk_part(theta) -> tuple[float, dict]:
-    """A candidate's walk and extra walks (``evaluate_walk`` without its trips): J, terms."""
+def _own_walk(theta) -> tuple[float, dict, float]:
+    """A candidate's own walk: J and terms without the extra walks and trips, and the
+    walk's physics step (s), at which its extra walks run."""
     from stumble.pipeline import simulate_walk
 
     kind = _EVAL["kind"]
@@ -500,17 +524,32 @@ def _walk_part(theta) -> tuple[float, dict]:
                             _EVAL.get("track_limit_deg"))
     terms["walked_s"] = r.summary["walked_s"]
     terms["speed_m_per_s"] = r.summary["speed_m_per_s"]
-    # the extra walks, each PUSH_WALK_S, the part not walked costing as a fall
-    # (``push_term``): through the pushes, from the other starts, at the other delays;
-    # not run for a walker that falls in its own walk (it costs them all)
+    return cost, terms, float(r.body.model.opt.timestep)
+
+
+def _extra_walks() -> list[tuple[str, float, dict]]:
+    """The extra walks of every candidate, each (term name, speed m/s, ``simulate_walk``
+    options): through the pushes, from the other starts, at the other delays."""
     extra = [("push", _EVAL["speed"], {"pushes": PUSHES})] if _EVAL.get("pushes") else []
     extra += [(f"start_{v:g}", v, {}) for v in _EVAL.get("starts", ())]
     extra += [(f"delay_{k:g}", _EVAL["speed"], {"delay_scale": k})
               for k in _EVAL.get("delay_walks", ())]
-    for name, speed, kw in extra:
-        other = (None if terms["fall"] else
-                 simulate_walk(kind, PUSH_WALK_S, speed, params=params, network=net,
-                               timestep_s=r.body.model.opt.timestep, **kw).summary)
+    return extra
+
+
+def _extra_walk(theta, speed: float, options: dict, timestep_s: float) -> dict:
+    """The summary of one extra walk of a candidate, ``PUSH_WALK_S`` long."""
+    from stumble.pipeline import simulate_walk
+
+    params, net = _candidate(theta)
+    return simulate_walk(_EVAL["kind"], PUSH_WALK_S, speed, params=params, network=net,
+                         timestep_s=timestep_s, **options).summary
+
+
+def _with_extras(cost: float, terms: dict, summaries) -> tuple[float, dict]:
+    """The walk's J and terms with its extra walks' (``summaries`` in ``_extra_walks``'
+    order, None for a walker that falls in its own walk: each then costs as a fall)."""
+    for (name, _speed, _kw), other in zip(_extra_walks(), summaries, strict=True):
         terms[name] = push_term(other)
         cost += terms[name]
     return cost, terms
@@ -556,39 +595,58 @@ def _theta_trips(arg) -> tuple:
 def evaluate_walk(theta) -> tuple[float, dict]:
     """J of one candidate of the controller set up by ``init_walk_eval``; ``theta`` may be
     ``(theta, trips)``: judged on those trips instead of the set's (``cma_fit``'s
-    ``sample``)."""
-    theta, trips = _theta_trips(theta)
-    cost, terms = _walk_part(theta)
-    outcomes = ([_trip_part(theta, s, v) for s, v in trips] if trips and not terms["fall"]
-                else [None] * len(trips))
-    return _with_trips(cost, terms, trips, outcomes)
+    ``sample``). The extra walks and trips run only for a walker that does not fall in
+    its own walk (such a walker costs them all)."""
+    first = run_walk_job(walk_first_job(theta))
+    return combine_walk_jobs(theta, first, [run_walk_job(j)
+                                            for j in walk_follow_jobs(theta, first)])
 
 
-# ``evaluate_walk`` as jobs (``cma_fit``'s ``split``): a candidate's walk (with its extra
-# walks), then each of its trips, a job apiece, so that a generation's work spreads evenly
-# over the workers; the same J and terms. The trips run whether or not the walk falls
-# (their results are then not looked at, as ``evaluate_walk`` does not run them), so the
-# fits use it in the touch stages alone, whose walk is the same for every candidate.
-# (Walking fits split walk by walk, the extra walks run for candidates that fall too,
-# were measured and not kept: pushed-walk's stage 8 % faster, knee-walk's 7 % slower.)
-def walk_jobs(arg) -> list[tuple]:
-    """The jobs of one candidate: its walk, then each of its trips."""
+# ``evaluate_walk`` as jobs with a dependency (``cma_fit``'s ``split``): a candidate's own
+# walk first; once it is done, and only if the walker did not fall, each of its extra
+# walks and each of its trips, a job apiece; combined in that order into
+# ``evaluate_walk``'s J and terms, bit for bit. So a generation's work spreads evenly over
+# the workers and no work runs that is not looked at. (Before 2026-12-05, sixth session,
+# only the touch stages were split, every job at once: walking fits split that way ran
+# the extra walks of walkers that fall too, and were not kept.)
+def walk_first_job(arg) -> tuple:
+    """A candidate's first job: its own walk."""
+    return ("walk", _theta_trips(arg)[0])
+
+
+def walk_follow_jobs(arg, first_result) -> list[tuple]:
+    """The jobs that follow a candidate's own walk (its result ``first_result``): each
+    extra walk, then each trip; none when the walker fell."""
     theta, trips = _theta_trips(arg)
-    return [("walk", theta)] + [("trip", theta, s, v) for s, v in trips]
+    if first_result[1]["fall"]:
+        return []
+    dt = first_result[2]
+    return ([("extra", theta, speed, kw, dt) for _n, speed, kw in _extra_walks()]
+            + [("trip", theta, s, v) for s, v in trips])
 
 
 def run_walk_job(job: tuple):
-    """One job of ``walk_jobs``."""
-    return _walk_part(job[1]) if job[0] == "walk" else _trip_part(*job[1:])
+    """One job of ``walk_first_job`` or ``walk_follow_jobs``."""
+    if job[0] == "walk":
+        return _own_walk(job[1])
+    if job[0] == "extra":
+        return _extra_walk(*job[1:])
+    return _trip_part(*job[1:])
 
 
-def combine_walk_jobs(arg, results: list) -> tuple[float, dict]:
-    """``evaluate_walk``'s J and terms from its jobs' results, in ``walk_jobs``' order."""
+def combine_walk_jobs(arg, first_result, follow_results: list) -> tuple[float, dict]:
+    """``evaluate_walk``'s J and terms from its jobs' results, in their order."""
     _theta, trips = _theta_trips(arg)
-    return _with_trips(*results[0], trips, results[1:])
+    cost, terms, _dt = first_result
+    n_extra = len(_extra_walks())
+    fell = bool(terms["fall"])
+    cost, terms = _with_extras(cost, terms, [None] * n_extra if fell
+                               else follow_results[:n_extra])
+    return _with_trips(cost, terms, trips, [None] * len(trips) if fell
+                       else follow_results[n_extra:])
 
 
-WALK_SPLIT = (walk_jobs, run_walk_job, combine_walk_jobs)
+WALK_SPLIT = (walk_first_job, walk_follow_jobs, run_walk_job, combine_walk_jobs)
 
 
 W_TRIP = 20.0  # a trip the walker does not walk on from costs this (partly, if later)
@@ -858,7 +916,7 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                                 placement, pushes, track_weight, knee_weight,
                                 tuple(starts)),
                       first_generation=total, stage="walk" if not trips else "walk+trips",
-                      fixed=fixed, split=WALK_SPLIT if touch_only and trips else None)
+                      fixed=fixed, split=WALK_SPLIT)
         params = replace(params, **dict(zip(space.names, map(float, res.best_theta),
                                             strict=True)))
         total += gens
@@ -1276,7 +1334,7 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                           touch_only=touch_only, names=tuple(space.names),
                           delay_walks=tuple(delay_walks), pushes=pushes),
                       stage="walk+trips" if trips else "walk", sample=sample,
-                      split=WALK_SPLIT if touch_only and trips else None)
+                      split=WALK_SPLIT)
     net = network_with(start, res.best_theta, space.names)
     opts = [*_weight_opts(track_weight, knee_weight, knee_first=True), *_starts_opts(starts),
             f"--timestep {step:g}"]  # the step always: the default step may change
