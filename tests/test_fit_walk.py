@@ -189,6 +189,49 @@ def test_foot_angle_is_the_feet_pitch_in_the_world_and_tracked_on_the_walk():
     assert 0.9 < r.summary["stride_s"] < 1.6  # the mean right stride
 
 
+def test_trunk_lean_is_the_torsos_pitch_in_the_world_and_reported_on_the_walk():
+    """``analysis.trunk_lean`` is the torso's forward lean from vertical (its long axis,
+    the ``torso_z`` sensor, in the sagittal plane) for any pose; a reflex walk reports
+    its trunk's RMSE against the recorded stride and its mean lean and range, the
+    recorded stride leaning 12-16 degrees on our body."""
+    import mujoco
+
+    from stumble.analysis import trunk_lean
+    from stumble.body.build import build
+    from stumble.pipeline import simulate_walk
+
+    body = build(planar=True, actuation="muscles")
+    m = body.model
+    d = mujoco.MjData(m)
+    rng = np.random.default_rng(4)
+    for _ in range(5):
+        d.qpos[:] = 0.0
+        d.qpos[2:] = rng.uniform(-0.4, 0.4, m.nq - 2)
+        mujoco.mj_kinematics(m, d)
+        z = d.xmat[m.body("torso").id].reshape(3, 3)[:, 2]
+        assert trunk_lean(d.qpos.copy(), m)["trunk_lean"] == pytest.approx(
+            np.arctan2(z[0], z[2]))
+    r = simulate_walk("gh2010", 3.0, 1.2)
+    assert 12.0 < np.degrees(r.reference["trunk_lean"]).mean() < 16.0
+    s = r.summary
+    lo, hi = s["trunk_lean_range_deg"]
+    assert lo < s["trunk_lean_deg"] < hi and 0.5 < s["trunk_rmse_deg"] < 20.0
+
+
+def test_the_trunk_term_counts_only_when_asked_and_like_a_joint():
+    """``trunk_weight`` (``--trunk-weight``): the trunk's RMSE costs as the foot's and a
+    joint's do (its tenth, and half of each degree beyond 8), times the weight; no term
+    without it; no stride: as a 10-degree-hinge miss."""
+    summary = {**_summary(), "trunk_rmse_deg": 11.2}
+    plain, t_plain = walk_cost(summary, effort=0.0)
+    cost, terms = walk_cost(summary, effort=0.0, trunk_weight=3.0)
+    assert "trunk" not in t_plain
+    assert terms["trunk"] == pytest.approx(3.0 * (1.12 + (11.2 - 8.0) / 2.0))
+    assert cost - plain == pytest.approx(terms["trunk"])
+    _, none = walk_cost({**_summary(), "trunk_rmse_deg": None}, effort=0.0, trunk_weight=1.0)
+    assert none["trunk"] == 10.0
+
+
 def test_contact_events_need_a_lasting_touch_after_a_flight():
     t = np.arange(0.0, 2.0, 0.005)
     on = np.ones((len(t), 2), bool)
@@ -909,8 +952,8 @@ def test_the_networks_walking_es_from_the_command_line(tmp_path, capsys):
 
     out = tmp_path / "es"
     assert main(["reflex", "fit", "--walk-es", "placement", "--generations", "1",
-                 "--timestep", "0.002", "--knee-weight", "5", "--workers", "1",
-                 "--seed", "3", "--out", str(out)]) == 0
+                 "--timestep", "0.002", "--knee-weight", "5", "--trunk-weight", "2",
+                 "--workers", "1", "--seed", "3", "--out", str(out)]) == 0
     net = Network.load(out / "network.npz")
     fit = net.info["fit"]
     shipped = (resources.files("stumble.control.reflex") / "data"
@@ -918,8 +961,9 @@ def test_the_networks_walking_es_from_the_command_line(tmp_path, capsys):
     assert fit["from"] == {"network": "placement",
                            "sha256": hashlib.sha256(shipped).hexdigest()}
     assert fit["command"] == ("stumble reflex fit --controller network --walk-es placement "
-                              "--knee-weight 5 --timestep 0.002 --generations 1 --seed 3 "
-                              "--out DIR")
+                              "--knee-weight 5 --timestep 0.002 --trunk-weight 2 "
+                              "--generations 1 --seed 3 --out DIR")
+    assert fit["trunk_weight"] == 2.0 and fit["terms"]["trunk"] > 0.0
     assert fit["evaluations"] == 15 and len(fit["theta"]) == len(fit["parameters"]) == 44
     report = json.loads((out / "fit.json").read_text())
     assert report["walk_20s"]["controller"] == "network"
@@ -930,10 +974,18 @@ def test_the_networks_walking_es_from_the_command_line(tmp_path, capsys):
                         (["--walk-es", "no-such.npz"], "no-such.npz"),
                         (["--controller", "gh2010", "--walk-es", "placement"],
                          "--walk-es, --interneuron-biases, --sigma, --touch-afferent, "
-                         "--touch-response and --track-limit are for --controller network"),
+                         "--touch-response, --trunk-weight and --track-limit are for "
+                         "--controller network"),
                         (["--interneuron-biases"],
-                         "--interneuron-biases, --sigma, --touch-afferent, --touch-response "
-                         "and --track-limit are for --walk-es"),
+                         "--interneuron-biases, --sigma, --touch-afferent, --touch-response, "
+                         "--trunk-weight and --track-limit are for --walk-es"),
+                        (["--trunk-weight", "1"], "--trunk-weight and --track-limit are for "
+                         "--walk-es"),
+                        (["--walk-es", "placement", "--trunk-weight", "-1"],
+                         "--trunk-weight must be a number in 0-100, got -1.0"),
+                        (["--walk-es", "placement", "--touch-only", "--trip-set", "four",
+                          "--trunk-weight", "1"],
+                         "--trunk-weight weighs the walk: not with --touch-only"),
                         (["--walk-es", "placement", "--sigma", "0"],
                          "--sigma must be a number in (0, 5], got 0.0")):
         assert main(["reflex", "fit", *argv, "--out", str(tmp_path / "x")]) == 2

@@ -53,6 +53,17 @@ def test_foot_angles_add_a_fourth_panel(tmp_path):
     assert img[1250:1500, 100:850, :3].std() > 0.05
 
 
+def test_the_trunk_adds_a_panel_of_one_curve(tmp_path):
+    """The key ``trunk_lean`` (no sides) adds a panel below the foot's: five panels."""
+    pct, angles = _curves()
+    wave = 20 * np.sin(np.linspace(0, 6.3, 101))
+    both = {**angles, "foot_angle_r": wave, "trunk_lean": 15 + 0.2 * wave}
+    img = _read_png(plot_joint_angles(tmp_path / "trunk.png", pct, both,
+                                      reference_deg={"trunk_lean": 14 + 0 * wave}))
+    assert img.shape[:2] == (2000, 900)  # five panels of the same height
+    assert img[1650:1900, 100:850, :3].std() > 0.05  # the fifth panel has curves
+
+
 def test_missing_keys_are_skipped(tmp_path):
     pct, angles = _curves(51)
     only = {"hip_flexion_r": angles["hip_flexion_r"], "knee_angle_l": angles["knee_angle_l"]}

@@ -253,6 +253,18 @@ def foot_angles(qpos: np.ndarray, model: mujoco.MjModel) -> dict[str, np.ndarray
         j if j == "pelvis_tilt" else f"{j}_{s}").id]] for j in FOOT_CHAIN) for s in SIDES}
 
 
+TRUNK_CHAIN = ("pelvis_tilt", "lumbar_extension")  # the planar torso's pitch, summed
+
+
+def trunk_lean(qpos: np.ndarray, model: mujoco.MjModel) -> dict[str, np.ndarray]:
+    """``trunk_lean`` of the planar model per row of ``qpos`` (rad, forward +): the torso
+    frame's pitch from vertical, −(pelvis tilt + lumbar extension), which is also the
+    angle of its long axis (the ``torso_z`` sensor) in the sagittal plane. The recorded
+    walk (subject01 on our body) leans 12–16° by it, 14° on average."""
+    adr = model.jnt_qposadr
+    return {"trunk_lean": -sum(qpos[..., adr[model.joint(j).id]] for j in TRUNK_CHAIN)}
+
+
 @dataclass
 class WalkStop:
     """Stops a walk at a fall (a segment on the floor, or the pelvis below
@@ -368,7 +380,9 @@ def walk_metrics(rec: Recording, model: mujoco.MjModel, reference: dict[str, np.
     recorded stride, 101 points per ``<joint>_<side>``, rad), averaged over strides;
     where ``reference`` has ``foot_angle_<side>`` (``foot_angles``), the foot's angle
     RMSE (deg) too, averaged over both feet; ``stride_s``, the mean right stride (s);
-    ``knee_hyperextension_deg``, the knees' mean extension beyond straight (deg)."""
+    ``knee_hyperextension_deg``, the knees' mean extension beyond straight (deg); where
+    ``reference`` has ``trunk_lean`` (``trunk_lean``), the trunk's RMSE (deg) against it
+    and its mean forward lean and range over the strides (deg)."""
     t = rec.time_s
     ev = contact_events(t, rec.foot_on_floor)
     hs = ev["r"]["heel_strike_s"]
@@ -390,6 +404,8 @@ def walk_metrics(rec: Recording, model: mujoco.MjModel, reference: dict[str, np.
               for j in WALK_JOINTS for s in SIDES}
     if "foot_angle_r" in reference:
         angles.update(foot_angles(rec.qpos, model))
+    if "trunk_lean" in reference:
+        angles.update(trunk_lean(rec.qpos, model))
     curves = stride_curves(t, angles, hs)
     rmse = {}
     if strides:
@@ -404,6 +420,9 @@ def walk_metrics(rec: Recording, model: mujoco.MjModel, reference: dict[str, np.
     hyper = float(np.degrees(np.maximum(knees, 0.0)).mean()) if len(knees) else 0.0
     feet = [rmse.pop(f"foot_angle_{s}") for s in SIDES if f"foot_angle_{s}" in rmse]
     foot = float(np.mean(feet)) if feet else None
+    trunk_rmse = rmse.pop("trunk_lean", None)
+    lean = (np.degrees(curves["trunk_lean"]) if strides and "trunk_lean" in curves
+            else None)  # (strides, points): the complete strides' trunk
     walked = float(t[-1]) if len(t) else 0.0
     return {
         "walked_s": round(walked, 4),
@@ -419,6 +438,11 @@ def walk_metrics(rec: Recording, model: mujoco.MjModel, reference: dict[str, np.
         "rmse_deg_by_side": {k: round(v, 3) for k, v in rmse.items()},
         "foot_angle_rmse_deg": None if foot is None else round(foot, 3),
         "knee_hyperextension_deg": round(hyper, 3),
+        **({} if "trunk_lean" not in reference else {
+            "trunk_rmse_deg": None if trunk_rmse is None else round(trunk_rmse, 3),
+            "trunk_lean_deg": None if lean is None else round(float(lean.mean()), 3),
+            "trunk_lean_range_deg": None if lean is None else [
+                round(float(lean.min()), 3), round(float(lean.max()), 3)]}),
         "events": ev,
     }
 

@@ -276,7 +276,8 @@ def _parser() -> argparse.ArgumentParser:
                       "network in closed loop by CMA-ES on a documented subset of its "
                       "weights (motor-neuron gains and biases, contact afferents, trunk "
                       "balance; fit_walk.network_space) on the walking objective, with "
-                      "--knee-weight, --track-weight, --track-limit, --starts, --delay-walks, "
+                      "--knee-weight, --track-weight, --track-limit, --trunk-weight, "
+                      "--starts, --delay-walks, "
                       "--pushes, "
                       "--timestep (default 0.002, the network's step), --generations "
                       "(default 150), "
@@ -288,6 +289,11 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument("--track-limit", type=float, default=None, metavar="DEG",
                    help="network, --walk-es: each joint's RMSE beyond DEG costs 20 a "
                    "degree (a walk held near the recording while trips are fitted; ours)")
+    f.add_argument("--trunk-weight", type=float, default=None, metavar="W",
+                   help="network, --walk-es: the walking objective's trunk term, weight W "
+                   "(0-100): the RMSE of the trunk's lean from vertical against the "
+                   "recorded stride's, as the tracking term weighs a joint's (ours; off "
+                   "by default)")
     f.add_argument("--touch-afferent", action="store_true",
                    help="network, --walk-es: give the network a touch afferent first (the "
                    "foot touched by anything but the floor, into segments L4-S1; ours), "
@@ -1032,7 +1038,8 @@ def cmd_reflex_fit_network_es(args) -> int:
                             ("--pushes", args.pushes or None),
                             ("--interneuron-biases",
                                                           args.interneuron_biases or None),
-                            ("--track-limit", args.track_limit)):
+                            ("--track-limit", args.track_limit),
+                            ("--trunk-weight", args.trunk_weight)):
             if given is not None:
                 raise InputError(f"{flag} weighs the walk: not with --touch-only (the "
                                  "touch stage keeps the start's walk)")
@@ -1046,6 +1053,9 @@ def cmd_reflex_fit_network_es(args) -> int:
                                              and args.track_limit > 0):
         raise InputError(f"--track-limit must be a number of degrees > 0, got "
                          f"{args.track_limit}")
+    if args.trunk_weight is not None and not (math.isfinite(args.trunk_weight)
+                                              and 0 <= args.trunk_weight <= 100):
+        raise InputError(f"--trunk-weight must be a number in 0-100, got {args.trunk_weight}")
     for flag, key, v in (("--strategy-cost", "strategy_cost", args.strategy_cost),
                          ("--recovery-cost", "recovery_cost", args.recovery_cost)):
         v = 0.0 if v is None else v
@@ -1072,7 +1082,8 @@ def cmd_reflex_fit_network_es(args) -> int:
                               ahead_from=ahead_from, trip_sample=args.trip_sample,
                               cross_step=args.cross_step, cross_only=args.cross_only,
                               track_limit_deg=args.track_limit, delay_walks=delay_walks,
-                              pushes=args.pushes, **costs)
+                              pushes=args.pushes, trunk_weight=args.trunk_weight or 0.0,
+                              **costs)
     bar.done()
     walk = simulate_walk("network", 20.0, network=net)
     report = dict(net.info["fit"])
@@ -1131,17 +1142,18 @@ def cmd_reflex(args) -> int:
     if args.controller == "gh2010":
         if (args.walk_es is not None or args.interneuron_biases or args.sigma is not None
                 or args.touch_afferent or args.track_limit is not None
-                or args.touch_response):
+                or args.touch_response or args.trunk_weight is not None):
             raise InputError("--walk-es, --interneuron-biases, --sigma, --touch-afferent, "
-                             "--touch-response and "
+                             "--touch-response, --trunk-weight and "
                              "--track-limit are for --controller network")
         return cmd_reflex_fit_gh2010(args)
     if args.walk_es is not None:
         return cmd_reflex_fit_network_es(args)
     if (args.interneuron_biases or args.sigma is not None or args.touch_afferent
-            or args.track_limit is not None or args.touch_response):
-        raise InputError("--interneuron-biases, --sigma, --touch-afferent, --touch-response "
-                         "and --track-limit are for --walk-es")
+            or args.track_limit is not None or args.touch_response
+            or args.trunk_weight is not None):
+        raise InputError("--interneuron-biases, --sigma, --touch-afferent, --touch-response, "
+                         "--trunk-weight and --track-limit are for --walk-es")
     if (args.trips or args.params is not None or args.trip_set or args.scr_phase
             or args.ta_bound != "wide" or args.strategy_cost is not None or args.crossing
             or args.recovery_cost is not None or args.placement or args.pushes

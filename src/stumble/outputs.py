@@ -317,7 +317,14 @@ def write_reflex_walk(out: Path, result, video: bool, progress: bool) -> list[st
     """The files of ``stumble reflex walk``: motion.csv and events.json (as ``stumble
     walk`` writes them), summary.json, joint_angles.png (the simulated strides, mean ±
     SD, over the recorded stride) and walk.mp4."""
-    from stumble.analysis import CYCLE_POINTS, SIDES, WALK_JOINTS, foot_angles, stride_curves
+    from stumble.analysis import (
+        CYCLE_POINTS,
+        SIDES,
+        WALK_JOINTS,
+        foot_angles,
+        stride_curves,
+        trunk_lean,
+    )
     from stumble.cli import write_motion_csv
     from stumble.viz.plots import plot_joint_angles
 
@@ -335,6 +342,7 @@ def write_reflex_walk(out: Path, result, video: bool, progress: bool) -> list[st
     angles = {n: rec.qpos[:, m.jnt_qposadr[m.joint(n).id]] for n in names}
     if result.body.planar:
         angles.update(foot_angles(rec.qpos, m))
+        angles.update(trunk_lean(rec.qpos, m))
     curves = stride_curves(rec.time_s, angles, pb.events.heel_strike_s["r"])
     pct = np.linspace(0.0, 100.0, CYCLE_POINTS)
     have = s["strides"] > 0
@@ -346,7 +354,9 @@ def write_reflex_walk(out: Path, result, video: bool, progress: bool) -> list[st
              f"stance {s['stance_fraction'] or 0:.2f}\nRMSE hip {rm.get('hip_flexion', 0):.1f}°"
              f" knee {rm.get('knee_angle', 0):.1f}° ankle {rm.get('ankle_angle', 0):.1f}°"
              + (f" foot {s['foot_angle_rmse_deg']:.1f}°"
-                if s.get("foot_angle_rmse_deg") is not None else ""))
+                if s.get("foot_angle_rmse_deg") is not None else "")
+             + (f" trunk {s['trunk_rmse_deg']:.1f}° (lean {s['trunk_lean_deg']:.0f}°)"
+                if s.get("trunk_rmse_deg") is not None else ""))
     plot_joint_angles(out / "joint_angles.png", pct, mean, title=title, spread_deg=sd,
                       reference_deg=ref)
     written = ["motion.csv", "events.json", "summary.json", "joint_angles.png",

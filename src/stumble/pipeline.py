@@ -496,13 +496,15 @@ class WalkResult:
 
 def reference_stride(pb: Playback) -> dict[str, np.ndarray]:
     """The played-back walk's mean right stride, 101 points per leg joint and, on the
-    planar body, per foot's angle (``analysis.foot_angles``; rad)."""
-    from stumble.analysis import SIDES, WALK_JOINTS, foot_angles, stride_curves
+    planar body, per foot's angle (``analysis.foot_angles``) and the trunk's lean
+    (``analysis.trunk_lean``; rad)."""
+    from stumble.analysis import SIDES, WALK_JOINTS, foot_angles, stride_curves, trunk_lean
 
     names = [f"{j}_{s}" for j in WALK_JOINTS for s in SIDES]
     series = {n: pb.coordinates[n] for n in names}
     if pb.body.planar:
         series.update(foot_angles(pb.qpos, pb.body.model))
+        series.update(trunk_lean(pb.qpos, pb.body.model))
     curves = stride_curves(pb.time_s, series, list(pb.events.heel_strike_s["r"]))
     return {n: c.mean(axis=0) for n, c in curves.items()}
 

@@ -28,11 +28,19 @@ _PANELS: tuple[tuple[str, str], ...] = (
 )
 # a fourth panel when the curves include it (the planar walks: ``analysis.foot_angles``)
 _FOOT_PANEL = ("foot_angle", "foot to floor, toe up (+) [deg]")
+# and one more for the trunk, one curve without sides (``analysis.trunk_lean``)
+_TRUNK_PANEL = ("trunk_lean", "trunk lean, forward (+) [deg]")
 _SIDES: tuple[tuple[str, str, str, str], ...] = (
     # suffix, legend name, colour, line style
     ("r", "right", "tab:blue", "-"),
     ("l", "left", "tab:red", "--"),
 )
+_NO_SIDE = (("", "trunk", "tab:green", "-"),)  # the trunk panel's one curve
+
+
+def _key(stem: str, side: str) -> str:
+    """A curve's key: ``<stem>_<side>``, or the stem for a panel without sides."""
+    return f"{stem}_{side}" if side else stem
 
 
 def _curve(name: str, values, n: int, what: str) -> np.ndarray:
@@ -79,8 +87,8 @@ def plot_joint_angles(
     ``reference_deg`` (same keys) draws a reference stride (e.g. the recorded one) under
     the curves in grey, labelled ``reference_label``.
     Keys ``foot_angle_<side>`` (the planar walks' foot angle to the floor) add a fourth
-    panel. The image is about 6×8 in at 150 dpi (900×1200 pixels), 6×10 in with the
-    fourth panel.
+    panel, and the key ``trunk_lean`` (the trunk's forward lean, no sides) one more. The
+    image is about 6×8 in at 150 dpi (900×1200 pixels), 8/3 in taller per added panel.
     """
     path = Path(path)
     x = np.asarray(cycle_percent, dtype=float).reshape(-1)
@@ -90,8 +98,10 @@ def plot_joint_angles(
     spread_deg = spread_deg or {}
     toe_off = _toe_off(events)
 
-    foot = any(k.startswith(_FOOT_PANEL[0]) for k in (*angles_deg, *(reference_deg or {})))
-    panels = (*_PANELS, _FOOT_PANEL) if foot else _PANELS
+    keys = (*angles_deg, *(reference_deg or {}))
+    foot = any(k.startswith(_FOOT_PANEL[0]) for k in keys)
+    trunk = _TRUNK_PANEL[0] in keys
+    panels = (*_PANELS, *((_FOOT_PANEL,) if foot else ()), *((_TRUNK_PANEL,) if trunk else ()))
     size = (FIGSIZE_IN[0], FIGSIZE_IN[1] * len(panels) / len(_PANELS))
     fig = Figure(figsize=size, dpi=DPI, layout="constrained")
     FigureCanvasAgg(fig)
@@ -100,14 +110,15 @@ def plot_joint_angles(
         legend: dict[str, object] = {}  # one figure legend, first handle per label
         for ax, (stem, ylabel) in zip(axes, panels, strict=True):
             drawn = False
-            for side, side_name, _colour, style in _SIDES:
-                ref = (reference_deg or {}).get(f"{stem}_{side}")
+            sides = _NO_SIDE if stem == _TRUNK_PANEL[0] else _SIDES
+            for side, side_name, _colour, style in sides:
+                ref = (reference_deg or {}).get(_key(stem, side))
                 if ref is not None:
-                    ax.plot(x, _curve(f"{stem}_{side}", ref, n, "reference curve"),
+                    ax.plot(x, _curve(_key(stem, side), ref, n, "reference curve"),
                             color="0.25", linestyle=style, linewidth=1.0, alpha=0.8,
                             label=f"{reference_label} {side_name}")
-            for side, side_name, colour, style in _SIDES:
-                key = f"{stem}_{side}"
+            for side, side_name, colour, style in sides:
+                key = _key(stem, side)
                 if key not in angles_deg or angles_deg[key] is None:
                     continue
                 y = _curve(key, angles_deg[key], n, "angle curve")
@@ -118,7 +129,7 @@ def plot_joint_angles(
                                     label=f"{side_name} ±SD")
                 drawn = True
             for side, side_name, colour, _style in _SIDES:
-                if side in toe_off:
+                if side in toe_off and stem != _TRUNK_PANEL[0]:
                     ax.axvline(toe_off[side], color=colour, linestyle=":", linewidth=1.2,
                                label=f"toe-off {side_name}")
             if not drawn:

@@ -17,6 +17,8 @@ at right heel strike (``stumble.pipeline.simulate_walk``):
                   + max(0, that RMSE − 8°) / 2°)]       with ``foot_angle`` w_foot > 0
      [+ W_STRIDE · (distance of the mean stride time from 1.0–1.3 s / 0.05 s)²]
                                                                   with ``stride_time``
+     [+ w_trunk · (RMSE of the trunk's lean / 10° + max(0, that RMSE − 8°) / 2°)]
+                                                   with ``trunk_weight`` w_trunk > 0
 
 so that a walker first learns not to fall (nor to stand still: the first term counts
 the way covered at 1 m/s at least), then to walk like the recording (every joint
@@ -28,7 +30,12 @@ the shipped fits' objective) tracks each foot's angle in the sagittal plane
 hold the swing foot 15–30° toe up where the recorded foot is about flat (at 0.6–0.75 of
 swing, from 14° toe down to 6° toe up), so that an obstacle ahead of the toe meets the
 heel, and the foot comes to rest on the box's edge instead of being lowered behind it
-(README). The strategy is CMA-ES (Hansen 2016; the ``cmaes`` package), seeded, so a
+(README). The trunk term (``trunk_weight``, off in the shipped fits' objective) tracks
+the torso's lean from vertical (``analysis.trunk_lean``) against the recorded stride's:
+the hip, knee and ankle angles are relative to the pelvis and the segment above them,
+so a walker can track them within 10° with its trunk 10° further forward than the
+recording's (the default network: 24° on average, up to 32°, against the recording's
+12–16°). The strategy is CMA-ES (Hansen 2016; the ``cmaes`` package), seeded, so a
 fit is reproduced exactly from its seed; candidates of one generation are evaluated in
 parallel worker processes and told back in order, so the worker count does not change
 the result. Each generation's figures are appended to ``history.jsonl`` and the best
@@ -109,7 +116,8 @@ def walk_cost(summary: dict, effort: float, foot_angle: float = 0.0,
               stance_weight: float = W_STANCE,
               track_weight: float = W_TRACK,
               knee_weight: float = W_KNEE,
-              track_limit_deg: float | None = None) -> tuple[float, dict]:
+              track_limit_deg: float | None = None,
+              trunk_weight: float = 0.0) -> tuple[float, dict]:
     """The objective J of a walk's summary (``walk_metrics``) and its mean
     F_max-weighted squared activation; returns J and its terms; ``foot_angle``: the
     foot-angle term's weight (0: none; ``W_FOOT``, 1, a joint's; on the summary's
@@ -119,7 +127,8 @@ def walk_cost(summary: dict, effort: float, foot_angle: float = 0.0,
     (``W_TRACK``, 1, in every shipped fit); ``knee_weight``: the knee term's, per degree
     of ``knee_hyperextension_deg`` (``W_KNEE``, 0: none; 5 in ``knee-walk``'s fit);
     ``track_limit_deg``: each joint's RMSE beyond it costs ``W_TRACK_LIMIT`` a degree
-    (None: no such term)."""
+    (None: no such term); ``trunk_weight``: the trunk term's weight (0: none; on the
+    summary's ``trunk_rmse_deg``)."""
     T = summary["duration_s"]
     walked = min(summary["walked_s"] / T,
                  max(summary.get("distance_m", T * SPEED_BAND[0]), 0.0) / (SPEED_BAND[0] * T))
@@ -141,6 +150,10 @@ def walk_cost(summary: dict, effort: float, foot_angle: float = 0.0,
     if track_limit_deg is not None:
         terms["track_limit"] = W_TRACK_LIMIT * (
             float(np.maximum(rmse - track_limit_deg, 0.0).sum()) if rmse.size else 10.0)
+    if trunk_weight:
+        r = summary.get("trunk_rmse_deg")
+        terms["trunk"] = float(trunk_weight) * (10.0 if r is None else
+                                                r / 10.0 + max(r - TRACK_HINGE_DEG, 0.0) / 2.0)
     if stride_time:
         st = summary.get("stride_s")
         terms["stride"] = W_STRIDE * (4.0 if st is None else
@@ -437,7 +450,7 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                    timestep_s: float | None = None, trip_start: str | None = None,
                    track_limit_deg: float | None = None,
                    names: tuple[str, ...] | None = None,
-                   delay_walks: tuple = ()) -> None:
+                   delay_walks: tuple = (), trunk_weight: float = 0.0) -> None:
     """Worker set-up: what ``evaluate_walk`` simulates: a walk, and the obstacle trips
     ``trips`` ((swing fraction, speed) pairs) the walker must walk on from; GH2010
     candidates in ``gh2010_space(stumble_reflex=...)``; ``strategy_cost``: what a trip in
@@ -457,7 +470,7 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
     ``track_limit_deg``: ``walk_cost``'s; ``names``: a network candidate's parameters
     (``network_space``'s names; default inferred from its length); ``delay_walks``: each
     candidate also walks ``PUSH_WALK_S`` from the same start with its delays × each of
-    these (``push_term``)."""
+    these (``push_term``); ``trunk_weight``: ``walk_cost``'s."""
     from stumble.pipeline import WalkInCache
 
     _EVAL.pop("walk", None)
@@ -473,7 +486,8 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                  knee_weight=float(knee_weight), starts=tuple(map(float, starts)),
                  timestep_s=timestep_s, trip_start=trip_start,
                  track_limit_deg=track_limit_deg, names=names,
-                 delay_walks=tuple(map(float, delay_walks)))
+                 delay_walks=tuple(map(float, delay_walks)),
+                 trunk_weight=float(trunk_weight))
 
 
 def _candidate(theta) -> tuple:
@@ -521,7 +535,8 @@ def _own_walk(theta) -> tuple[float, dict, float]:
                             _EVAL.get("stance_weight", W_STANCE),
                             _EVAL.get("track_weight", W_TRACK),
                             _EVAL.get("knee_weight", W_KNEE),
-                            _EVAL.get("track_limit_deg"))
+                            _EVAL.get("track_limit_deg"),
+                            _EVAL.get("trunk_weight", 0.0))
     terms["walked_s"] = r.summary["walked_s"]
     terms["speed_m_per_s"] = r.summary["speed_m_per_s"]
     return cost, terms, float(r.body.model.opt.timestep)
@@ -1233,7 +1248,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    touch_response: bool = False, response_by_foot: bool = False,
                    ahead_from: tuple | None = None, trip_sample: int | None = None,
                    cross_step: bool = False, cross_only: bool = False,
-                   delay_walks: tuple = (), pushes: bool = False):
+                   delay_walks: tuple = (), pushes: bool = False,
+                   trunk_weight: float = 0.0):
     """CMA-ES on ``network_space(start, interneuron_biases, touch_only, touch_response)``:
     each candidate walks
     ``NETWORK_ES_WALK_S`` from the 1.2 m/s recording (and 10 s from each of ``starts``) at
@@ -1269,6 +1285,7 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
     delays × each of these (``init_walk_eval``'s; not with ``touch_only``); ``pushes``:
     each candidate also walks 10 s from it through the pelvis pushes ``PUSHES``
     (``init_walk_eval``'s, as Geyer & Herr's ``--pushes``; not with ``touch_only``);
+    ``trunk_weight``: ``walk_cost``'s trunk term (0, none; not with ``touch_only``);
     writes ``network.npz``,
     ``history.jsonl`` and ``best.json`` to ``out`` when given."""
     import tempfile
@@ -1332,7 +1349,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                           knee_weight=knee_weight, starts=tuple(starts), timestep_s=step,
                           trip_start=trip_start, track_limit_deg=track_limit_deg,
                           touch_only=touch_only, names=tuple(space.names),
-                          delay_walks=tuple(delay_walks), pushes=pushes),
+                          delay_walks=tuple(delay_walks), pushes=pushes,
+                          trunk_weight=trunk_weight),
                       stage="walk+trips" if trips else "walk", sample=sample,
                       split=WALK_SPLIT)
     net = network_with(start, res.best_theta, space.names)
@@ -1360,6 +1378,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
         opts.append("--cross-only")
     if track_limit_deg is not None:
         opts.append(f"--track-limit {track_limit_deg:g}")
+    if trunk_weight:
+        opts.append(f"--trunk-weight {trunk_weight:g}")
     if generations != NETWORK_ES_GENERATIONS:
         opts.append(f"--generations {generations}")
     if sigma != NETWORK_ES_SIGMA:
@@ -1399,6 +1419,7 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    **({"trip_sample": trip_sample, "result": "the search's mean at the "
                        "end, judged on the whole trip set"} if trip_sample else {}),
                    "track_limit_deg": track_limit_deg,
+                   **({"trunk_weight": trunk_weight} if trunk_weight else {}),
                    "cost": res.best_cost, "terms": res.best_terms,
                    "wall_time_s": round(res.wall_time_s, 1), "command": command}
     from dataclasses import replace as _replace
