@@ -164,21 +164,28 @@ def test_the_stride_time_term_charges_strides_outside_the_band():
     assert "--stride-time" in _fit_command("gh2010", False, walk, None, 1, stride_time=True)
 
 
-def test_foot_angle_is_the_feet_pitch_in_the_world_and_tracked_on_the_walk():
+def _random_planar_poses(seed: int, n: int = 5):
+    """(model, data) of the planar muscle body in ``n`` random poses (joints within
+    ±0.4 rad), its kinematics computed: one pose per iteration."""
     import mujoco
 
-    from stumble.analysis import foot_angles
     from stumble.body.build import build
-    from stumble.pipeline import simulate_walk
 
-    body = build(planar=True, actuation="muscles")
-    m = body.model
+    m = build(planar=True, actuation="muscles").model
     d = mujoco.MjData(m)
-    rng = np.random.default_rng(3)
-    for _ in range(5):
+    rng = np.random.default_rng(seed)
+    for _ in range(n):
         d.qpos[:] = 0.0
         d.qpos[2:] = rng.uniform(-0.4, 0.4, m.nq - 2)
         mujoco.mj_kinematics(m, d)
+        yield m, d
+
+
+def test_foot_angle_is_the_feet_pitch_in_the_world_and_tracked_on_the_walk():
+    from stumble.analysis import foot_angles
+    from stumble.pipeline import simulate_walk
+
+    for m, d in _random_planar_poses(3):
         got = foot_angles(d.qpos.copy(), m)
         for side in ("r", "l"):
             R = d.xmat[m.body(f"foot_{side}").id].reshape(3, 3)
@@ -194,20 +201,10 @@ def test_trunk_lean_is_the_torsos_pitch_in_the_world_and_reported_on_the_walk():
     the ``torso_z`` sensor, in the sagittal plane) for any pose; a reflex walk reports
     its trunk's RMSE against the recorded stride and its mean lean and range, the
     recorded stride leaning 12-16 degrees on our body."""
-    import mujoco
-
     from stumble.analysis import trunk_lean
-    from stumble.body.build import build
     from stumble.pipeline import simulate_walk
 
-    body = build(planar=True, actuation="muscles")
-    m = body.model
-    d = mujoco.MjData(m)
-    rng = np.random.default_rng(4)
-    for _ in range(5):
-        d.qpos[:] = 0.0
-        d.qpos[2:] = rng.uniform(-0.4, 0.4, m.nq - 2)
-        mujoco.mj_kinematics(m, d)
+    for m, d in _random_planar_poses(4):
         z = d.xmat[m.body("torso").id].reshape(3, 3)[:, 2]
         assert trunk_lean(d.qpos.copy(), m)["trunk_lean"] == pytest.approx(
             np.arctan2(z[0], z[2]))
