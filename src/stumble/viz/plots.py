@@ -129,7 +129,7 @@ def plot_joint_angles(
                                     label=f"{side_name} ±SD")
                 drawn = True
             for side, side_name, colour, _style in _SIDES:
-                if side in toe_off and stem != _TRUNK_PANEL[0]:
+                if side in toe_off:
                     ax.axvline(toe_off[side], color=colour, linestyle=":", linewidth=1.2,
                                label=f"toe-off {side_name}")
             if not drawn:
