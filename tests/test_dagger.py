@@ -92,6 +92,38 @@ def test_judging_on_workers_gives_the_same_figures():
     assert shared == alone and alone["walked_s_by_start"] == {"1.1": 2.0, "1.3": 2.0}
 
 
+def test_a_pushed_episode_is_the_same_walk_until_the_push(episodes):
+    """``collect(pushes=...)``: the expert's episode (β = 1) with a backward push on the
+    pelvis at 0.3 s senses what the unpushed one sensed until the push, then other
+    states, still labelled (DAgger's ``--pushes`` episodes)."""
+    net, eps = episodes
+    pushed = collect(net, shipped_params("seed003"), 1.0, seed=3, speed_m_per_s=1.2,
+                     duration_s=0.6, pushes=((0.3, 0.2, -200.0),))
+    plain = eps[1.0]
+    assert pushed.inputs.shape == plain.inputs.shape
+    assert np.array_equal(pushed.inputs[:290], plain.inputs[:290])
+    assert not np.allclose(pushed.inputs[-50:], plain.inputs[-50:])
+    assert np.array_equal(pushed.mask, plain.mask)
+
+
+def test_judging_through_pushes_adds_the_part_not_walked():
+    """``judge(pushes=...)``: one more walk, from the first start through the pushes;
+    the part of it not walked adds ``push_term`` to the cost. The DAgger network
+    ``placement`` falls after the first of ``PUSHES`` (3 s)."""
+    from stumble.control.reflex import dagger as D
+    from stumble.control.reflex.fit_walk import PUSHES, W_FALL, push_term
+
+    net = default_network("placement")
+    plain = D.judge(net, (1.2,), duration_s=2.0)
+    pushed = D.judge(net, (1.2,), duration_s=2.0, pushes=PUSHES)
+    assert "push_term" not in plain
+    assert 3.0 < pushed["pushed_walked_s"] < 6.0
+    # by time or by way, the smaller share walked (here the way)
+    by_time = push_term({"walked_s": pushed["pushed_walked_s"], "distance_m": 1e9})
+    assert 0.0 < by_time <= pushed["push_term"] < W_FALL
+    assert pushed["cost"] == pytest.approx(plain["cost"] + pushed["push_term"])
+
+
 def test_each_pass_is_written_as_it_ends(tmp_path, monkeypatch):
     """``dagger(out_dir=...)``: every pass's row is appended to ``passes.jsonl`` when it
     ends and the best network so far saved whole (``best_network.npz``), so that a
@@ -103,8 +135,10 @@ def test_each_pass_is_written_as_it_ends(tmp_path, monkeypatch):
 
     net, expert = default_network("closed-loop"), shipped_params("seed003")
     costs = iter([50.0, 40.0, 45.0])  # the start, pass 0 (better), pass 1 (worse)
-    monkeypatch.setattr(D, "judge", lambda n, speeds, pool=None: {"cost": next(costs)})
-    monkeypatch.setattr(D, "_collect_job", lambda a: collect(*a, duration_s=0.3))
+    monkeypatch.setattr(D, "judge",
+                        lambda n, speeds, pool=None, pushes=(): {"cost": next(costs)})
+    monkeypatch.setattr(D, "_collect_job",
+                        lambda a: collect(*a[:5], duration_s=0.3, pushes=a[5]))
     monkeypatch.setattr(D, "train_on",
                         lambda n, data, pool=None: (train_on(n, data, 2)[0], 0.5))
     monkeypatch.setattr(D, "ident_data", lambda n, ident: [])

@@ -371,7 +371,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="gh2010, network --walk-es: every candidate also walks 10 s with "
                    "two backward pushes on the pelvis (200 N for 0.2 s at 3 and 6.5 s), "
                    "the part not walked costing as a fall: a gait that gets its speed back "
-                   "(ours; not with --touch-only)")
+                   "(ours; not with --touch-only); --closed-loop: every DAgger episode "
+                   "walks through those pushes, and each pass is judged through them too")
     f.add_argument("--starts", default=None, metavar="V[,V...]",
                    help="gh2010: every candidate also walks 10 s from the walk played back "
                    "at each of these speeds (m/s, 0.7-1.6), the part not walked costing "
@@ -1156,16 +1157,17 @@ def cmd_reflex(args) -> int:
                          "--trunk-weight and --track-limit are for --walk-es")
     if (args.trips or args.params is not None or args.trip_set or args.scr_phase
             or args.ta_bound != "wide" or args.strategy_cost is not None or args.crossing
-            or args.recovery_cost is not None or args.placement or args.pushes
-            or args.starts is not None or args.timestep is not None
+            or args.recovery_cost is not None or args.placement
+            or (args.pushes and not args.closed_loop) or args.starts is not None
+            or args.timestep is not None
             or args.foot_angle or args.load_from is not None or args.stride_time
             or args.stance_weight is not None or args.touch_only
             or args.track_weight is not None or args.knee_weight is not None):
         raise InputError("--trips, --params, --trip-set, --scr-phase, --strategy-cost, "
                          "--recovery-cost, --crossing, --touch-only, --load-from, "
                          "--foot-angle, --stride-time, --stance-weight, --track-weight, "
-                         "--knee-weight, --placement, --pushes, --starts, --timestep and "
-                         "--ta-bound "
+                         "--knee-weight, --placement, --pushes (but with --closed-loop), "
+                         "--starts, --timestep and --ta-bound "
                          "are for "
                          "--controller gh2010 (some also for network --walk-es)")
     from stumble.control.reflex.identify import ITERATIONS, REFINE_ITERATIONS, fit
@@ -1207,6 +1209,7 @@ def cmd_reflex(args) -> int:
         import os
 
         from stumble.control.reflex.dagger import PASSES, dagger
+        from stumble.control.reflex.fit_walk import PUSHES
         from stumble.control.reflex.gh2010 import shipped_params
 
         n = passes or PASSES
@@ -1215,7 +1218,8 @@ def cmd_reflex(args) -> int:
                              expert or shipped_params("seed003"), n, expert=expert_text,
                              out_dir=out,
                              seed=args.seed, workers=args.workers or os.cpu_count() or 1,
-                             progress=lambda row: bar(row["pass"] + 1, n))
+                             progress=lambda row: bar(row["pass"] + 1, n),
+                             pushes=PUSHES if args.pushes else ())
         bar.done()
     written = write_fit(out, result, video=not args.no_video, closed_loop=closed_loop)
     print(identified + ("" if closed_loop else f"; wrote {', '.join(written)} to {out}"))

@@ -121,8 +121,10 @@ def balance_of(params: GH2010Params, delay_s: float = TrunkBalance.DELAY_S) -> T
 
 
 def collect(net: Network, params: GH2010Params, beta: float, seed: int,
-            speed_m_per_s: float, duration_s: float = EPISODE_S) -> Episode:
-    """One episode of walking under the mixture, from the played-back walk."""
+            speed_m_per_s: float, duration_s: float = EPISODE_S, pushes=()) -> Episode:
+    """One episode of walking under the mixture, from the played-back walk; ``pushes``:
+    (start s, duration s, force N) on the pelvis, + forward (``trip.PelvisPushes``), so
+    that the states after a push are visited and labelled too."""
     from stumble.analysis import FALL_PELVIS_FRACTION, WalkStop
     from stumble.body.contact import rest_support_foot
     from stumble.control.reflex.fit_walk import FIT_TIMESTEP_S
@@ -151,7 +153,14 @@ def collect(net: Network, params: GH2010Params, beta: float, seed: int,
     student.trace = {"inputs": [], "balance": []}
     mix = Mixed(student, GH2010Controller(params), beta, np.random.default_rng(seed))
     stop = WalkStop(FALL_PELVIS_FRACTION * _standing_pelvis(body))
-    rec = run(Context(m, d, body, Sensors(), 0.0), mix, duration_s, stop=stop)
+    force = {}
+    if pushes:
+        from stumble.trip import PelvisPushes
+
+        pelvis = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "pelvis")
+        force = {"trip_force": PelvisPushes(pushes), "force_body": pelvis,
+                 "force_point": lambda dd: dd.xipos[pelvis]}
+    rec = run(Context(m, d, body, Sensors(), 0.0), mix, duration_s, stop=stop, **force)
     x = np.concatenate(student.trace["inputs"], axis=0)
     T, nm = len(x), student.nm
     y = np.full((T, 2, nm), 0.01)
@@ -321,6 +330,7 @@ class DaggerResult:
     history: list[dict] = field(default_factory=list)
     wall_time_s: float = 0.0
     expert: str = "the shipped seed003-wired GH2010 (data/gh2010_seed003.json)"
+    pushes: tuple = ()  # the pelvis pushes every episode and judged walk went through
 
 
 def ident_data(net: Network, ident) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
@@ -336,48 +346,70 @@ PASSES = 8
 
 def _collect_job(args) -> Episode:
     """One episode (a top-level function for worker processes)."""
-    net, params, beta, seed, speed = args
-    return collect(net, params, beta, seed, speed)
+    net, params, beta, seed, speed, pushes = args
+    return collect(net, params, beta, seed, speed, pushes=pushes)
 
 
 def _judge_walk(args) -> tuple[float, dict, dict]:
-    """One of ``judge``'s walks, (network, start m/s, s): (cost, terms, summary)."""
-    from stumble.control.reflex.fit_walk import FIT_TIMESTEP_S, effort_of, walk_cost
+    """One of ``judge``'s walks, (network, start m/s, s, pushes): (cost, terms, summary);
+    a pushed walk's cost is ``fit_walk.push_term``'s."""
+    from stumble.control.reflex.fit_walk import (
+        FIT_TIMESTEP_S,
+        effort_of,
+        push_term,
+        walk_cost,
+    )
     from stumble.pipeline import simulate_walk
 
-    net, v, duration_s = args
-    r = simulate_walk("network", duration_s, v, network=net, timestep_s=FIT_TIMESTEP_S)
+    net, v, duration_s, pushes = args
+    r = simulate_walk("network", duration_s, v, network=net, timestep_s=FIT_TIMESTEP_S,
+                      pushes=pushes)
+    if pushes:
+        return push_term(r.summary), {}, r.summary
     cost, terms = walk_cost(r.summary, effort_of(r))
     return cost, terms, r.summary
 
 
 def judge(net: Network, speeds: tuple[float, ...] = JUDGE_SPEEDS, pool=None,
-          duration_s: float = EVAL_S) -> dict:
+          duration_s: float = EVAL_S, pushes=()) -> dict:
     """The walking objective of the network on its own (``fit_walk.walk_cost``) over
     ``duration_s`` from each start speed of ``speeds`` (m/s): the mean cost, the figures
     of the first and the time walked from each. ``pool``: an executor that runs the
-    walks (the same numbers)."""
-    jobs = [(net, v, duration_s) for v in speeds]
+    walks (the same numbers). ``pushes``: the network also walks ``fit_walk.PUSH_WALK_S``
+    from the first start through these pelvis pushes, and the part not walked adds
+    ``fit_walk.push_term`` to the cost (as ``reflex fit --pushes`` does)."""
+    from stumble.control.reflex.fit_walk import PUSH_WALK_S
+
+    jobs = [(net, v, duration_s, ()) for v in speeds]
+    if pushes:
+        jobs.append((net, speeds[0], PUSH_WALK_S, tuple(pushes)))
     rows = list(pool.map(_judge_walk, jobs) if pool is not None else map(_judge_walk, jobs))
+    pushed = rows.pop() if pushes else None
     _cost, terms, s = rows[0]
-    out = {"cost": float(np.mean([c for c, _t, _s in rows])), "walked_s": s["walked_s"],
+    out = {"cost": float(np.mean([c for c, _t, _s in rows])
+                         + (pushed[0] if pushed else 0.0)), "walked_s": s["walked_s"],
            "speed_m_per_s": s["speed_m_per_s"], "rmse_deg": s["rmse_deg"],
            "stance_fraction": s["stance_fraction"], "terms": terms,
            "walked_s_by_start": {str(v): r[2]["walked_s"]
                                  for v, r in zip(speeds, rows, strict=True)}}
+    if pushed:
+        out["push_term"] = pushed[0]
+        out["pushed_walked_s"] = pushed[2]["walked_s"]
     return out
 
 
 def dagger(net: Network, ident, params: GH2010Params, passes: int = PASSES, seed: int = 0,
            workers: int = 1, progress=None, episode_speeds: tuple = EPISODE_SPEEDS,
            judge_speeds: tuple = JUDGE_SPEEDS, expert: str | None = None,
-           out_dir=None) -> DaggerResult:
+           out_dir=None, pushes=()) -> DaggerResult:
     """Refine ``net`` by DAgger with the GH2010 expert ``params`` (module docstring;
     ``expert``: what it is, for the record, default the shipped one's name); each pass's
     episodes start from the walks at ``episode_speeds`` (m/s), its network is judged by
     ``judge`` from ``judge_speeds`` and the best of them is returned. ``out_dir``: each
     pass's row is appended to ``passes.jsonl`` there as it ends, and the best network so
-    far saved as ``best_network.npz`` (a stopped fit loses nothing)."""
+    far saved as ``best_network.npz`` (a stopped fit loses nothing). ``pushes``: every
+    episode walks through these pelvis pushes ((start s, duration s, force N), e.g.
+    ``fit_walk.PUSHES``) and ``judge`` walks through them too (none: as before)."""
     from concurrent.futures import ProcessPoolExecutor
     from pathlib import Path
 
@@ -387,13 +419,15 @@ def dagger(net: Network, ident, params: GH2010Params, passes: int = PASSES, seed
     base = ident_data(net, ident)
     data: list = []
     out = DaggerResult(net) if expert is None else DaggerResult(net, expert=expert)
+    out.pushes = tuple(tuple(q) for q in pushes)
     sets = SetPool(workers) if workers > 1 else None  # training, the same numbers
     pool = ProcessPoolExecutor(workers) if workers > 1 else None
     try:
-        best_cost = judge(net, judge_speeds, pool=pool)["cost"]
+        pushes = out.pushes
+        best_cost = judge(net, judge_speeds, pool=pool, pushes=pushes)["cost"]
         for i in range(passes):
             beta = BETA_DECAY ** i
-            jobs = [(net, params, beta, seed * 1000 + 10 * i + j, speed)
+            jobs = [(net, params, beta, seed * 1000 + 10 * i + j, speed, pushes)
                     for j, speed in enumerate(episode_speeds)]
             tic = time.perf_counter()
             eps = list(pool.map(_collect_job, jobs) if pool else map(_collect_job, jobs))
@@ -407,7 +441,7 @@ def dagger(net: Network, ident, params: GH2010Params, passes: int = PASSES, seed
             train_s = time.perf_counter() - tic
             net.info["balance"] = balance_of(params).to_info()
             tic = time.perf_counter()
-            judged = judge(net, judge_speeds, pool=pool)
+            judged = judge(net, judge_speeds, pool=pool, pushes=pushes)
             row = {"pass": i, "beta": beta, "loss": loss,
                    "samples": int(sum(w.sum() for _x, _y, w in data)),
                    "episodes_walked_s": [ep.walked_s for ep in eps], **judged,
