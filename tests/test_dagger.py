@@ -191,3 +191,14 @@ def test_the_balance_carries_the_experts_placement():
     out = bal.place_cols_drive(placed, loads)
     assert np.allclose(out[0, 0], [0.0, 0.0, 0.1]) and np.allclose(out[0, 1], [0.05, 0, 0])
     assert not out[1].any()
+
+
+def test_pushes_without_the_closed_loop_fit_are_refused_in_one_line(capsys, tmp_path):
+    """``reflex fit --pushes`` for the network is DAgger's (``--closed-loop``) or the
+    walking fit's (``--walk-es``): alone, one line naming both, exit 2, nothing fitted."""
+    from stumble.cli import main
+
+    assert main(["reflex", "fit", "--pushes", "--out", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--pushes also for --closed-loop" in err
+    assert not (tmp_path / "x" / "network.npz").exists()

@@ -1166,10 +1166,9 @@ def cmd_reflex(args) -> int:
         raise InputError("--trips, --params, --trip-set, --scr-phase, --strategy-cost, "
                          "--recovery-cost, --crossing, --touch-only, --load-from, "
                          "--foot-angle, --stride-time, --stance-weight, --track-weight, "
-                         "--knee-weight, --placement, --pushes (but with --closed-loop), "
-                         "--starts, --timestep and --ta-bound "
-                         "are for "
-                         "--controller gh2010 (some also for network --walk-es)")
+                         "--knee-weight, --placement, --pushes, --starts, --timestep and "
+                         "--ta-bound are for --controller gh2010 (some also for network "
+                         "--walk-es; --pushes also for --closed-loop)")
     from stumble.control.reflex.identify import ITERATIONS, REFINE_ITERATIONS, fit
     from stumble.outputs import prepare_dir, write_fit
 
