@@ -418,12 +418,12 @@ def dagger(net: Network, ident, params: GH2010Params, passes: int = PASSES, seed
     t0 = time.perf_counter()
     base = ident_data(net, ident)
     data: list = []
+    pushes = tuple(tuple(q) for q in pushes)
     out = DaggerResult(net) if expert is None else DaggerResult(net, expert=expert)
-    out.pushes = tuple(tuple(q) for q in pushes)
+    out.pushes = pushes
     sets = SetPool(workers) if workers > 1 else None  # training, the same numbers
     pool = ProcessPoolExecutor(workers) if workers > 1 else None
     try:
-        pushes = out.pushes
         best_cost = judge(net, judge_speeds, pool=pool, pushes=pushes)["cost"]
         for i in range(passes):
             beta = BETA_DECAY ** i
