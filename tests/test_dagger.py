@@ -140,7 +140,8 @@ def test_each_pass_is_written_as_it_ends(tmp_path, monkeypatch):
     monkeypatch.setattr(D, "_collect_job",
                         lambda a: collect(*a[:5], duration_s=0.3, pushes=a[5]))
     monkeypatch.setattr(D, "train_on",
-                        lambda n, data, pool=None: (train_on(n, data, 2)[0], 0.5))
+                        lambda n, data, pool=None, loss="squared":
+                        (train_on(n, data, 2, loss=loss)[0], 0.5))
     monkeypatch.setattr(D, "ident_data", lambda n, ident: [])
     res = D.dagger(net, None, expert, passes=2, episode_speeds=(1.2,), judge_speeds=(1.2,),
                    out_dir=tmp_path)
@@ -201,4 +202,69 @@ def test_pushes_without_the_closed_loop_fit_are_refused_in_one_line(capsys, tmp_
     assert main(["reflex", "fit", "--pushes", "--out", str(tmp_path / "x")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--pushes also for --closed-loop" in err
+    assert not (tmp_path / "x" / "network.npz").exists()
+
+
+def test_the_cross_entropy_gradient_is_its_loss_s_slope(episodes):
+    """``_loss_grad(..., 'cross-entropy')``: the gradient matches central differences of
+    the loss along a random direction of the free parameters."""
+    from stumble.control.reflex.dagger import _loss_grad
+
+    net, eps = episodes
+    ep = eps[1.0]
+    data = [(ep.inputs[:, side], ep.targets[:, side], ep.mask.astype(float))
+            for side in range(2)]
+    net = replace(net, info=dict(net.info))
+    theta = net.pack()
+    loss, grad = _loss_grad(net, data, "cross-entropy")
+    step = np.random.default_rng(0).normal(size=theta.size)
+    step *= 1e-5 / np.linalg.norm(step)
+    net.unpack(theta + step)
+    up = _loss_grad(net, data, "cross-entropy")[0]
+    net.unpack(theta - step)
+    down = _loss_grad(net, data, "cross-entropy")[0]
+    assert (up - down) / 2 == pytest.approx(float(grad @ step), rel=1e-4)
+    assert loss > 0.0
+
+
+def test_cross_entropy_revives_a_motor_neuron_driven_off(episodes):
+    """A muscle's motor neuron biased to σ ≈ 0 (c = −25) where the expert fires it: under
+    the squared error its gradient carries u(1 − u) ≈ 0 and training leaves it off; under
+    the cross-entropy (∂L/∂z = u − y) the same training brings it up to the labels."""
+    net, eps = episodes
+    ep = eps[1.0]
+    data = [(ep.inputs[:, side], ep.targets[:, side], ep.mask.astype(float))
+            for side in range(2)]
+    j = list(net.topology.muscles).index("TA")
+    dead = replace(net, c=net.c.copy(), info=dict(net.info))
+    dead.c[j] = -25.0
+    label = np.mean([y[w > 0, j].mean() for _x, y, w in data])
+    assert label > 0.05  # the expert fires TA through the walk
+
+    def mean_ta(n):
+        return np.mean([n.forward(x)[0][w > 0, j].mean() for x, _y, w in data])
+
+    assert mean_ta(dead) < 1e-6
+    squared, _l = train_on(dead, data, iterations=10)
+    crossed, _l = train_on(dead, data, iterations=10, loss="cross-entropy")
+    assert mean_ta(squared) < 1e-4
+    assert mean_ta(crossed) > 0.5 * label
+
+
+def test_an_unknown_loss_is_refused(episodes):
+    net, eps = episodes
+    ep = eps[1.0]
+    with pytest.raises(ValueError, match="loss 'l1': one of squared, cross-entropy"):
+        train_on(net, [(ep.inputs[:, 0], ep.targets[:, 0], ep.mask.astype(float))],
+                 iterations=1, loss="l1")
+
+
+def test_loss_without_the_closed_loop_fit_is_refused_in_one_line(capsys, tmp_path):
+    """``reflex fit --loss`` is DAgger's: without ``--closed-loop``, one line, exit 2."""
+    from stumble.cli import main
+
+    assert main(["reflex", "fit", "--loss", "cross-entropy", "--out",
+                 str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--loss is for --closed-loop" in err
     assert not (tmp_path / "x" / "network.npz").exists()

@@ -58,6 +58,26 @@ def test_the_default_network_runs_from_the_papers_gains_both_branches_shared_onc
                                                      "network.npz")
 
 
+def test_the_cross_entropy_branch_is_dagger_by_its_loss_then_two_touch_stages(tmp_path):
+    """``cross-entropy-foot``: its expert's five fits, DAgger by the cross-entropy through
+    pushes (``cross-entropy``, a root, ``reproduce.ROOTS``), then its two touch stages by
+    the foot's place: 44.8 min recorded after the expert (the first touch stage with
+    another fit on the machine; 31 min idle)."""
+    kind, stages = plan("cross-entropy-foot", tmp_path)
+    tags = [s.tag for s in stages]
+    assert kind == "network"
+    assert tags == ["pushed-walk", "knee-walk", "e2", "e3", "expert-placement",
+                    "cross-entropy", "cef", "cross-entropy-foot"]
+    dagger = stages[5].argv
+    assert "--closed-loop" in dagger and "--pushes" in dagger
+    assert _arg(dagger, "--loss") == "cross-entropy"
+    assert _arg(dagger, "--expert") == str(tmp_path / "expert-placement" / "gh2010.json")
+    assert _arg(stages[6].argv, "--walk-es") == str(tmp_path / "cross-entropy" / "network.npz")
+    assert _arg(stages[7].argv, "--walk-es") == str(tmp_path / "cef" / "network.npz")
+    assert all(_arg(s.argv, "--scr-phase") == "foot" for s in stages[6:])
+    assert 40 < sum(s.minutes for s in stages[5:]) < 50
+
+
 def _copying_runner(calls: list, change=None):
     """Stands in for ``stumble``: writes the shipped file of the stage's name (the last
     part of its ``--out``), as a fit that reproduces it would; ``change(path)`` edits it."""

@@ -324,6 +324,10 @@ def _parser() -> argparse.ArgumentParser:
                    "parameter's scale (default 0.3; smaller for a second stage)")
     f.add_argument("--passes", type=int, default=None, metavar="N",
                    help="network, --closed-loop: DAgger passes (default 8)")
+    f.add_argument("--loss", choices=("squared", "cross-entropy"), default=None,
+                   help="network, --closed-loop: DAgger's training loss (default squared, "
+                   "as the shipped networks'; cross-entropy keeps a motor neuron that "
+                   "is driven off learning)")
     f.add_argument("--expert", type=Path, default=None, metavar="FILE",
                    help="network, --closed-loop: the DAgger expert, a gh2010.json of "
                    "`reflex fit --controller gh2010 --wiring seed003` (default: the "
@@ -864,8 +868,10 @@ def cmd_reflex_fit_gh2010(args) -> int:
     if args.trips and args.wiring != "gh2010" and args.params is None:
         raise InputError(f"--trips --wiring {args.wiring} starts from a {args.wiring}-wired "
                          "set: give it by --params (e.g. expert-placement)")
-    if args.expert is not None or args.closed_loop or args.passes is not None:
-        raise InputError("--expert, --closed-loop and --passes are for --controller network")
+    if (args.expert is not None or args.closed_loop or args.passes is not None
+            or args.loss is not None):
+        raise InputError("--expert, --closed-loop, --passes and --loss are for --controller "
+                         "network")
     for flag, given in (("--trip-set", args.trip_set),
                         ("--scr-phase", args.scr_phase),
                         ("--strategy-cost", args.strategy_cost),
@@ -989,7 +995,8 @@ def cmd_reflex_fit_network_es(args) -> int:
                         ("--crossing", args.crossing or None),
                         ("--load-from", args.load_from), ("--placement", args.placement or None),
                         ("--expert", args.expert),
-                        ("--passes", args.passes), ("--foot-angle", args.foot_angle or None),
+                        ("--passes", args.passes), ("--loss", args.loss),
+                        ("--foot-angle", args.foot_angle or None),
                         ("--stride-time", args.stride_time or None),
                         ("--stance-weight", args.stance_weight),
                         ("--iterations", args.iterations), ("--refine", args.refine),
@@ -1194,6 +1201,8 @@ def cmd_reflex(args) -> int:
         expert_text = f"{args.expert} (sha256 {file_sha256(args.expert)})"
     if passes is not None and (not closed or passes < 1):
         raise InputError("--passes is for the closed-loop fit and must be at least 1")
+    if args.loss is not None and not closed:
+        raise InputError("--loss is for --closed-loop (DAgger's training loss)")
     out = prepare_dir(args.out)
     bar = _Progress("identifying", sys.stderr.isatty())
     result = fit(seed=args.seed, iterations=it, refine_iterations=refine,
@@ -1218,7 +1227,8 @@ def cmd_reflex(args) -> int:
                              out_dir=out,
                              seed=args.seed, workers=args.workers or os.cpu_count() or 1,
                              progress=lambda row: bar(row["pass"] + 1, n),
-                             pushes=PUSHES if args.pushes else ())
+                             pushes=PUSHES if args.pushes else (),
+                             loss=args.loss or "squared")
         bar.done()
     written = write_fit(out, result, video=not args.no_video, closed_loop=closed_loop)
     print(identified + ("" if closed_loop else f"; wrote {', '.join(written)} to {out}"))

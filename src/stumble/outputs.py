@@ -230,6 +230,7 @@ def write_fit(out: Path, fit, video: bool = True, closed_loop=None) -> list[str]
             "method": "DAgger with the GH2010 expert on seed 003's wiring "
                       "(stumble.control.reflex.dagger)",
             "expert": closed_loop.expert,
+            **({"loss": closed_loop.loss} if closed_loop.loss != "squared" else {}),
             **({"pushes": [list(q) for q in closed_loop.pushes]} if closed_loop.pushes
                else {}),
             "passes": closed_loop.history, "wall_time_s": round(closed_loop.wall_time_s, 1)}

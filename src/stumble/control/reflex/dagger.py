@@ -39,6 +39,15 @@ from stumble.control.reflex.gh2010 import GH2010Controller, GH2010Params
 from stumble.control.reflex.network import Network
 from stumble.sim import Context
 
+# The training loss (ours; seed 003 back-propagates a squared error, ``identify.train``):
+# ``squared``, half the squared excitation error, as the identification and the shipped
+# networks' DAgger; ``cross-entropy``, the binary cross-entropy of the excitation in (0, 1)
+# against the expert's, whose gradient at a motor neuron's input is u − y: a motor
+# neuron driven to σ ≈ 0 still learns. Under the squared error its gradient carries a
+# factor u(1 − u) and vanishes there: the shipped DAgger network ``placement`` holds its
+# HAMS below 0.005 in 99 % of ticks of its expert's walk, where the expert fires HAMS to
+# about 0.3 in late swing (docs/reflex-fits.md, "A dead hamstring motor neuron").
+LOSSES = ("squared", "cross-entropy")
 MIX_SEGMENT_S = 0.05  # the body changes hands between network and expert at most this often
 BETA_DECAY = 0.8  # β (the expert's share of segments) is BETA_DECAY ** pass
 EPISODE_S = 8.0  # closed-loop walking per episode
@@ -179,12 +188,16 @@ def collect(net: Network, params: GH2010Params, beta: float, seed: int,
     return Episode(x, np.clip(y, 0.01, 0.99), mask, float(rec.time_s[-1]))
 
 
-def _set_loss_grad(net: Network, xd: np.ndarray, tgt: np.ndarray,
-                   wt: np.ndarray) -> tuple[float, np.ndarray, float]:
-    """One (inputs, target, weight) set's share of ``_loss_grad``: half its weighted
-    squared error, its gradient and its weight."""
+def _set_loss_grad(net: Network, xd: np.ndarray, tgt: np.ndarray, wt: np.ndarray,
+                   loss: str = "squared") -> tuple[float, np.ndarray, float]:
+    """One (inputs, target, weight) set's share of ``_loss_grad`` (``LOSSES``): its
+    weighted loss, its gradient and its weight."""
     u, cache_ = net.forward(xd)
     err = (u - tgt) * wt[:, None]
+    if loss == "cross-entropy":  # ∂L/∂z = u − y: no vanishing where σ saturates
+        z = cache_["z"]  # −[y log σ(z) + (1 − y) log(1 − σ(z))] = log(1 + e^z) − y z
+        ce = (np.logaddexp(0.0, z) - tgt * z) * wt[:, None]
+        return float(ce.sum()), net.gradient_z(xd, err, cache_), float(wt.sum())
     return 0.5 * float((err * (u - tgt)).sum()), net.gradient(xd, err, cache_), float(wt.sum())
 
 
@@ -199,9 +212,11 @@ def _sum_sets(parts) -> tuple[float, np.ndarray]:
     return loss / n, grad / n
 
 
-def _loss_grad(net: Network, data: list[tuple[np.ndarray, np.ndarray, np.ndarray]]):
-    """Weighted squared excitation error over (inputs (T, n_in), target, weight) sets."""
-    return _sum_sets(_set_loss_grad(net, *s) for s in data)
+def _loss_grad(net: Network, data: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
+               loss: str = "squared"):
+    """Weighted excitation error (``LOSSES``) over (inputs (T, n_in), target, weight)
+    sets."""
+    return _sum_sets(_set_loss_grad(net, *s, loss) for s in data)
 
 
 def _set_worker(conn) -> None:
@@ -210,17 +225,17 @@ def _set_worker(conn) -> None:
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent stops it
     sets: list = []
-    net = None
+    net, loss = None, "squared"
     while True:
         msg = conn.recv()
         try:
             if msg[0] == "add":
                 sets += msg[1]
             elif msg[0] == "net":
-                net = msg[1]
+                net, loss = msg[1], msg[2]
             elif msg[0] == "eval":
                 net.unpack(msg[1])
-                conn.send(("ok", [(k, _set_loss_grad(net, *s)) for k, s in sets]))
+                conn.send(("ok", [(k, _set_loss_grad(net, *s, loss)) for k, s in sets]))
             else:
                 return
         except Exception as e:  # handed to the parent, which raises it
@@ -247,6 +262,7 @@ class SetPool:
         self._local: list = []  # (k, set) of this process's share
         self._held: list = []  # every set handed out, in order (to check ``hold``'s data)
         self._count = 0
+        self.loss = "squared"
         for _ in range(self.n - 1):
             mine, theirs = ctx.Pipe()
             proc = ctx.Process(target=_set_worker, args=(theirs,), daemon=True)
@@ -271,16 +287,18 @@ class SetPool:
                 conn.send(("add", sets))
         self._count = len(data)
 
-    def start(self, net: Network) -> None:
-        """The network whose free parameters each ``loss_grad`` sets (its structure)."""
+    def start(self, net: Network, loss: str = "squared") -> None:
+        """The network whose free parameters each ``loss_grad`` sets (its structure), and
+        the loss (``LOSSES``)."""
+        self.loss = loss
         for conn in self._conns:
-            conn.send(("net", net))
+            conn.send(("net", net, loss))
 
     def loss_grad(self, net: Network, theta: np.ndarray) -> tuple[float, np.ndarray]:
         """``_loss_grad`` over the held sets of ``net`` with ``theta`` unpacked."""
         for conn in self._conns:
             conn.send(("eval", theta))
-        parts = {k: _set_loss_grad(net, *s) for k, s in self._local}
+        parts = {k: _set_loss_grad(net, *s, self.loss) for k, s in self._local}
         for conn in self._conns:
             status, got = conn.recv()
             if status != "ok":
@@ -303,18 +321,22 @@ class SetPool:
 
 
 def train_on(net: Network, data, iterations: int = 300,
-             pool: SetPool | None = None) -> tuple[Network, float]:
-    """L-BFGS from the network's weights on the data; returns the trained copy, loss.
-    ``pool``: its processes share the work (the same numbers)."""
+             pool: SetPool | None = None, loss: str = "squared") -> tuple[Network, float]:
+    """L-BFGS from the network's weights on the data by ``loss`` (``LOSSES``); returns
+    the trained copy and the loss. ``pool``: its processes share the work (the same
+    numbers)."""
+    if loss not in LOSSES:
+        raise ValueError(f"loss {loss!r}: one of {', '.join(LOSSES)}")
     net = replace(net, info=dict(net.info))
     theta0 = net.pack()
     if pool is not None:
         pool.hold(data)
-        pool.start(net)
+        pool.start(net, loss)
 
     def fun(th):
         net.unpack(th)
-        return pool.loss_grad(net, th) if pool is not None else _loss_grad(net, data)
+        return (pool.loss_grad(net, th) if pool is not None
+                else _loss_grad(net, data, loss))
 
     res = minimize(fun, theta0, jac=True, method="L-BFGS-B",
                    options={"maxiter": iterations, "maxfun": 2 * iterations})
@@ -331,6 +353,7 @@ class DaggerResult:
     wall_time_s: float = 0.0
     expert: str = "the shipped seed003-wired GH2010 (data/gh2010_seed003.json)"
     pushes: tuple = ()  # the pelvis pushes every episode and judged walk went through
+    loss: str = "squared"  # the training loss (``LOSSES``)
 
 
 def ident_data(net: Network, ident) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
@@ -401,7 +424,7 @@ def judge(net: Network, speeds: tuple[float, ...] = JUDGE_SPEEDS, pool=None,
 def dagger(net: Network, ident, params: GH2010Params, passes: int = PASSES, seed: int = 0,
            workers: int = 1, progress=None, episode_speeds: tuple = EPISODE_SPEEDS,
            judge_speeds: tuple = JUDGE_SPEEDS, expert: str | None = None,
-           out_dir=None, pushes=()) -> DaggerResult:
+           out_dir=None, pushes=(), loss: str = "squared") -> DaggerResult:
     """Refine ``net`` by DAgger with the GH2010 expert ``params`` (module docstring;
     ``expert``: what it is, for the record, default the shipped one's name); each pass's
     episodes start from the walks at ``episode_speeds`` (m/s), its network is judged by
@@ -409,7 +432,8 @@ def dagger(net: Network, ident, params: GH2010Params, passes: int = PASSES, seed
     pass's row is appended to ``passes.jsonl`` there as it ends, and the best network so
     far saved as ``best_network.npz`` (a stopped fit loses nothing). ``pushes``: every
     episode walks through these pelvis pushes ((start s, duration s, force N), e.g.
-    ``fit_walk.PUSHES``) and ``judge`` walks through them too (none: as before)."""
+    ``fit_walk.PUSHES``) and ``judge`` walks through them too (none: as before).
+    ``loss``: the training loss (``LOSSES``)."""
     from concurrent.futures import ProcessPoolExecutor
     from pathlib import Path
 
@@ -420,7 +444,7 @@ def dagger(net: Network, ident, params: GH2010Params, passes: int = PASSES, seed
     data: list = []
     pushes = tuple(tuple(q) for q in pushes)
     out = DaggerResult(net) if expert is None else DaggerResult(net, expert=expert)
-    out.pushes = pushes
+    out.pushes, out.loss = pushes, loss
     sets = SetPool(workers) if workers > 1 else None  # training, the same numbers
     pool = ProcessPoolExecutor(workers) if workers > 1 else None
     try:
@@ -437,12 +461,12 @@ def dagger(net: Network, ident, params: GH2010Params, passes: int = PASSES, seed
                     data.append((ep.inputs[:, side], ep.targets[:, side],
                                  ep.mask.astype(float)))
             tic = time.perf_counter()
-            net, loss = train_on(net, base + data, pool=sets)
+            net, fit_loss = train_on(net, base + data, pool=sets, loss=loss)
             train_s = time.perf_counter() - tic
             net.info["balance"] = balance_of(params).to_info()
             tic = time.perf_counter()
             judged = judge(net, judge_speeds, pool=pool, pushes=pushes)
-            row = {"pass": i, "beta": beta, "loss": loss,
+            row = {"pass": i, "beta": beta, "loss": fit_loss,
                    "samples": int(sum(w.sum() for _x, _y, w in data)),
                    "episodes_walked_s": [ep.walked_s for ep in eps], **judged,
                    "wall_time_s": round(time.perf_counter() - t0, 1),

@@ -109,12 +109,26 @@ SHIPPED_PLACEMENT_FOOT = "network_placement_foot.npz"
 # held-out 28 (README "The seed's network in closed loop"). Two further touch stages from
 # it did worse on the 45 and the held-out 28 (docs/reflex-fits.md)
 SHIPPED_PLACEMENT_BOTH = "network_placement_both.npz"
+# DAgger from the placing expert trained by the cross-entropy (``dagger.LOSSES``) through
+# the walking fits' pushes: `stumble reflex fit --closed-loop --seed 0 --expert
+# expert-placement --loss cross-entropy --pushes` (2026-12-05, eighth session; 13.8 min
+# on 2 workers, ``reproduce.ROOTS``). Its hamstrings fire in late swing as its expert's
+# (the squared error's ``placement`` holds them off); it walks 10 s from every start at
+# 1.25-1.27 m/s, RMSE 10.1/12.1/7.3 deg from the 1.0 m/s walk, and through the first
+# push (README "The seed's network in closed loop", docs/reflex-fits.md)
+SHIPPED_CROSS_ENTROPY = "network_cross_entropy.npz"
+# ``cross-entropy`` with a touch response by the foot's place, two touch stages
+# (``placement-foot``'s recipe, its commands in the file's record): 20 of the 45 own-gait
+# trips, 11 of the 28 held out, in about 29 min from the expert
+SHIPPED_CROSS_ENTROPY_FOOT = "network_cross_entropy_foot.npz"
 NETWORK_NAMES = {"open-loop": SHIPPED, "closed-loop": SHIPPED_CLOSED_LOOP,
                  "placement": SHIPPED_PLACEMENT, "placement-es": SHIPPED_PLACEMENT_ES,
                  "placement-walk": SHIPPED_PLACEMENT_WALK,
                  "placement-touch": SHIPPED_PLACEMENT_TOUCH,
                  "placement-foot": SHIPPED_PLACEMENT_FOOT,
-                 "placement-both": SHIPPED_PLACEMENT_BOTH}
+                 "placement-both": SHIPPED_PLACEMENT_BOTH,
+                 "cross-entropy": SHIPPED_CROSS_ENTROPY,
+                 "cross-entropy-foot": SHIPPED_CROSS_ENTROPY_FOOT}
 # the network a reflex controller runs when none is given: ``placement-both`` since
 # 2026-12-05, which walks within 10 deg of the recorded stride at every joint and
 # recovers 21 of the 45 own-gait trips, both strategies among them (before it,
@@ -387,7 +401,9 @@ def default_network(name: str | None = None) -> Network:
     alone, ``stumble reflex fit``, seed 0), ``closed-loop`` (``--closed-loop``, seed 0),
     ``placement`` (DAgger from the placing expert), its CMA-ES refinements
     ``placement-es`` and ``placement-walk``, and the latter with touch responses,
-    ``placement-touch``, ``placement-foot`` and ``placement-both``; loaded once."""
+    ``placement-touch``, ``placement-foot`` and ``placement-both``; DAgger by the
+    cross-entropy, ``cross-entropy``, and it with a touch response by the foot's place,
+    ``cross-entropy-foot``; loaded once."""
     return _shipped_network(name or DEFAULT_NETWORK)
 
 

@@ -398,12 +398,17 @@ class Network:
             z[:, j] += contrib[:, k]
         z += self.c
         u = 1.0 / (1.0 + np.exp(-z))
-        return u, {"h": h, "hd": hd, "u": u}
+        return u, {"h": h, "hd": hd, "u": u, "z": z}
 
     def gradient(self, xd: np.ndarray, du: np.ndarray, cache: dict) -> np.ndarray:
         """Gradient of a loss with ∂L/∂u = ``du`` (T, 7), in ``pack`` layout."""
-        u, h, hd = cache["u"], cache["h"], cache["hd"]
-        dz = du * u * (1.0 - u)  # (T, 7)
+        u = cache["u"]
+        return self.gradient_z(xd, du * u * (1.0 - u), cache)
+
+    def gradient_z(self, xd: np.ndarray, dz: np.ndarray, cache: dict) -> np.ndarray:
+        """Gradient of a loss with ∂L/∂z = ``dz`` (T, 7), z the motor neurons' input
+        (u = σ(z)), in ``pack`` layout."""
+        h, hd = cache["h"], cache["hd"]
         conns = self.topology.connections()
         units = self.units_of()
         js = np.array([j for _s, j, _lag in conns])

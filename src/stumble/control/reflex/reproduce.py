@@ -64,7 +64,12 @@ class Stage:
 # A chain that starts from one runs it first, its expert's chain before it.
 ROOTS = {"placement": Stage("stumble reflex fit --closed-loop --seed 0 --expert "
                             "expert-placement --no-video --out DIR", None, 20.5,
-                            expert="expert-placement")}
+                            expert="expert-placement"),
+         # DAgger by the cross-entropy through pushes (2026-12-05, eighth session)
+         "cross-entropy": Stage("stumble reflex fit --closed-loop --seed 0 --expert "
+                                "expert-placement --loss cross-entropy --pushes "
+                                "--no-video --out DIR", None, 13.8,
+                                expert="expert-placement")}
 
 
 def _record(name: str) -> tuple[str, dict | None]:
