@@ -268,3 +268,32 @@ def test_loss_without_the_closed_loop_fit_is_refused_in_one_line(capsys, tmp_pat
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--loss is for --closed-loop" in err
     assert not (tmp_path / "x" / "network.npz").exists()
+
+
+def test_cross_entropy_on_two_processes_gives_the_same_numbers(episodes):
+    """``SetPool.start(net, 'cross-entropy')``: the workers use the loss they are given,
+    the one-process cross-entropy and its gradient bit for bit."""
+    from stumble.control.reflex.dagger import SetPool, _loss_grad
+
+    net, eps = episodes
+    data = [(ep.inputs[:, side], ep.targets[:, side], ep.mask.astype(float))
+            for ep in eps.values() for side in range(2)]
+    pool = SetPool(2)
+    try:
+        pool.hold(data)
+        pool.start(net, "cross-entropy")
+        loss, grad = pool.loss_grad(net, net.pack())
+    finally:
+        pool.close()
+    ref_loss, ref_grad = _loss_grad(net, data, "cross-entropy")
+    assert loss == ref_loss and np.array_equal(grad, ref_grad)
+    assert loss != _loss_grad(net, data)[0]  # not the squared error
+
+
+def test_the_command_line_offers_the_losses_dagger_has():
+    from stumble.cli import _parser
+    from stumble.control.reflex.dagger import LOSSES
+
+    fit = next(a for a in _parser()._subparsers._group_actions[0].choices["reflex"]
+               ._subparsers._group_actions[0].choices["fit"]._actions if a.dest == "loss")
+    assert tuple(fit.choices) == LOSSES

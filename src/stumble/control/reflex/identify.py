@@ -119,7 +119,7 @@ SHIPPED_PLACEMENT_BOTH = "network_placement_both.npz"
 SHIPPED_CROSS_ENTROPY = "network_cross_entropy.npz"
 # ``cross-entropy`` with a touch response by the foot's place, two touch stages
 # (``placement-foot``'s recipe, its commands in the file's record): 20 of the 45 own-gait
-# trips, 11 of the 28 held out, in about 29 min from the expert
+# trips, 11 of the 28 held out, in 31 min from the expert (13.8 + 13.8 + 3.5 on 2 workers)
 SHIPPED_CROSS_ENTROPY_FOOT = "network_cross_entropy_foot.npz"
 NETWORK_NAMES = {"open-loop": SHIPPED, "closed-loop": SHIPPED_CLOSED_LOOP,
                  "placement": SHIPPED_PLACEMENT, "placement-es": SHIPPED_PLACEMENT_ES,
