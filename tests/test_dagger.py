@@ -297,3 +297,38 @@ def test_the_command_line_offers_the_losses_dagger_has():
     fit = next(a for a in _parser()._subparsers._group_actions[0].choices["reflex"]
                ._subparsers._group_actions[0].choices["fit"]._actions if a.dest == "loss")
     assert tuple(fit.choices) == LOSSES
+
+
+def test_a_trip_episode_trips_the_left_foot_and_goes_on_labelled():
+    """``collect(trip=0.1)``: the expert with a touch response (``expert-touch``, β = 1)
+    walks the same walk as untripped until the left foot's first swing after
+    ``TRIP_WALK_IN_S``; at 0.1 of it the obstacle is set before the toe, the foot touches
+    it, the expert recovers (it does every own-gait trip to 0.35 of swing) and every tick
+    after the history is labelled to the episode's end."""
+    from stumble.control.reflex import dagger as D
+    from stumble.control.reflex.gh2010 import load_params
+
+    net, expert = default_network("cross-entropy"), load_params("expert-touch")
+    tripped = collect(net, expert, 1.0, seed=3, speed_m_per_s=1.2, duration_s=4.0, trip=0.1)
+    plain = collect(net, expert, 1.0, seed=3, speed_m_per_s=1.2, duration_s=4.0)
+    assert tripped.trip == {"swing": 0.1, "set": True, "touched": True}
+    assert plain.trip is None
+    assert tripped.walked_s == pytest.approx(4.0, abs=0.003)
+    assert np.array_equal(tripped.mask, plain.mask) and tripped.mask[-1]
+    # the same states until the trip (after TRIP_WALK_IN_S), other ones after it
+    k = int(1000 * D.TRIP_WALK_IN_S)
+    assert np.array_equal(tripped.inputs[:k], plain.inputs[:k])
+    assert not np.allclose(tripped.inputs[-200:], plain.inputs[-200:])
+
+
+def test_trip_episodes_without_the_closed_loop_fit_are_refused_in_one_line(capsys, tmp_path):
+    """``reflex fit --trip-episodes`` is DAgger's: without ``--closed-loop``, or out of
+    0-20, one line, exit 2, nothing fitted."""
+    from stumble.cli import main
+
+    for extra in ([], ["--closed-loop", "--trip-episodes", "21"]):
+        args = ["reflex", "fit", "--trip-episodes", "2", *extra, "--out", str(tmp_path / "x")]
+        assert main(args) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "--trip-episodes is for --closed-loop" in err
+    assert not (tmp_path / "x" / "network.npz").exists()

@@ -328,6 +328,11 @@ def _parser() -> argparse.ArgumentParser:
                    help="network, --closed-loop: DAgger's training loss (default squared, "
                    "as the shipped networks'; cross-entropy keeps a motor neuron that "
                    "is driven off learning)")
+    f.add_argument("--trip-episodes", type=int, default=None, metavar="N",
+                   help="network, --closed-loop: each DAgger pass also runs N episodes "
+                   "tripped by the obstacle in the walk's own gait, at swing fractions "
+                   "drawn from 0.05-0.75 (default 0; give an expert with a touch "
+                   "response, e.g. --expert expert-touch)")
     f.add_argument("--expert", type=Path, default=None, metavar="FILE",
                    help="network, --closed-loop: the DAgger expert, a gh2010.json of "
                    "`reflex fit --controller gh2010 --wiring seed003` (default: the "
@@ -869,9 +874,9 @@ def cmd_reflex_fit_gh2010(args) -> int:
         raise InputError(f"--trips --wiring {args.wiring} starts from a {args.wiring}-wired "
                          "set: give it by --params (e.g. expert-placement)")
     if (args.expert is not None or args.closed_loop or args.passes is not None
-            or args.loss is not None):
-        raise InputError("--expert, --closed-loop, --passes and --loss are for --controller "
-                         "network")
+            or args.loss is not None or args.trip_episodes is not None):
+        raise InputError("--expert, --closed-loop, --passes, --loss and --trip-episodes are "
+                         "for --controller network")
     for flag, given in (("--trip-set", args.trip_set),
                         ("--scr-phase", args.scr_phase),
                         ("--strategy-cost", args.strategy_cost),
@@ -996,6 +1001,7 @@ def cmd_reflex_fit_network_es(args) -> int:
                         ("--load-from", args.load_from), ("--placement", args.placement or None),
                         ("--expert", args.expert),
                         ("--passes", args.passes), ("--loss", args.loss),
+                        ("--trip-episodes", args.trip_episodes),
                         ("--foot-angle", args.foot_angle or None),
                         ("--stride-time", args.stride_time or None),
                         ("--stance-weight", args.stance_weight),
@@ -1203,6 +1209,10 @@ def cmd_reflex(args) -> int:
         raise InputError("--passes is for the closed-loop fit and must be at least 1")
     if args.loss is not None and not closed:
         raise InputError("--loss is for --closed-loop (DAgger's training loss)")
+    trips = args.trip_episodes
+    if trips is not None and (not closed or not 0 <= trips <= 20):
+        raise InputError("--trip-episodes is for --closed-loop and must be 0-20 (trip "
+                         "episodes per DAgger pass)")
     out = prepare_dir(args.out)
     bar = _Progress("identifying", sys.stderr.isatty())
     result = fit(seed=args.seed, iterations=it, refine_iterations=refine,
@@ -1228,7 +1238,7 @@ def cmd_reflex(args) -> int:
                              seed=args.seed, workers=args.workers or os.cpu_count() or 1,
                              progress=lambda row: bar(row["pass"] + 1, n),
                              pushes=PUSHES if args.pushes else (),
-                             loss=args.loss or "squared")
+                             loss=args.loss or "squared", trips=trips or 0)
         bar.done()
     written = write_fit(out, result, video=not args.no_video, closed_loop=closed_loop)
     print(identified + ("" if closed_loop else f"; wrote {', '.join(written)} to {out}"))

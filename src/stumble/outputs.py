@@ -233,6 +233,7 @@ def write_fit(out: Path, fit, video: bool = True, closed_loop=None) -> list[str]
             **({"loss": closed_loop.loss} if closed_loop.loss != "squared" else {}),
             **({"pushes": [list(q) for q in closed_loop.pushes]} if closed_loop.pushes
                else {}),
+            **({"trip_episodes": closed_loop.trips} if closed_loop.trips else {}),
             "passes": closed_loop.history, "wall_time_s": round(closed_loop.wall_time_s, 1)}
     step = simulate_walking_step(net)
     fit.report["walking_step"] = {

@@ -117,6 +117,9 @@ class Episode:
     targets: np.ndarray  # (T, 2, nm) expert excitation without trunk-lean terms
     mask: np.ndarray  # (T,) bool: ticks with a label and a full delay history
     walked_s: float = 0.0
+    # a trip episode's trip: {"swing": fraction, "set": the obstacle was set, "touched":
+    # the tripped foot touched it}; None: a walking episode
+    trip: dict | None = None
 
 
 def balance_of(params: GH2010Params, delay_s: float = TrunkBalance.DELAY_S) -> TrunkBalance:
@@ -130,10 +133,16 @@ def balance_of(params: GH2010Params, delay_s: float = TrunkBalance.DELAY_S) -> T
 
 
 def collect(net: Network, params: GH2010Params, beta: float, seed: int,
-            speed_m_per_s: float, duration_s: float = EPISODE_S, pushes=()) -> Episode:
+            speed_m_per_s: float, duration_s: float = EPISODE_S, pushes=(),
+            trip: float | None = None) -> Episode:
     """One episode of walking under the mixture, from the played-back walk; ``pushes``:
     (start s, duration s, force N) on the pelvis, + forward (``trip.PelvisPushes``), so
-    that the states after a push are visited and labelled too."""
+    that the states after a push are visited and labelled too. ``trip``: a swing fraction;
+    the left foot (the strategy map's, ``trip.Scenario``'s leg) is tripped by the 10 cm
+    obstacle at that fraction of its first swing
+    after ``TRIP_WALK_IN_S`` of the mixture's own walk, as ``simulate_trip`` trips an
+    own-gait walk, and the episode goes on from the trip (a trip that cannot be set at
+    that instant, the toe over the box, leaves the walk untripped)."""
     from stumble.analysis import FALL_PELVIS_FRACTION, WalkStop
     from stumble.body.contact import rest_support_foot
     from stumble.control.reflex.fit_walk import FIT_TIMESTEP_S
@@ -149,10 +158,12 @@ def collect(net: Network, params: GH2010Params, beta: float, seed: int,
 
     body, pb = _walk(1.75, 70.0, "male", DEFAULT_CONTACT, round(speed_m_per_s, 4),
                      FIT_TIMESTEP_S, True, net.muscle_set)
-    m = body.model
     import mujoco
 
     t0 = next(t for t in pb.events.heel_strike_s["r"] if t >= WALK_BEFORE_TRIP_S)
+    if trip is not None:  # the same body with the obstacle, parked under the floor
+        body = _trip_body(body, pb.state_at(t0)[0], net.muscle_set)
+    m = body.model
     d = mujoco.MjData(m)
     d.qpos[:], d.qvel[:] = pb.state_at(t0)
     rest_support_foot(m, d, planar=True)
@@ -169,7 +180,12 @@ def collect(net: Network, params: GH2010Params, beta: float, seed: int,
         pelvis = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "pelvis")
         force = {"trip_force": PelvisPushes(pushes), "force_body": pelvis,
                  "force_point": lambda dd: dd.xipos[pelvis]}
-    rec = run(Context(m, d, body, Sensors(), 0.0), mix, duration_s, stop=stop, **force)
+    ctx = Context(m, d, body, Sensors(), 0.0)
+    tripped = None
+    if trip is None:
+        rec = run(ctx, mix, duration_s, stop=stop, **force)
+    else:
+        rec, tripped = _tripped(ctx, mix, body, trip, duration_s, stop)
     x = np.concatenate(student.trace["inputs"], axis=0)
     T, nm = len(x), student.nm
     y = np.full((T, 2, nm), 0.01)
@@ -185,7 +201,60 @@ def collect(net: Network, params: GH2010Params, beta: float, seed: int,
     first = int(mix.labels[0][0]) if mix.labels else T
     assert first >= lag, "the history must cover the longest path"
     mask[:first] = False
-    return Episode(x, np.clip(y, 0.01, 0.99), mask, float(rec.time_s[-1]))
+    return Episode(x, np.clip(y, 0.01, 0.99), mask, float(rec.time_s[-1]), tripped)
+
+
+TRIP_WALK_IN_S = 2.0  # a trip episode's own walk before the tripped swing (s; ours)
+TRIP_SWINGS = (0.05, 0.75)  # the swing fractions trip episodes draw from: the strategy map's
+TRIP_SIDE = "l"  # the tripped foot: the strategy map's (``trip.Scenario``'s default leg)
+
+
+def _trip_body(base, qpos: np.ndarray, muscle_set: str):
+    """``base`` (the planar body of the walk) built again with the trips' obstacle box,
+    parked under the floor in the tripped foot's lane (``simulate_trip``'s own start)."""
+    from stumble.body.build import build
+    from stumble.trip import (
+        OBSTACLE_DEPTH_M,
+        OBSTACLE_HEIGHT_M,
+        OBSTACLE_WIDTH_M,
+        park_obstacle,
+        toe_front,
+    )
+
+    body = build(planar=True, height_m=1.75, mass_kg=70.0, sex="male",
+                 contact=base.contact, timestep_s=base.model.opt.timestep,
+                 obstacle=(0.0, OBSTACLE_HEIGHT_M, OBSTACLE_DEPTH_M, OBSTACLE_WIDTH_M, 0.0),
+                 actuation="muscles", muscle_set=muscle_set)
+    park_obstacle(body.model, toe_front(base, qpos, TRIP_SIDE)[2])
+    return body
+
+
+def _tripped(ctx: Context, mix: Mixed, body, swing: float, duration_s: float, stop):
+    """Run the mixture to ``swing`` of the tripped leg's first swing after
+    ``TRIP_WALK_IN_S``, set the obstacle before the toe and run on to ``duration_s`` in
+    all; the last run's recording and what the trip did (``Episode.trip``)."""
+    from stumble.analysis import TripTimer
+    from stumble.errors import TripNotSet
+    from stumble.sim import run
+    from stumble.trip import Scenario, obstacle_at, place_obstacle
+
+    timer = TripTimer(TRIP_SIDE, swing, TRIP_WALK_IN_S, stop.fall_height_m)
+    rec = run(ctx, mix, duration_s, stop=timer)
+    left = duration_s - float(ctx.data.time)
+    what = {"swing": swing, "set": False, "touched": False}
+    if rec.stop_reason != "trip" or left <= 0.0:
+        return rec, what
+    try:
+        box = obstacle_at(body, ctx.data.qpos.copy(), Scenario(
+            controller="reflex", mechanism="obstacle", swing_fraction=swing))
+    except TripNotSet:
+        box = None
+    if box is not None:
+        place_obstacle(ctx.model, box, ctx.data)
+    rec = run(ctx, mix, left, stop=stop, resume=True)
+    side = 0 if TRIP_SIDE == "r" else 1
+    what.update({"set": box is not None, "touched": bool(rec.foot_on_obstacle[:, side].any())})
+    return rec, what
 
 
 def _set_loss_grad(net: Network, xd: np.ndarray, tgt: np.ndarray, wt: np.ndarray,
@@ -354,6 +423,7 @@ class DaggerResult:
     expert: str = "the shipped seed003-wired GH2010 (data/gh2010_seed003.json)"
     pushes: tuple = ()  # the pelvis pushes every episode and judged walk went through
     loss: str = "squared"  # the training loss (``LOSSES``)
+    trips: int = 0  # trip episodes per pass (``collect``'s ``trip``)
 
 
 def ident_data(net: Network, ident) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
@@ -369,8 +439,9 @@ PASSES = 8
 
 def _collect_job(args) -> Episode:
     """One episode (a top-level function for worker processes)."""
-    net, params, beta, seed, speed, pushes = args
-    return collect(net, params, beta, seed, speed, pushes=pushes)
+    net, params, beta, seed, speed, pushes, trip = args
+    return collect(net, params, beta, seed, speed, pushes=() if trip is not None else pushes,
+                   trip=trip)
 
 
 def _judge_walk(args) -> tuple[float, dict, dict]:
@@ -424,7 +495,7 @@ def judge(net: Network, speeds: tuple[float, ...] = JUDGE_SPEEDS, pool=None,
 def dagger(net: Network, ident, params: GH2010Params, passes: int = PASSES, seed: int = 0,
            workers: int = 1, progress=None, episode_speeds: tuple = EPISODE_SPEEDS,
            judge_speeds: tuple = JUDGE_SPEEDS, expert: str | None = None,
-           out_dir=None, pushes=(), loss: str = "squared") -> DaggerResult:
+           out_dir=None, pushes=(), loss: str = "squared", trips: int = 0) -> DaggerResult:
     """Refine ``net`` by DAgger with the GH2010 expert ``params`` (module docstring;
     ``expert``: what it is, for the record, default the shipped one's name); each pass's
     episodes start from the walks at ``episode_speeds`` (m/s), its network is judged by
@@ -433,7 +504,12 @@ def dagger(net: Network, ident, params: GH2010Params, passes: int = PASSES, seed
     far saved as ``best_network.npz`` (a stopped fit loses nothing). ``pushes``: every
     episode walks through these pelvis pushes ((start s, duration s, force N), e.g.
     ``fit_walk.PUSHES``) and ``judge`` walks through them too (none: as before).
-    ``loss``: the training loss (``LOSSES``)."""
+    ``loss``: the training loss (``LOSSES``). ``trips``: each pass also runs this many
+    trip episodes (``collect``'s ``trip``, without pushes), from the walks at
+    ``episode_speeds`` in turn, each at a swing fraction drawn uniformly from
+    ``TRIP_SWINGS`` (by ``seed`` and pass), so that the states a trip leads to are
+    labelled too; an expert with a stumbling corrective reflex (``expert-touch``) drives
+    its share of them through it (the labels are its walking laws alone)."""
     from concurrent.futures import ProcessPoolExecutor
     from pathlib import Path
 
@@ -444,15 +520,19 @@ def dagger(net: Network, ident, params: GH2010Params, passes: int = PASSES, seed
     data: list = []
     pushes = tuple(tuple(q) for q in pushes)
     out = DaggerResult(net) if expert is None else DaggerResult(net, expert=expert)
-    out.pushes, out.loss = pushes, loss
+    out.pushes, out.loss, out.trips = pushes, loss, trips
     sets = SetPool(workers) if workers > 1 else None  # training, the same numbers
     pool = ProcessPoolExecutor(workers) if workers > 1 else None
     try:
         best_cost = judge(net, judge_speeds, pool=pool, pushes=pushes)["cost"]
         for i in range(passes):
             beta = BETA_DECAY ** i
-            jobs = [(net, params, beta, seed * 1000 + 10 * i + j, speed, pushes)
+            jobs = [(net, params, beta, seed * 1000 + 10 * i + j, speed, pushes, None)
                     for j, speed in enumerate(episode_speeds)]
+            draw = np.random.default_rng([seed, i, 7])  # the trips' swing fractions
+            jobs += [(net, params, beta, 10**6 + seed * 1000 + 10 * i + j,
+                      episode_speeds[j % len(episode_speeds)], pushes,
+                      round(float(draw.uniform(*TRIP_SWINGS)), 3)) for j in range(trips)]
             tic = time.perf_counter()
             eps = list(pool.map(_collect_job, jobs) if pool else map(_collect_job, jobs))
             collect_s = time.perf_counter() - tic
@@ -469,6 +549,8 @@ def dagger(net: Network, ident, params: GH2010Params, passes: int = PASSES, seed
             row = {"pass": i, "beta": beta, "loss": fit_loss,
                    "samples": int(sum(w.sum() for _x, _y, w in data)),
                    "episodes_walked_s": [ep.walked_s for ep in eps], **judged,
+                   **({"trips": [{**ep.trip, "walked_s": round(ep.walked_s, 3)}
+                                 for ep in eps if ep.trip is not None]} if trips else {}),
                    "wall_time_s": round(time.perf_counter() - t0, 1),
                    "collect_s": round(collect_s, 1), "train_s": round(train_s, 1),
                    "judge_s": round(time.perf_counter() - tic, 1)}
