@@ -190,3 +190,21 @@ def test_a_record_that_names_two_results_alike_is_refused(tmp_path, monkeypatch)
     monkeypatch.setattr(rp, "_record", lambda name: ("network", third))
     with pytest.raises(InputError, match="names two stages' results alike"):
         plan("x", tmp_path)
+
+
+def test_the_seed_1_cross_entropy_branch_starts_from_its_own_dagger_root(tmp_path):
+    """``cross-entropy-s1-foot``: the expert's five fits, DAgger by the cross-entropy
+    through pushes with seed 1 (``cross-entropy-s1``, a root of its own), then the same
+    two touch stages as ``cross-entropy-foot`` from it."""
+    kind, stages = plan("cross-entropy-s1-foot", tmp_path)
+    tags = [s.tag for s in stages]
+    assert kind == "network"
+    assert tags == ["pushed-walk", "knee-walk", "e2", "e3", "expert-placement",
+                    "cross-entropy-s1", "ces1f", "cross-entropy-s1-foot"]
+    dagger = stages[5].argv
+    assert _arg(dagger, "--seed") == "1" and _arg(dagger, "--loss") == "cross-entropy"
+    assert "--pushes" in dagger
+    assert _arg(stages[6].argv, "--walk-es") == str(tmp_path / "cross-entropy-s1" /
+                                                    "network.npz")
+    assert _arg(stages[7].argv, "--walk-es") == str(tmp_path / "ces1f" / "network.npz")
+    assert [_arg(s.argv, "--trip-set") for s in stages[6:]] == ["dense", "wide"]

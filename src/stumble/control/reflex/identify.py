@@ -121,6 +121,14 @@ SHIPPED_CROSS_ENTROPY = "network_cross_entropy.npz"
 # (``placement-foot``'s recipe, its commands in the file's record): 20 of the 45 own-gait
 # trips, 11 of the 28 held out, in 31 min from the expert (13.8 + 13.8 + 3.5 on 2 workers)
 SHIPPED_CROSS_ENTROPY_FOOT = "network_cross_entropy_foot.npz"
+# the same DAgger by its seed 1 (`... --loss cross-entropy --pushes --seed 1`, 2026-12-05,
+# ninth session; ``reproduce.ROOTS``): its best pass (4 of 8; the file is that pass's
+# network, as the command writes it) walks 10 s through both pushes from the 1.0, 1.2 and
+# 1.4 m/s walks (README "The seed's network in closed loop")
+SHIPPED_CROSS_ENTROPY_S1 = "network_cross_entropy_s1.npz"
+# ``cross-entropy-s1`` with ``cross-entropy-foot``'s two touch stages (its commands in the
+# file's record): 21 of the 45 own-gait trips, 13 of the 28 held out (ninth session)
+SHIPPED_CROSS_ENTROPY_S1_FOOT = "network_cross_entropy_s1_foot.npz"
 NETWORK_NAMES = {"open-loop": SHIPPED, "closed-loop": SHIPPED_CLOSED_LOOP,
                  "placement": SHIPPED_PLACEMENT, "placement-es": SHIPPED_PLACEMENT_ES,
                  "placement-walk": SHIPPED_PLACEMENT_WALK,
@@ -128,7 +136,9 @@ NETWORK_NAMES = {"open-loop": SHIPPED, "closed-loop": SHIPPED_CLOSED_LOOP,
                  "placement-foot": SHIPPED_PLACEMENT_FOOT,
                  "placement-both": SHIPPED_PLACEMENT_BOTH,
                  "cross-entropy": SHIPPED_CROSS_ENTROPY,
-                 "cross-entropy-foot": SHIPPED_CROSS_ENTROPY_FOOT}
+                 "cross-entropy-foot": SHIPPED_CROSS_ENTROPY_FOOT,
+                 "cross-entropy-s1": SHIPPED_CROSS_ENTROPY_S1,
+                 "cross-entropy-s1-foot": SHIPPED_CROSS_ENTROPY_S1_FOOT}
 # the network a reflex controller runs when none is given: ``placement-both`` since
 # 2026-12-05, which walks within 10 deg of the recorded stride at every joint and
 # recovers 21 of the 45 own-gait trips, both strategies among them (before it,
@@ -403,7 +413,8 @@ def default_network(name: str | None = None) -> Network:
     ``placement-es`` and ``placement-walk``, and the latter with touch responses,
     ``placement-touch``, ``placement-foot`` and ``placement-both``; DAgger by the
     cross-entropy, ``cross-entropy``, and it with a touch response by the foot's place,
-    ``cross-entropy-foot``; loaded once."""
+    ``cross-entropy-foot``; the same DAgger by seed 1, ``cross-entropy-s1``, and
+    ``cross-entropy-s1-foot``; loaded once."""
     return _shipped_network(name or DEFAULT_NETWORK)
 
 
