@@ -326,9 +326,11 @@ def test_trip_episodes_without_the_closed_loop_fit_are_refused_in_one_line(capsy
     0-20, one line, exit 2, nothing fitted."""
     from stumble.cli import main
 
-    for extra in ([], ["--closed-loop", "--trip-episodes", "21"]):
+    for extra, says in (([], "--trip-episodes is for --closed-loop"),
+                        (["--closed-loop", "--trip-episodes", "21"],
+                         "--trip-episodes 21: must be 0-20")):
         args = ["reflex", "fit", "--trip-episodes", "2", *extra, "--out", str(tmp_path / "x")]
         assert main(args) == 2
         err = capsys.readouterr().err
-        assert err.count("\n") == 1 and "--trip-episodes is for --closed-loop" in err
+        assert err.count("\n") == 1 and says in err
     assert not (tmp_path / "x" / "network.npz").exists()

@@ -1210,9 +1210,11 @@ def cmd_reflex(args) -> int:
     if args.loss is not None and not closed:
         raise InputError("--loss is for --closed-loop (DAgger's training loss)")
     trips = args.trip_episodes
-    if trips is not None and (not closed or not 0 <= trips <= 20):
-        raise InputError("--trip-episodes is for --closed-loop and must be 0-20 (trip "
-                         "episodes per DAgger pass)")
+    if trips is not None and not closed:
+        raise InputError("--trip-episodes is for --closed-loop (DAgger's trip episodes)")
+    if trips is not None and not 0 <= trips <= 20:
+        raise InputError(f"--trip-episodes {trips}: must be 0-20 (trip episodes per DAgger "
+                         "pass)")
     out = prepare_dir(args.out)
     bar = _Progress("identifying", sys.stderr.isatty())
     result = fit(seed=args.seed, iterations=it, refine_iterations=refine,
