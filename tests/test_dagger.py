@@ -334,3 +334,31 @@ def test_trip_episodes_without_the_closed_loop_fit_are_refused_in_one_line(capsy
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and says in err
     assert not (tmp_path / "x" / "network.npz").exists()
+
+
+def test_each_pass_records_its_trip_episodes(tmp_path, monkeypatch):
+    """``dagger(trips=2)``: each pass runs two trip episodes besides its walks, at swing
+    fractions drawn in 0.05-0.75 by seed and pass (the same draw again for the same
+    seed), each recorded in the pass's row (here 0.3 s episodes: no trip is reached)."""
+    import json
+
+    from stumble.control.reflex import dagger as D
+
+    net, expert = default_network("closed-loop"), shipped_params("seed003")
+    monkeypatch.setattr(D, "judge", lambda n, speeds, pool=None, pushes=(): {"cost": 1.0})
+    monkeypatch.setattr(D, "_collect_job", lambda a: collect(*a[:5], duration_s=0.3,
+                                                             pushes=a[5], trip=a[6]))
+    monkeypatch.setattr(D, "train_on", lambda n, data, pool=None, loss="squared": (n, 0.5))
+    monkeypatch.setattr(D, "ident_data", lambda n, ident: [])
+    swings = []
+    for run in ("a", "b"):
+        out = tmp_path / run
+        out.mkdir()
+        res = D.dagger(net, None, expert, passes=2, episode_speeds=(1.2,),
+                       judge_speeds=(1.2,), out_dir=out, trips=2)
+        rows = [json.loads(x) for x in (out / "passes.jsonl").read_text().splitlines()]
+        assert res.trips == 2 and [len(r["episodes_walked_s"]) for r in rows] == [3, 3]
+        swings.append([t["swing"] for r in rows for t in r["trips"]])
+        assert all(0.05 <= s <= 0.75 for s in swings[-1]) and len(set(swings[-1])) == 4
+        assert all(not t["set"] for r in rows for t in r["trips"])
+    assert swings[0] == swings[1]
