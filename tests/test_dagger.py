@@ -362,3 +362,11 @@ def test_each_pass_records_its_trip_episodes(tmp_path, monkeypatch):
         assert all(0.05 <= s <= 0.75 for s in swings[-1]) and len(set(swings[-1])) == 4
         assert all(not t["set"] for r in rows for t in r["trips"])
     assert swings[0] == swings[1]
+
+
+def test_an_episode_is_not_both_tripped_and_pushed():
+    """``collect(trip=..., pushes=...)`` is refused: a trip episode runs without pushes."""
+    net, expert = default_network("closed-loop"), shipped_params("seed003")
+    with pytest.raises(ValueError, match="tripped or pushed, not both"):
+        collect(net, expert, 1.0, seed=3, speed_m_per_s=1.2, duration_s=0.3, trip=0.2,
+                pushes=((0.1, 0.1, -200.0),))

@@ -142,7 +142,9 @@ def collect(net: Network, params: GH2010Params, beta: float, seed: int,
     obstacle at that fraction of its first swing
     after ``TRIP_WALK_IN_S`` of the mixture's own walk, as ``simulate_trip`` trips an
     own-gait walk, and the episode goes on from the trip (a trip that cannot be set at
-    that instant, the toe over the box, leaves the walk untripped)."""
+    that instant, the toe over the box, leaves the walk untripped); not with ``pushes``."""
+    if trip is not None and pushes:
+        raise ValueError("an episode is tripped or pushed, not both")
     from stumble.analysis import FALL_PELVIS_FRACTION, WalkStop
     from stumble.body.contact import rest_support_foot
     from stumble.control.reflex.fit_walk import FIT_TIMESTEP_S
@@ -246,7 +248,8 @@ def _tripped(ctx: Context, mix: Mixed, body, swing: float, duration_s: float, st
         return rec, what
     try:
         box = obstacle_at(body, ctx.data.qpos.copy(), Scenario(
-            controller="reflex", mechanism="obstacle", swing_fraction=swing))
+            controller="reflex", mechanism="obstacle", swing_fraction=swing,
+            leg={"l": "left", "r": "right"}[TRIP_SIDE]))
     except TripNotSet:
         box = None
     if box is not None:
