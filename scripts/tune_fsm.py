@@ -7,13 +7,15 @@ motion capture, within ranges grounded in the literature (the defaults' comments
 the number recovered (tie-break: the time survived). Seeded and deterministic.
 
 Run:  python scripts/tune_fsm.py [--candidates N] [--workers N] [--seed S]
-      [--grid small|full|lowering|full+bodies] [--only all|lowering|lowering_fast] [--around JSON]
+      [--grid small|full|lowering|full+bodies]
+      [--only all|lowering|lowering_fast|lowering_flight] [--around JSON]
       [--method random|cma] [--generations G] [--popsize P] [--out FILE]
       [--strength anderson2007|fixed] [--trunk-attitude K] [--max-tilt DEG]
       [--grid-floor N] [--walk-on S] [--walk-on-gait W] [--flight W]
 ``--method cma``: CMA-ES (the ``cmaes`` package, seeded) over the targets scaled to
 their ranges, from the defaults, maximising recoveries + the fraction of the grid's
-time survived; every generation's best is written to ``--out`` as it goes.
+time survived; the best so far is written to ``--out`` as it goes, and every
+generation's best to FILE with the suffix ``.generations.jsonl`` (one record a line).
 ``--max-tilt DEG``: a recovery counts only with the trunk within DEG of vertical at
 recovery-foot contact; ``--grid-floor N``: the objective loses 2 per trip of the first
 48 (the full grid; with ``full+bodies`` the bodies follow) recovered below N.
@@ -22,7 +24,10 @@ trips the start sends to the elevating strategy do not use them, so they run onc
 the start's values, and every candidate runs only the lowering trips (the score is the
 same as running all; ``tests/test_fsm.py``): 54 of the 144 ``full+bodies`` trips.
 ``--only lowering_fast`` searches those and the lowering Fall's offsets at fast walking
-(``LOWERING_FAST``: ``FSMParams.low_fall_fast_deg``), on the same trips.
+(``LOWERING_FAST``: ``FSMParams.low_fall_fast_deg``), on the same trips;
+``--only lowering_flight`` those and the lowering's flight (``LOWERING_FLIGHT``: its own
+k_c at fast walking, the COM's lead over the lowered foot before it pushes, its own
+Flight table).
 Prints the best parameter set as JSON, to be carried into fsm_params.py by hand.
 
 The ``--out`` file is a state-machine parameter file (``stumble trip --params FILE``,
@@ -46,7 +51,7 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 # name: (path in FSMParams, lo, hi)
-from stumble.control.fsm_params import FLIGHT, GAINS, SPACE, TUNABLE, WALK_ON
+from stumble.control.fsm_params import FLIGHT, GAINS, LOWERING_FLIGHT, SPACE, TUNABLE, WALK_ON
 
 # the targets that only the lowering strategy uses (--only lowering)
 LOWERING = ("low_sup_ankle", "low_rec_hip", "low_rec_knee", "low_rec_ankle", "swap_trip_hip",
@@ -279,12 +284,14 @@ def main() -> None:
     ap.add_argument("--grid", choices=("small", "full", "lowering", "full+bodies"),
                     default="small", help="full+bodies: the full grid and the six bodies' "
                     "96 trips at 1.2 m/s")
-    ap.add_argument("--only", choices=("all", "lowering", "lowering_fast", "walk_on"),
+    ap.add_argument("--only", choices=("all", "lowering", "lowering_fast", "lowering_flight",
+                                       "walk_on"),
                     default="all",
                     help="search only the lowering strategy's targets, or those and its "
                          "Fall's offsets at fast walking (lowering_fast: LOWERING_FAST), or "
-                         "only the walk "
-                    "on's (WALK_ON and the reaching leg's; others stay as they start)")
+                         "those and its flight's (lowering_flight: LOWERING_FLIGHT), or only "
+                         "the walk on's (WALK_ON and the reaching leg's; others stay as they "
+                         "start)")
     ap.add_argument("--walk-on-gait", type=float, default=None, metavar="W",
                     help="with --walk-on: each recovered trip adds W times its gait bonus, "
                     "1 - m/0.4 (0 at least), m = |v/v0 - 1| + |T/T0 - 1| of the walk on's "
@@ -365,6 +372,8 @@ def main() -> None:
     space = ({k: TUNABLE[k] for k in WALK_ON_NAMES} if args.only == "walk_on" else
              {k: TUNABLE[k] for k in (*LOWERING, *LOWERING_FAST)}
              if args.only == "lowering_fast" else
+             {k: TUNABLE[k] for k in (*LOWERING, *LOWERING_FAST, *LOWERING_FLIGHT)}
+             if args.only == "lowering_flight" else
              {k: v for k, v in SPACE.items() if args.only == "all" or k in LOWERING})
     if args.gains:
         space.update(GAINS)
@@ -374,8 +383,8 @@ def main() -> None:
     default = FSMParams()
     base = default.values()
     base.update(around)
-    if args.only in ("lowering", "lowering_fast"):  # the other trips do not use the
-        # searched targets: they run once
+    if args.only in ("lowering", "lowering_fast", "lowering_flight"):  # the other trips
+        # do not use the searched targets: they run once
         t0 = time.time()
         if args.workers > 1:
             with ProcessPoolExecutor(2, initializer=_worker_init,
@@ -442,6 +451,14 @@ def _gait(score: tuple) -> str:
             + (f", flight {score[4]:+d}" if FLIGHT_WEIGHT else ""))
 
 
+def generations_path(out: str) -> str:
+    """Where ``--out FILE`` puts every generation's best: FILE's name with
+    ``.generations.jsonl`` for its suffix (one JSON record a line)."""
+    from pathlib import Path
+
+    return str(Path(out).with_suffix(".generations.jsonl"))
+
+
 def _cma(args, base: dict, space: dict) -> None:
     """CMA-ES over ``space`` (each name scaled to its range), from ``base``."""
     from cmaes import CMA
@@ -474,13 +491,20 @@ def _cma(args, base: dict, space: dict) -> None:
             for x, sc in zip(xs, scores, strict=True):
                 if penalised(sc) > penalised(best[1]):
                     best = (x, sc)
-            top = scores[pens.index(max(pens))]
+            i_top = pens.index(max(pens))
+            top = scores[i_top]
             print(f"gen {g:2d} best of gen {top[0]}/{len(GRID)} (grid {top[2]}{_gait(top)}) "
                   f"overall {best[1][0]} (grid {best[1][2]}{_gait(best[1])}) "
                   f"({time.time() - t0:.0f} s)", flush=True)
             if args.out:
+                argv = __import__("sys").argv[1:]
                 with open(args.out, "w") as fh:
-                    json.dump(out_record(best, g, __import__("sys").argv[1:]), fh, indent=1)
+                    json.dump(out_record(best, g, argv), fh, indent=1)
+                # every generation's best too, as it goes: the objective weighs the
+                # issue's criteria only roughly, so a generation's best may be the one
+                # to keep (``--out`` holds the best by the objective)
+                with open(generations_path(args.out), "a") as fh:
+                    fh.write(json.dumps(out_record((xs[i_top], top), g, argv)) + "\n")
     finally:
         if ex:
             ex.shutdown()

@@ -540,7 +540,7 @@ def test_params_go_to_every_run_and_are_recorded(tmp_path, monkeypatch, capsys):
     assert rec["path"] == str(p) and rec["file"] == str(p.resolve())
     assert rec["sha256"] == hashlib.sha256(p.read_bytes()).hexdigest()
     # the values of SPACE, GAINS and WALK_ON
-    assert rec["values"]["elev_sup_ankle"] == -60.0 and len(rec["values"]) == len(TUNABLE) == 49
+    assert rec["values"]["elev_sup_ankle"] == -60.0 and len(rec["values"]) == len(TUNABLE) == 56
     assert rec["settings"] == {"trunk_attitude": 1.0, "attitude_damping": "joint"}
     table = pq.read_table(tmp_path / "a" / "results.parquet").to_pydict()
     assert table["params_sha256"] == [rec["sha256"]] * 2  # every row names its parameters
@@ -554,10 +554,10 @@ def test_params_go_to_every_run_and_are_recorded(tmp_path, monkeypatch, capsys):
     from stumble.control.fsm_params import read_params
 
     assert {k: v["name"] for k, v in meta["fsm_default_params"].items()} == {
-        "fixed walk_on": "upright", "fixed step": "upright",
+        "fixed walk_on": "flight", "fixed step": "flight",
         "anderson2007 walk_on": "anderson2007_walk_on", "anderson2007 step": "anderson2007"}
     assert meta["fsm_default_params"]["fixed walk_on"]["sha256"] == read_params(
-        "upright").sha256
+        "flight").sha256
     assert "params_sha256" not in pq.read_table(tmp_path / "b" / "results.parquet").schema.names
     # a shipped set by name
     assert main([*argv, "--out", str(tmp_path / "c"), "--params", "anderson2007"]) == 0

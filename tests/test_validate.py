@@ -173,7 +173,7 @@ def test_validate_prints_the_table_and_writes_json(tmp_path, fake, capsys, monke
     # the runs are a study: there, with their rows
     assert (out / "results.parquet").exists()
     # the default set, recorded as such
-    assert report["fsm_params"]["path"] == "upright" and report["fsm_params"]["default"]
+    assert report["fsm_params"]["path"] == "flight" and report["fsm_params"]["default"]
 
 
 def test_flight_rows_count_the_recovered_window_trips_that_fly():
@@ -188,8 +188,9 @@ def test_flight_rows_count_the_recovered_window_trips_that_fly():
             "strategy": "elevating" if elevating else "lowering",
             "variant": "flight" if fly or (v == 1.0 and s == 0.75) else "double_support",
             "recovered": not (v == 1.4 and s == 0.75),
-            "durations_s.recovery_step": 0.5 + s if elevating else None}
-    fly, dur, ds = validate.flight_rows("fsm", by_case)
+            "durations_s.recovery_step": 0.5 + s if elevating else None,
+            "durations_s.trip_to_recovery_contact": None if elevating else s}
+    fly, dur, low, ds = validate.flight_rows("fsm", by_case)
     # elevating window 0.05, 0.15, 0.25 x 2 mechanisms: 4 of 6 fly; lowering 0.55, 0.65
     # recover (0.75 falls): 1 of 4 flies
     assert fly["stumble"] == {"elevating": [4, 6], "lowering": [1, 4]}
@@ -199,12 +200,18 @@ def test_flight_rows_count_the_recovered_window_trips_that_fly():
     # each: the median 0.60 s, as close to the motion capture's 0.59 s as can be
     assert dur["stumble"] == pytest.approx(0.6) and dur["agreement"] == "yes"
     assert dur["stumble_text"] == "0.60 s (of 4: 0.55 s-0.65 s)"
+    # the lowering flight: trip to the recovery leg's contact, 0.65 s (SCA 2009 §5.2:
+    # 0.57 s mocap, 0.72 s sim): as close as the paper's simulation
+    assert low["stumble"] == pytest.approx(0.65) and low["agreement"] == "yes"
+    assert low["stumble_text"] == "0.65 s (of 1: 0.65 s-0.65 s)"
     by_case["fsm/grid/young/obstacle/0.65/1.4"]["variant"] = "flight"
     for m in ("force", "obstacle"):
         by_case[f"fsm/grid/young/{m}/0.75/1.0"]["variant"] = "double_support"
         by_case[f"fsm/grid/young/{m}/0.15/1.4"]["durations_s.recovery_step"] = 0.8
-    fly, dur, ds = validate.flight_rows("fsm", by_case)
+    by_case["fsm/grid/young/obstacle/0.65/1.4"]["durations_s.trip_to_recovery_contact"] = 0.8
+    fly, dur, low, ds = validate.flight_rows("fsm", by_case)
     assert dur["stumble"] == pytest.approx(0.675) and dur["agreement"] == "no"  # 0.55, 0.8
+    assert low["stumble"] == pytest.approx(0.725) and low["agreement"] == "no"  # 0.65, 0.8
     assert fly["stumble"]["lowering"] == [2, 4] and fly["agreement"] == "yes"
     assert ds["stumble"] == 0 and ds["agreement"] == "yes"
 

@@ -149,7 +149,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="gh2010 controller: a gh2010.json, or a shipped set by name: "
                    f"{GH2010_NAMES}; fsm: a JSON of tuned "
                    "targets and gains (scripts/tune_fsm.py --out) or a shipped set by "
-                   "name: upright (the default), step (tuned for --recovery step), "
+                   "name: flight (the default: flies at fast walking in both strategies), "
+                   "upright (the default until 2026-12-05), step (tuned for --recovery "
+                   "step), "
                    "anderson2007_walk_on and anderson2007 (the defaults with --strength "
                    "anderson2007, walking on and with --recovery step)")
     t.add_argument("--network", type=Path, metavar="FILE",

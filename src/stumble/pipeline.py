@@ -170,7 +170,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
                             else None)
     reflex = sc.controller in MUSCLE_CONTROLLERS
     # the shipped set for the strength model and the recovery rule when none is given
-    # (``fsm_params.DEFAULT_SETS``: upright on fixed limits, the sets tuned on human strength)
+    # (``fsm_params.DEFAULT_SETS``: flight on fixed limits, the sets tuned on human strength)
     p = params or default_params(sc.strength_model, sc.recovery)
     strategy = None
     if not reflex:

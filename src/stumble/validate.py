@@ -350,25 +350,12 @@ def flight_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
                 f"({len(OLDER_GRID)}-trip grid)", "SCA 2009 Table 1", ctrl, FLIGHT_SHARE,
                 f"flight at 1.44 m/s; ≥ {FLIGHT_SHARE:.0%} in each window (ours)",
                 shares, ", ".join(counts), "yes" if ok else "no", keys)]
-    # the flights' own duration (SCA 2009 §5.1's elevating flight, DURATIONS[1]): the
-    # median over the recovered elevating window trips at 1.4 m/s that fly; the duration
-    # row above is one trip (0.2 of swing), which may keep double support
-    case = DURATIONS[1]
-    steps = sorted(r[case.column] for r in fast if r.get("strategy") == case.strategy
-                   and r.get("variant") == case.variant and r.get(case.column) is not None
-                   and people_fly(r["speed_m_per_s"], case.strategy, r["swing_fraction"]))
-    figure = f"{case.name}, {FLIGHT_SPEED_M_PER_S:.1f} m/s, grid flights (median)"
-    pub = {"mocap_s": case.mocap_s, "paper_sim_s": case.paper_sim_s}
-    pub_text = f"mocap {_s(case.mocap_s)}; sim {_s(case.paper_sim_s)}"
-    if steps:
-        med = float(statistics.median(steps))
-        out.append(_row(figure, case.source, ctrl, pub, pub_text, round(med, 4),
-                        f"{_s(med)} (of {len(steps)}: {_s(steps[0])}-{_s(steps[-1])})",
-                        "yes" if duration_agrees(med, case.mocap_s, case.paper_sim_s)
-                        else "no", keys))
-    else:
-        out.append(_row(figure, case.source, ctrl, pub, pub_text, None,
-                        "no recovered window trip flies", "no", keys))
+    # the flights' own durations (SCA 2009 §5.1's elevating flight, DURATIONS[1], and
+    # §5.2's lowering flight, DURATIONS[3]): the median over the recovered window trips
+    # of that strategy at 1.4 m/s that fly; the duration rows above are one trip each,
+    # which may keep double support
+    for case in (DURATIONS[1], DURATIONS[3]):
+        out.append(_flight_duration_row(ctrl, case, fast, keys))
     slow = [r for r in rec if abs(r["speed_m_per_s"] - DS_SPEED_M_PER_S) < 1e-9]
     k = sum(r.get("variant") == "flight" for r in slow)
     out.append(_row(f"double support at {DS_SPEED_M_PER_S:.1f} m/s: recovered trips flying "
@@ -419,6 +406,26 @@ def walking_rows(ctrl: str, open_loop: bool = False) -> list[dict]:
 
 
 # ---------------------------------------------------------------- comparisons
+
+
+def _flight_duration_row(ctrl: str, case: DurationCase, fast: list[dict],
+                         keys: list[str]) -> dict:
+    """The median of ``case``'s duration over the recovered window trips at 1.4 m/s of its
+    strategy that fly, against SCA 2009's motion capture and simulation."""
+    steps = sorted(r[case.column] for r in fast if r.get("strategy") == case.strategy
+                   and r.get("variant") == case.variant and r.get(case.column) is not None
+                   and people_fly(r["speed_m_per_s"], case.strategy, r["swing_fraction"]))
+    figure = f"{case.name}, {FLIGHT_SPEED_M_PER_S:.1f} m/s, grid flights (median)"
+    pub = {"mocap_s": case.mocap_s, "paper_sim_s": case.paper_sim_s}
+    pub_text = f"mocap {_s(case.mocap_s)}; sim {_s(case.paper_sim_s)}"
+    if not steps:
+        return _row(figure, case.source, ctrl, pub, pub_text, None,
+                    "no recovered window trip flies", "no", keys)
+    med = float(statistics.median(steps))
+    return _row(figure, case.source, ctrl, pub, pub_text, round(med, 4),
+                f"{_s(med)} (of {len(steps)}: {_s(steps[0])}-{_s(steps[-1])})",
+                "yes" if duration_agrees(med, case.mocap_s, case.paper_sim_s) else "no",
+                keys)
 
 
 def duration_agrees(ours: float, mocap: float, paper_sim: float) -> bool:
@@ -705,9 +712,9 @@ def add_validate_parser(sub) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--params", metavar="FILE|NAME",
                    help="the state machines' targets and gains: a JSON file as "
-                   "scripts/tune_fsm.py --out writes it, or a shipped set (upright, the "
-                   "default; step; anderson2007_walk_on; anderson2007); a directory holds "
-                   "the runs of one set")
+                   "scripts/tune_fsm.py --out writes it, or a shipped set (flight, the "
+                   "default; upright; step; anderson2007_walk_on; anderson2007); a directory "
+                   "holds the runs of one set")
 
 
 def run_validate_cli(args) -> int:

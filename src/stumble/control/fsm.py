@@ -74,7 +74,7 @@ class TripFSM:
                              f"{', '.join(ATTITUDE_DAMPING)}")
         self.strategy = strategy
         self.tripped = tripped_side
-        self.kc = self.p.kc(speed_m_per_s)
+        self.kc = self.p.kc(speed_m_per_s, strategy)
         self.speed = speed_m_per_s  # the walk before the trip, m/s
         # the speed the walk on aims for: the walk's, but not below the floor
         self._walk_on_aim = max(speed_m_per_s, self.p.walk_on_speed_floor_m_per_s)
@@ -275,7 +275,7 @@ class TripFSM:
                     self._command("clearance_extend", key, d)
                 self._extended = True
             if not on[sup] and not on[rec]:
-                self._switch("flight", t, d)
+                self._switch("flight", t, d, targets=self._table("flight"))
             elif (s.com_vel[2] < self.p.fall_vz_m_per_s and t - self.t_state > 0.05
                   and self.left_floor[rec] and self._rec_cleared(ctx)):
                 self._switch("fall", t, d, targets=self._table("fall"))
@@ -398,7 +398,7 @@ class TripFSM:
         cap = self.p.push_off_hip_limit_nm
         if cap is not None and st in PUSH_OFF_STATES:
             self._cap_support_hip(target, cap)
-        if st == "clearance":
+        if st == "clearance" and self._pushing(ctx):
             i = self.bank.index[f"ankle_angle_{self.roles['sup']}"]
             tau_c = self.kc * (self.p.vz_target_m_per_s - ctx.sensors.com_vel[2])  # eq. 4
             target[i] -= tau_c / max(self.kp[i], 1e-6)  # plantarflexion torque
@@ -406,6 +406,15 @@ class TripFSM:
         if self._gains_dirty:
             self.bank.set_gains(self.kp)
             self._gains_dirty = False
+
+    def _pushing(self, ctx: Context) -> bool:
+        """Whether the compensation torque acts: always in the elevating Clearance; in the
+        lowering's once the COM is ``lowering_push_ahead_m`` ahead of the lowered foot."""
+        ahead = self.p.lowering_push_ahead_m
+        if self.strategy != "lowering" or ahead <= -1.0:
+            return True
+        sup = self._xpos[self._foot_id[self.roles["sup"]], 0]
+        return bool(ctx.sensors.com[0] - sup > ahead)
 
     def _hold_trunk(self, ctx: Context, target: np.ndarray, st: str) -> None:
         """``trunk_attitude``: until the recovery foot lands the lumbar extends against

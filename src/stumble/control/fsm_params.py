@@ -317,7 +317,26 @@ FLIGHT = {
 # Clearance's (the state before Fall)
 LOW_FALL_FAST_TARGETS = {"sup_ankle": "sup.ankle_angle", "sup_knee": "sup.knee_angle",
                          "rec_knee": "rec.knee_angle", "rec_ankle": "rec.ankle_angle"}
-TUNABLE = {**SPACE, **GAINS, **WALK_ON, **FLIGHT}  # every name a parameter file may set
+# Flight in the lowering strategy by the compensation of SCA 2009 eq. 4 (issue 11; ours,
+# off by default): its own k_c at fast walking, the COM's lead over the lowered foot
+# before it acts, and the lowering's own Flight table (``flight_lowering``, from
+# ``flight``: the landing of a lowering flight, whose legs' roles differ from the
+# elevating's). scripts/tune_fsm.py --only lowering_flight searches them.
+LOWERING_FLIGHT = {
+    "kc_lowering_fast": (("kc_lowering_fast",), 0.0, 500.0),
+    "lowering_push_ahead": (("lowering_push_ahead_m",), -0.3, 0.4),
+    **{f"fl_low_{key.replace('.', '_').replace('_angle', '').replace('_flexion', '')}":
+       (("targets_deg", "flight_lowering", key), lo, hi)
+       for key, (lo, hi) in {"rec.knee_angle": (-60.0, -3.0),
+                             "rec.ankle_angle": (-15.0, 20.0),
+                             "sup.hip_flexion": (-30.0, 40.0),
+                             "sup.knee_angle": (-110.0, -5.0),
+                             "sup.ankle_angle": (-40.0, 20.0)}.items()},
+}
+# tables a search may create from another (``with_values``): the lowering's own Flight
+DERIVED_TABLES = {"flight_lowering": "flight"}
+TUNABLE = {**SPACE, **GAINS, **WALK_ON, **FLIGHT, **LOWERING_FLIGHT}  # every name a
+# parameter file may set
 
 # How the values marked "tuned" were found: CMA-ES (the cmaes package, seeded) over the
 # 24 targets and 6 gains of SPACE and GAINS, from the earlier tuned values (random and
@@ -464,6 +483,20 @@ class FSMParams:
     # occur"; seed 000 Table 1: 3 of 7 lowering trips fly at 1.44 m/s).
     low_fall_fast_deg: dict[str, float] = field(
         default_factory=lambda: dict.fromkeys(LOW_FALL_FAST_TARGETS, 0.0))
+    # Flight in the lowering strategy by SCA 2009's own law (``LOWERING_FLIGHT``; ours:
+    # None and -1 m leave the lowering as the elevating). k_c of the lowering Clearance
+    # at the fast end of kc_speeds (N·m·s/m; None: kc_fast). SCA 2009 §5 uses 300 at
+    # fast walking for both strategies; on our body the lowered leg's push then flies in
+    # 9 of the 10 lowering trips at 1.4 m/s, while the elevating trips lose their
+    # recoveries at that gain (``kc_fast``'s comment), hence a gain of the lowering's own.
+    kc_lowering_fast: float | None = None
+    # ... which acts only once the COM is this far ahead of the lowered (support) foot (m;
+    # ours; -1: from the start of Clearance, as SCA 2009). Pushed at once, the lowered
+    # leg, still ahead of the COM, throws the body up (the COM 0.12 m higher, its forward
+    # speed 1.3 -> 0.5 m/s at k_c 300: measured); people's push-off follows the tripped
+    # leg's touch-down (SCA 2009 §3.3: the soleus burst of the push-off about 110 ms after
+    # the collision) when the body has passed over it.
+    lowering_push_ahead_m: float = -1.0
     balance_cd_lat_rad_per_m: float = 0.5
     balance_cv_lat_rad_s_per_m: float = 0.3
     # The recovery leg extends for touch-down (rectus femoris; Fall) only once its toe is
@@ -482,10 +515,18 @@ class FSMParams:
         ``FLIGHT``)."""
         out = {}
         for name, (path, _lo, _hi) in TUNABLE.items():
-            out[name] = (self.targets_deg[path[1]][path[2]] if path[0] == "targets_deg"
+            out[name] = (self._table(path[1])[path[2]] if path[0] == "targets_deg"
                          else getattr(self, path[0])[path[1]] if len(path) == 2
                          else getattr(self, path[0]))
+        if out["kc_lowering_fast"] is None:  # (None: the elevating's)
+            out["kc_lowering_fast"] = self.kc_fast
         return out
+
+    def _table(self, state: str) -> dict:
+        """A state's targets; a derived table (``DERIVED_TABLES``) not set: its source's."""
+        if state not in self.targets_deg and state in DERIVED_TABLES:
+            return self.targets_deg[DERIVED_TABLES[state]]
+        return self.targets_deg[state]
 
     def with_values(self, values: dict[str, float]) -> FSMParams:
         """A copy with tunable values (``TUNABLE`` names) set; KeyError names an
@@ -494,11 +535,17 @@ class FSMParams:
         for name, value in values.items():
             path = TUNABLE[name][0]
             if path[0] == "targets_deg":
+                if path[1] not in p.targets_deg and path[1] in DERIVED_TABLES:
+                    if value == p._table(path[1])[path[2]]:
+                        continue  # (the source's value: no table of its own needed)
+                    p.targets_deg[path[1]] = dict(p.targets_deg[DERIVED_TABLES[path[1]]])
                 p.targets_deg[path[1]][path[2]] = value
             elif len(path) == 2:  # kp_passive, low_fall_fast_deg
                 getattr(p, path[0])[path[1]] = value
             else:
                 setattr(p, path[0], value)
+        if self.kc_lowering_fast is None and p.kc_lowering_fast == p.kc_fast:
+            p.kc_lowering_fast = None  # (the elevating's, as ``values`` reads it)
         return p
 
     def scaled_to(self, height_m: float) -> FSMParams:
@@ -522,10 +569,13 @@ class FSMParams:
         lo, hi = self.kc_speeds
         return min(max((speed_m_per_s - lo) / (hi - lo), 0.0), 1.0)
 
-    def kc(self, speed_m_per_s: float) -> float:
-        """Compensation coefficient at a walking speed (SCA 2009 §5, interpolated)."""
+    def kc(self, speed_m_per_s: float, strategy: str = "elevating") -> float:
+        """Compensation coefficient at a walking speed (SCA 2009 §5, interpolated), for a
+        strategy (the lowering's fast end ``kc_lowering_fast`` when set)."""
         w = self.speed_weight(speed_m_per_s)
-        return (1 - w) * self.kc_slow + w * self.kc_fast
+        fast = (self.kc_lowering_fast if strategy == "lowering"
+                and self.kc_lowering_fast is not None else self.kc_fast)
+        return (1 - w) * self.kc_slow + w * fast
 
     def at_speed(self, speed_m_per_s: float) -> FSMParams:
         """These parameters for a trip at ``speed_m_per_s``: the elevating support
@@ -582,6 +632,11 @@ def human_strength_params(recovery: str = "walk_on") -> FSMParams:
 # under --recovery walk_on; the command that found it and its figures are its "fit".
 UPRIGHT_FILE = Path(__file__).parent / "data" / "fsm_upright.json"
 
+# Flight in both strategies at fast walking (issue 11): the upright set with the lowering
+# strategy's flight (LOWERING_FLIGHT) and its lowering targets searched on it, walking on
+# with the trunk within 26°; the commands that found it and its figures are its "fit".
+FLIGHT_FILE = Path(__file__).parent / "data" / "fsm_flight.json"
+
 # The targets and gains tuned under the 1 s rule (``Scenario.recovery`` step): the
 # class defaults of FSMParams, the default set until 2026-12-03 (an empty file: it
 # changes nothing).
@@ -589,10 +644,12 @@ STEP_FILE = Path(__file__).parent / "data" / "fsm_step.json"
 
 SHIPPED = {"anderson2007": HUMAN_STRENGTH_FILE,  # named parameter sets (load_params)
            "anderson2007_walk_on": HUMAN_STRENGTH_WALK_ON_FILE,
-           "upright": UPRIGHT_FILE, "step": STEP_FILE}
-# The set a trip runs with when none is named (issue 11: recovered means walking on,
-# and the upright set walks on after 47 of the 48 grid trips with the trunk within 26°)
-DEFAULT_SET = "upright"
+           "upright": UPRIGHT_FILE, "step": STEP_FILE, "flight": FLIGHT_FILE}
+# The set a trip runs with when none is named (issue 11: recovered means walking on; the
+# flight set walks on after 47 of the 48 grid trips and 89 of the six bodies' 96 with the
+# trunk within 26°, and flies at 1.4 m/s in both strategies; ``upright`` until
+# 2026-12-05, whose lowering trips never fly)
+DEFAULT_SET = "flight"
 # the set a trip runs with when none is named, by (strength model, recovery rule)
 DEFAULT_SETS = {("fixed", "walk_on"): DEFAULT_SET, ("fixed", "step"): DEFAULT_SET,
                 ("anderson2007", "walk_on"): "anderson2007_walk_on",
@@ -682,7 +739,7 @@ def read_params(path_or_name) -> ParamsFile:
 
 def default_params(strength_model: str = "fixed", recovery: str = "walk_on") -> FSMParams:
     """The state machines' parameters when none are given, for a strength model and a
-    recovery rule (``DEFAULT_SETS``; ``upright`` on fixed torque limits); a copy: each
+    recovery rule (``DEFAULT_SETS``; ``flight`` on fixed torque limits); a copy: each
     file is read once."""
     return copy.deepcopy(_shipped(DEFAULT_SETS[(strength_model, recovery)]))
 

@@ -76,8 +76,9 @@ def add_study_parser(sub) -> None:
     p.add_argument("--params", metavar="FILE|NAME",
                    help="state-machine parameters for every trip (--controller fsm): a JSON "
                    "file as scripts/tune_fsm.py --out writes it, or a shipped set "
-                   "(upright, the default; step; anderson2007_walk_on and anderson2007, the "
-                   "defaults with --strength anderson2007); recorded in DIR/study.json "
+                   "(flight, the default; upright; step; anderson2007_walk_on and "
+                   "anderson2007, the defaults with --strength anderson2007); recorded in "
+                   "DIR/study.json "
                    "with its SHA-256")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG maps")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
