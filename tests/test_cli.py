@@ -221,7 +221,8 @@ def _one_line_error(r: subprocess.CompletedProcess, *words: str) -> None:
       "--scr-phase", "foot", "--trip-set", "dense", "--ahead-from", "closed-loop", "--out",
       "OUT"], ["--ahead-from: that network has no touch response by the foot"]),
     (["study", "--out", "OUT", "--params", "missing.json"],
-     ["missing.json: not a state-machine parameter file"]),
+     ["missing.json: no such file, nor a shipped state-machine set (flight, upright, "
+      "step, anderson2007_walk_on, anderson2007)"]),
     (["study", "--out", "OUT", "--controller", "reflex", "--params", "anderson2007"],
      ["--params is for --controller fsm"]),
 ])

@@ -223,6 +223,8 @@ def test_load_params_names_bad_files_and_values(tmp_path):
         bad.write_text(text)
         with pytest.raises(InputError, match=match):
             load_params(bad)
+    with pytest.raises(InputError, match="nosuch: no such file, nor a shipped state-machine"):
+        load_params("nosuch")
 
 
 
@@ -780,3 +782,22 @@ def test_the_flight_set_flies_in_the_lowering_strategy_at_fast_walking_only():
     assert keeps["recovered"] and keeps["variant"] == "double_support"
     slow = simulate_trip(sc.with_(speed_m_per_s=1.0)).summary
     assert slow["recovered"] and slow["variant"] == "double_support"
+
+
+def test_a_parameter_file_of_every_value_reads_back(tmp_path):
+    """A search's ``--out`` file holds every tunable value, an option's "off" among them
+    (``lowering_push_ahead`` -1 m, outside its search range): it reads back as the set it
+    was written from; a value outside its range that is not the "off" one is refused in
+    one line naming it."""
+    from stumble.control.fsm_params import load_params
+    from stumble.errors import InputError
+
+    for p in (FSMParams(), load_params("flight"), load_params("upright")):
+        f = tmp_path / "p.json"
+        f.write_text(json.dumps({"params": p.values(),
+                                 "settings": {"trunk_attitude": p.trunk_attitude}}))
+        assert load_params(f) == p
+    f.write_text(json.dumps({"params": {"lowering_push_ahead": -0.5}}))
+    msg = "lowering_push_ahead = -0.5 is outside -0.3-0.4"
+    with pytest.raises(InputError, match=re.escape(msg)):
+        load_params(f)

@@ -642,9 +642,10 @@ FLIGHT_FILE = Path(__file__).parent / "data" / "fsm_flight.json"
 # changes nothing).
 STEP_FILE = Path(__file__).parent / "data" / "fsm_step.json"
 
-SHIPPED = {"anderson2007": HUMAN_STRENGTH_FILE,  # named parameter sets (load_params)
+SHIPPED = {"flight": FLIGHT_FILE,  # named parameter sets (load_params)
+           "upright": UPRIGHT_FILE, "step": STEP_FILE,
            "anderson2007_walk_on": HUMAN_STRENGTH_WALK_ON_FILE,
-           "upright": UPRIGHT_FILE, "step": STEP_FILE, "flight": FLIGHT_FILE}
+           "anderson2007": HUMAN_STRENGTH_FILE}
 # The set a trip runs with when none is named (issue 11: recovered means walking on; the
 # flight set walks on after 47 of the 48 grid trips and 89 of the six bodies' 96 with the
 # trunk within 26°, and flies at 1.4 m/s in both strategies; ``upright`` until
@@ -711,6 +712,9 @@ def read_params(path_or_name) -> ParamsFile:
     from stumble.errors import InputError
 
     path = Path(SHIPPED.get(str(path_or_name), path_or_name))
+    if not path.exists():
+        raise InputError(f"{path_or_name}: no such file, nor a shipped state-machine set "
+                         f"({', '.join(SHIPPED)})")
     try:
         data = path.read_bytes()
         doc = json.loads(data)
@@ -720,13 +724,15 @@ def read_params(path_or_name) -> ParamsFile:
                          f"\"params\" ({type(e).__name__})") from None
     if not isinstance(values, dict):
         raise InputError(f"{path_or_name}: \"params\" is not an object of named values")
-    space = TUNABLE
+    space, off = TUNABLE, _own_values()
     for name, value in values.items():
         if name not in space:
             raise InputError(f"{path_or_name}: unknown parameter {name!r}")
         lo, hi = space[name][1:]
+        # within its search range, or FSMParams' own value (an option's "off", as
+        # lowering_push_ahead -1, which every search's --out file carries)
         if (not isinstance(value, (int, float)) or isinstance(value, bool)
-                or not lo <= value <= hi):
+                or not (lo <= value <= hi or value == off[name])):
             raise InputError(f"{path_or_name}: {name} = {value!r} is outside {lo:g}-{hi:g}")
     settings = doc.get("settings", {})
     if not isinstance(settings, dict):
@@ -742,6 +748,12 @@ def default_params(strength_model: str = "fixed", recovery: str = "walk_on") -> 
     recovery rule (``DEFAULT_SETS``; ``flight`` on fixed torque limits); a copy: each
     file is read once."""
     return copy.deepcopy(_shipped(DEFAULT_SETS[(strength_model, recovery)]))
+
+
+@functools.cache
+def _own_values() -> dict[str, float]:
+    """FSMParams' own tunable values (``values``), read once."""
+    return FSMParams().values()
 
 
 @functools.cache
