@@ -167,6 +167,10 @@ def test_gains_and_balance_feedback_scale_with_the_body():
     # speeds scale as sqrt(g h): the walk on's own steady speed too
     assert p.walk_on_speed_ref_m_per_s == pytest.approx(1.17 * (1.90 / 1.75) ** 0.5)
     assert FSMParams().scaled_to(1.75) == FSMParams()
+    # the COM's lead before the lowering's push is a length; its "off" (-1) stays off
+    assert FSMParams(lowering_push_ahead_m=0.07).scaled_to(1.5).lowering_push_ahead_m == \
+        pytest.approx(0.06)
+    assert FSMParams().scaled_to(1.5).lowering_push_ahead_m == -1.0
 
 
 def test_tunable_values_and_the_human_strength_set():

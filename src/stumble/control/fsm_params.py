@@ -490,8 +490,9 @@ class FSMParams:
     # 9 of the 10 lowering trips at 1.4 m/s, while the elevating trips lose their
     # recoveries at that gain (``kc_fast``'s comment), hence a gain of the lowering's own.
     kc_lowering_fast: float | None = None
-    # ... which acts only once the COM is this far ahead of the lowered (support) foot (m;
-    # ours; -1: from the start of Clearance, as SCA 2009). Pushed at once, the lowered
+    # ... which acts only once the COM is this far ahead of the lowered (support) foot (m,
+    # for the reference body, times h / 1.75 m for another, ``scaled_to``; ours; -1: from
+    # the start of Clearance, as SCA 2009). Pushed at once, the lowered
     # leg, still ahead of the COM, throws the body up (the COM 0.12 m higher, its forward
     # speed 1.3 -> 0.5 m/s at k_c 300: measured); people's push-off follows the tripped
     # leg's touch-down (SCA 2009 §3.3: the soleus burst of the push-off about 110 ms after
@@ -551,7 +552,8 @@ class FSMParams:
     def scaled_to(self, height_m: float) -> FSMParams:
         """These parameters for a body ``height_m`` tall, under dynamic similarity with the
         reference body (1.75 m): SIMBICON's position gains (rad/m) over the body's length
-        scale ℓ = h / 1.75 m, its velocity gains (rad·s/m) over √ℓ (speeds scale as √(gℓ))."""
+        scale ℓ = h / 1.75 m, its velocity gains (rad·s/m) over √ℓ (speeds scale as √(gℓ)),
+        the COM's lead before the lowering's push (m) times ℓ."""
         ell = height_m / 1.75
         return replace(self, balance_cd_rad_per_m=self.balance_cd_rad_per_m / ell,
                        balance_cv_rad_s_per_m=self.balance_cv_rad_s_per_m / ell ** 0.5,
@@ -560,6 +562,9 @@ class FSMParams:
                        walk_on_speed_ref_m_per_s=self.walk_on_speed_ref_m_per_s * ell ** 0.5,
                        walk_on_speed_floor_m_per_s=(self.walk_on_speed_floor_m_per_s
                                                     * ell ** 0.5),
+                       lowering_push_ahead_m=(self.lowering_push_ahead_m * ell
+                                              if self.lowering_push_ahead_m > -1.0
+                                              else self.lowering_push_ahead_m),
                        balance_cd_lat_rad_per_m=self.balance_cd_lat_rad_per_m / ell,
                        balance_cv_lat_rad_s_per_m=self.balance_cv_lat_rad_s_per_m / ell ** 0.5)
 
