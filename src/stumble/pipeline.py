@@ -171,7 +171,8 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     reflex = sc.controller in MUSCLE_CONTROLLERS
     # the shipped set for the strength model and the recovery rule when none is given
     # (``fsm_params.DEFAULT_SETS``: flight on fixed limits, the sets tuned on human strength)
-    p = params or default_params(sc.strength_model, sc.recovery)
+    # (the reflex controllers' strategy emerges: no state-machine set to read)
+    p = params or (None if reflex else default_params(sc.strength_model, sc.recovery))
     strategy = None
     if not reflex:
         strategy = p.strategy_for(sc.swing_fraction) if sc.strategy == "auto" else sc.strategy
