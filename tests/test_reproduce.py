@@ -58,24 +58,31 @@ def test_the_default_network_runs_from_the_papers_gains_both_branches_shared_onc
                                                      "network.npz")
 
 
-def test_the_cross_entropy_branch_is_dagger_by_its_loss_then_two_touch_stages(tmp_path):
-    """``cross-entropy-foot``: its expert's five fits, DAgger by the cross-entropy through
-    pushes (``cross-entropy``, a root, ``reproduce.ROOTS``), then its two touch stages by
-    the foot's place: 44.8 min recorded after the expert (the first touch stage with
-    another fit on the machine; 31 min idle)."""
-    kind, stages = plan("cross-entropy-foot", tmp_path)
+@pytest.mark.parametrize(("name", "root", "mid", "seed"), [
+    ("cross-entropy-foot", "cross-entropy", "cef", "0"),
+    ("cross-entropy-s1-foot", "cross-entropy-s1", "ces1f", "1")])
+def test_the_cross_entropy_branches_are_dagger_by_its_loss_then_two_touch_stages(
+        tmp_path, name, root, mid, seed):
+    """``cross-entropy-foot`` and ``cross-entropy-s1-foot``: the expert's five fits,
+    DAgger by the cross-entropy through pushes (by seed 0 and 1, each a root of its own,
+    ``reproduce.ROOTS``), then the same two touch stages by the foot's place, on the
+    dense then the wide trips. ``cross-entropy-foot``'s: 44.8 min recorded after the
+    expert (the first touch stage with another fit on the machine; 31 min idle)."""
+    kind, stages = plan(name, tmp_path)
     tags = [s.tag for s in stages]
     assert kind == "network"
-    assert tags == ["pushed-walk", "knee-walk", "e2", "e3", "expert-placement",
-                    "cross-entropy", "cef", "cross-entropy-foot"]
+    assert tags == ["pushed-walk", "knee-walk", "e2", "e3", "expert-placement", root, mid,
+                    name]
     dagger = stages[5].argv
     assert "--closed-loop" in dagger and "--pushes" in dagger
-    assert _arg(dagger, "--loss") == "cross-entropy"
+    assert _arg(dagger, "--loss") == "cross-entropy" and _arg(dagger, "--seed") == seed
     assert _arg(dagger, "--expert") == str(tmp_path / "expert-placement" / "gh2010.json")
-    assert _arg(stages[6].argv, "--walk-es") == str(tmp_path / "cross-entropy" / "network.npz")
-    assert _arg(stages[7].argv, "--walk-es") == str(tmp_path / "cef" / "network.npz")
+    assert _arg(stages[6].argv, "--walk-es") == str(tmp_path / root / "network.npz")
+    assert _arg(stages[7].argv, "--walk-es") == str(tmp_path / mid / "network.npz")
     assert all(_arg(s.argv, "--scr-phase") == "foot" for s in stages[6:])
-    assert 40 < sum(s.minutes for s in stages[5:]) < 50
+    assert [_arg(s.argv, "--trip-set") for s in stages[6:]] == ["dense", "wide"]
+    if name == "cross-entropy-foot":
+        assert 40 < sum(s.minutes for s in stages[5:]) < 50
 
 
 def _copying_runner(calls: list, change=None):
@@ -190,21 +197,3 @@ def test_a_record_that_names_two_results_alike_is_refused(tmp_path, monkeypatch)
     monkeypatch.setattr(rp, "_record", lambda name: ("network", third))
     with pytest.raises(InputError, match="names two stages' results alike"):
         plan("x", tmp_path)
-
-
-def test_the_seed_1_cross_entropy_branch_starts_from_its_own_dagger_root(tmp_path):
-    """``cross-entropy-s1-foot``: the expert's five fits, DAgger by the cross-entropy
-    through pushes with seed 1 (``cross-entropy-s1``, a root of its own), then the same
-    two touch stages as ``cross-entropy-foot`` from it."""
-    kind, stages = plan("cross-entropy-s1-foot", tmp_path)
-    tags = [s.tag for s in stages]
-    assert kind == "network"
-    assert tags == ["pushed-walk", "knee-walk", "e2", "e3", "expert-placement",
-                    "cross-entropy-s1", "ces1f", "cross-entropy-s1-foot"]
-    dagger = stages[5].argv
-    assert _arg(dagger, "--seed") == "1" and _arg(dagger, "--loss") == "cross-entropy"
-    assert "--pushes" in dagger
-    assert _arg(stages[6].argv, "--walk-es") == str(tmp_path / "cross-entropy-s1" /
-                                                    "network.npz")
-    assert _arg(stages[7].argv, "--walk-es") == str(tmp_path / "ces1f" / "network.npz")
-    assert [_arg(s.argv, "--trip-set") for s in stages[6:]] == ["dense", "wide"]

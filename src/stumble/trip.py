@@ -361,8 +361,8 @@ _SCRATCH_MAX = 8  # models whose scratch data are kept (a study's bodies and wal
 
 def posed(m: mujoco.MjModel, qpos: np.ndarray) -> mujoco.MjData:
     """Scratch data of ``m`` in pose ``qpos``, its kinematics computed (positions and
-    frames only). Kept per model and reused: an ``MjData`` costs about 0.4 ms to make
-    (MuJoCo 3.x/4.x bindings), several a trip; valid until the next call for ``m``."""
+    frames only). Kept per model and reused: an ``MjData`` costs about 0.4 ms to make in
+    MuJoCo 4.0's Python bindings, whatever the model; valid until the next call for ``m``."""
     hit = _SCRATCH.get(id(m))
     if hit is None or hit[0] is not m:
         hit = _SCRATCH[id(m)] = (m, mujoco.MjData(m))

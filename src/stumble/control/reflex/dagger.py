@@ -443,8 +443,7 @@ PASSES = 8
 def _collect_job(args) -> Episode:
     """One episode (a top-level function for worker processes)."""
     net, params, beta, seed, speed, pushes, trip = args
-    return collect(net, params, beta, seed, speed, pushes=() if trip is not None else pushes,
-                   trip=trip)
+    return collect(net, params, beta, seed, speed, pushes=pushes, trip=trip)
 
 
 def _judge_walk(args) -> tuple[float, dict, dict]:
@@ -534,7 +533,7 @@ def dagger(net: Network, ident, params: GH2010Params, passes: int = PASSES, seed
                     for j, speed in enumerate(episode_speeds)]
             draw = np.random.default_rng([seed, i, 7])  # the trips' swing fractions
             jobs += [(net, params, beta, 10**6 + seed * 1000 + 10 * i + j,
-                      episode_speeds[j % len(episode_speeds)], pushes,
+                      episode_speeds[j % len(episode_speeds)], (),  # (trips: no pushes)
                       round(float(draw.uniform(*TRIP_SWINGS)), 3)) for j in range(trips)]
             tic = time.perf_counter()
             eps = list(pool.map(_collect_job, jobs) if pool else map(_collect_job, jobs))
