@@ -60,6 +60,7 @@ from stumble.trip import (
     obstacle_at,
     park_obstacle,
     place_obstacle,
+    posed,
     toe_front,
     trip_time,
 )
@@ -371,9 +372,7 @@ def _summary(sc: Scenario, strategy: str, controller, rec: Recording, stop: Stop
     if landing is not None:
         k = int(np.searchsorted(rec.time_s, landing))
         k = min(k, len(rec.time_s) - 1)
-        d = mujoco.MjData(m)
-        d.qpos[:] = rec.qpos[k]
-        mujoco.mj_kinematics(m, d)
+        d = posed(m, rec.qpos[k])  # (the trip set-up's scratch data)
         tilt = round(trunk_tilt_deg(m, d.xmat), 2)
         other = {"r": "l", "l": "r"}[rec_side]
         step_length = round(float(d.xpos[m.body(f"foot_{rec_side}").id, 0]

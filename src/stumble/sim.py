@@ -320,12 +320,12 @@ class _Stepper:
             self._warm0_row[:] = self._warm_now
             out = self._out.get(n)
             if out is None:  # reused: the caller is done with a block's rows
-                out = self._out[n] = (np.empty((1, n, self.nstate)),
-                                      np.empty((1, n, m.nsensordata)), [m], [d])
-            states, rows, ms, ds = out
+                st, rw = np.empty((1, n, self.nstate)), np.empty((1, n, m.nsensordata))
+                out = self._out[n] = (st, rw, [m], [d], st[0], rw[0])
+            states, rows, ms, ds, states0, rows0 = out
             self._pool.rollout_.rollout(ms, ds, n, _CTRL, self.state0, self.warm0, ctrl,
                                         states, rows, None)
-            states, rows = states[0], rows[0]
+            states, rows = states0, rows0
         self.physics_s += time.perf_counter() - tic
         return rows, states
 

@@ -516,6 +516,7 @@ class ReflexController:
         self._was_touched = np.zeros(2, dtype=bool)
         self._ahead = np.zeros(2, dtype=bool)  # each foot ahead of the other at its onset
         self._landings = np.full(2, -np.inf)  # each touched foot's landing after its onset
+        self._resp_end: float | None = None  # ``response.end_tick`` of these (None: anew)
         self.exc_block = np.zeros((self.block, 2, nm))
         self._nb_ticks = np.arange(self.block)
         self.block_start = 0
@@ -531,6 +532,21 @@ class ReflexController:
                           np.empty((self.block, 2, self.nm)))
         self._bal_cols = (self.balance.cols.astype(np.int64) if self.balance is not None
                           else np.zeros(3, dtype=np.int64))
+        self._touch_q = -1 if self.touch_sig is None else int(self.touch_sig)
+        self._bal_scratch = (np.empty(self.block, dtype=np.int64),
+                             np.empty((self.block, 6)), np.empty((self.block, 2, 3)))
+        self._no_place = np.zeros((0, 5))
+        self._bal_par = None  # the balance's numbers for the compiled block (``start``)
+
+    # views made on each use, not kept: a deep copy (``pipeline.WalkInCache``) copies
+    # arrays one by one, and a kept view would then no longer see its array
+    _sig2d = property(lambda self: self.sig_buf.reshape(self.n_buf, -1),
+                      doc="The signals' ring as (slot, 2·n_signals).")
+    _hid2d = property(lambda self: self.hid_buf.reshape(self.n_buf, -1),
+                      doc="The interneurons' ring as (slot, 2·S·H).")
+    _place_or_none = property(
+        lambda self: self.place_buf if self.place_buf is not None else self._no_place,
+        doc="The placement's ring, or one of no rows.")
 
     # ---- the network over a range of ticks --------------------------------------------
     def _push_signals(self, first: int, rates: np.ndarray) -> None:
@@ -630,56 +646,55 @@ class ReflexController:
             out[:, :, self.touch_sig] = self.touches[:n]
         return out
 
-    def _rates_push_compiled(self, kern: dict, first: int, n: int) -> None:
-        """``_rates`` then ``_push_signals`` of the block's n sensed ticks, compiled where
-        elementwise (``kernels``; NumPy's power, log and SciPy's filter): the same numbers."""
-        d, v, absv, fin = (a[:n] for a in self._scratch[:4])
-        kern["net_pre"](self.sensed[:n], self.k_mm, self.l_ref, IB_FORCE_N, d, v, absv, fin)
-        p = np.power(absv, IA_VELOCITY_EXPONENT, out=self._scratch[5][:n])  # absv ** exp
-        ib = self._scratch[4][:n]
-        g = np.log(fin, out=self._scratch[6][:n])
-        np.multiply(g, IB_GAIN, out=g)  # IB_GAIN * log(fin)
-        kern["iir2"](self.gto.b, self.gto.a, g, self.gto.z, ib)
-        kern["net_push"](d, v, p, ib, self.loads[:n], self.body_weight_n, self.contact,
-                         self.net.mean, self.inv_std, self.sig_buf.reshape(self.n_buf, -1),
-                         first, _RATE_GAINS)
-        if self.touch_sig is not None:  # (the numbers of ``_push_signals``)
-            q, n_sig = self.touch_sig, self.net.topology.n_signals
-            z = (self.touches[:n] - self.net.mean[q]) * self.inv_std[q]
-            buf = self.sig_buf.reshape(self.n_buf, -1)
-            slots = self._slots(first, n)
-            buf[slots, q] = z[:, 0]
-            buf[slots, n_sig + q] = z[:, 1]
-
     def _next_block_compiled(self, kern: dict) -> None:
-        """``_next_block`` with its elementwise steps compiled (``kernels``)."""
+        """``_next_block`` with its elementwise steps compiled (``kernels``): a few fused
+        calls around NumPy's transcendentals and matrix products (the same numbers)."""
         k, nb = self.k, self.block
-        if k > self.block_start:
-            self._rates_push_compiled(kern, self.block_start, k - self.block_start)
-        self._interneurons(k + self.a_min)
+        if k > self.block_start:  # ``_rates_push_compiled``, fused
+            first, n = self.block_start, k - self.block_start
+            d, v, absv, fin = (a[:n] for a in self._scratch[:4])
+            kern["net_pre"](self.sensed[:n], self.k_mm, self.l_ref, IB_FORCE_N, d, v, absv,
+                            fin)
+            p = np.power(absv, IA_VELOCITY_EXPONENT, out=self._scratch[5][:n])
+            g = np.log(fin, out=self._scratch[6][:n])
+            kern["ib_push"](g, IB_GAIN, self.gto.b, self.gto.a, self.gto.z,
+                            self._scratch[4][:n], d, v, p, self.loads[:n], self.body_weight_n,
+                            self.contact, self.net.mean, self.inv_std, self._sig2d, first,
+                            _RATE_GAINS, self.touches[:n], self._touch_q)
         hid, t = self._out_bufs
-        kern["ring_take"](self.hid_buf, k, self.c_lag, self.hid_off, self.hid_row, self.n_buf,
-                          hid)
+        upto = k + self.a_min
+        if upto > self.h_done:  # ``_interneurons``, fused (untraced: this path)
+            n = upto - self.h_done
+            x, h = self._in_scratch(n)
+            kern["ring_take"](self.sig_buf, self.h_done, self.in_lag, self.in_off,
+                              self.sig_row, self.n_buf, x)
+            np.matmul(x, self.w, out=h)  # h = tanh(x @ w + b), (n, 2, S·H)
+            np.add(h, self.b, out=h)
+            np.tanh(h, out=h)
+            kern["store_take"](h, self._hid2d, self.h_done, self.hid_buf, k, self.c_lag,
+                               self.hid_off, self.hid_row, self.n_buf, hid)
+            self.h_done = upto
+        else:
+            self._interneurons(upto)
+            kern["ring_take"](self.hid_buf, k, self.c_lag, self.hid_off, self.hid_row,
+                              self.n_buf, hid)
         np.matmul(hid, self.mv, out=t)  # (hid @ mv, into a kept buffer)
         kern["net_drive"](t, self.c)
         e = np.exp(t, out=t)
-        if self.balance is not None:
-            rows = (k - self.balance.lag + self._nb_ticks) % len(self.bal_buf)
-            sensed = self.bal_buf.take(rows, axis=0)
-            bal = self.balance.drive_cols(sensed)
-            if self.place_buf is not None:  # ``place_cols_drive``, added
-                b = self.balance
-                kern["place_drive_add"](self.place_buf, rows, self.bal_buf, float(b.k_place),
-                                        float(b.place_a0), float(b.place_cd),
-                                        float(b.place_cv), b.stance_load * b.weight_n, bal)
-        else:
-            bal = self._no_balance
         self.exc_block = np.empty((nb, 2, self.nm))
         self.ctrl_block = np.empty((nb, 2 * self.nm))
         # the plan's rows too, when a tick is a step and the muscles are one slice
         plan = self.plan if self._plan_in_kernel else self._no_plan
-        kern["net_out"](e, bal, self._bal_cols, self.exc_block, self.ctrl_block, plan,
-                        self._act_first, self._held)
+        if self.balance is not None:  # ``drive_cols`` and ``place_cols_drive``, added
+            rows, sensed, bal = self._bal_scratch
+            kern["bal_out"](self.bal_buf, k - self.balance.lag, self._bal_par,
+                            self._place_or_none, rows, sensed, bal, e, self._bal_cols,
+                            self.exc_block, self.ctrl_block, plan, self._plan_rows,
+                            self._act_first, self._held)
+        else:
+            kern["net_out"](e, self._no_balance, self._bal_cols, self.exc_block,
+                            self.ctrl_block, plan, self._plan_rows, self._act_first,
+                            self._held)
         self._plan_done = self._plan_in_kernel
         if self.response is not None:
             self._add_response(k, nb)
@@ -708,6 +723,7 @@ class ReflexController:
                 if now and not was and not self.response.running(k0 + i,
                                                                  self._onsets[side]):
                     self._onsets[side] = k0 + i
+                    self._resp_end = None
                     x = rows[i, self.lay.foot_pos[:, 0]]
                     self._ahead[side] = x[side] > x[1 - side]
                 was = now
@@ -728,11 +744,14 @@ class ReflexController:
             hit = np.flatnonzero(after & (load > r.LAND_LOAD * self.body_weight_n))
             if hit.size:
                 self._landings[side] = k0 + int(hit[0]) + self.net.topology.load_lag()
+                self._resp_end = None
 
     def _add_response(self, k: int, nb: int) -> None:
         """Add the touch response to the block's excitations and clip its controls again
         (blocks it does not reach are left as they were)."""
-        if k >= self.response.end_tick(self._onsets, self._landings):
+        if self._resp_end is None:  # (kept until an onset or a landing changes)
+            self._resp_end = self.response.end_tick(self._onsets, self._landings)
+        if k >= self._resp_end:
             return  # no response under way (``drive`` would add nothing)
         r = self.response.drive(k, nb, self._onsets, self._ahead, self._landings)
         if r is None:
@@ -797,6 +816,18 @@ class ReflexController:
         self._bal_sense_cols = (self.balance.sense_cols(lay) if self.balance is not None
                                 else None)
         self._bal_g = np.empty((self.block * self.every, 7))
+        self._place_d = np.empty((2, self.block * self.every, 2))  # ``place_pre``'s
+        self._place_cols = (self.balance.place_cols(lay) if self.place_buf is not None
+                            else np.zeros(8, dtype=np.int64))
+        self._no_cols, self._no_lean = np.zeros(0, dtype=np.int64), np.zeros(0)
+        self._no_rows, self._no_alpha = np.zeros((0, 6)), np.zeros((0, 2))
+        if self.balance is not None:
+            b = self.balance
+            self._bal_par = np.array([
+                float(b.kp), float(b.kd), float(b.ref), 1.0 if b.rectified else 0.0,
+                float(b.k_lean), b.stance_load * b.weight_n, float(b.k_bw),
+                float(b.weight_n), float(b.k_place), float(b.place_a0), float(b.place_cd),
+                float(b.place_cv)])
         self.period_steps = self.block * self.every // self.per_step
         if self.history is not None:
             hist, gto_state = self.history
@@ -828,8 +859,9 @@ class ReflexController:
         ctx.data.ctrl[self.lumbar] = self.lumbar_target
         self.plan = np.empty((self.period_steps, ctx.model.nu))
         self._no_plan = np.empty((0, ctx.model.nu))
-        self._plan_in_kernel = (self.every == 1 and self.per_step == 1
-                                and isinstance(self.act_slice, slice))
+        self._plan_in_kernel = isinstance(self.act_slice, slice)
+        # each physics step holds its first tick's excitations (``update``)
+        self._plan_rows = np.arange(self.period_steps) * self.per_step // self.every
         self._act_first = self.act_slice.start if self._plan_in_kernel else 0
         self.log.append(("reflex", 0.0))
 
@@ -852,6 +884,9 @@ class ReflexController:
 
     def observe(self, rows: np.ndarray) -> None:
         """Store the muscle states (and loads, lean) sensed at each tick of the block."""
+        kern = kernels()
+        if kern is not None:  # the same numbers, compiled where elementwise (``kernels``)
+            return self._observe_compiled(kern, rows)
         if self.per_step > 1:  # the ticks of a step sense its row
             ticks = np.repeat(rows, self.per_step, axis=0)
         else:
@@ -864,22 +899,6 @@ class ReflexController:
                 self._touch_onsets(k0, n, ticks)
                 if self.response.cross:
                     self._touch_landings(k0, n, ticks)
-        kern = kernels()
-        if kern is not None:  # the same numbers, compiled where elementwise (``kernels``)
-            bal = self.balance is not None
-            g = self._bal_g[:n]
-            kern["net_observe"](ticks, self._obs_cols, self._n_mus3, self.contact,
-                                self.sensed, self.loads, self._bal_sense_cols if bal
-                                else self._obs_cols[:0], g)
-            if bal:
-                kern["bal_store"](g, np.arctan2(g[:, 0], g[:, 1]), self.bal_buf, k0)
-            if self.place_buf is not None:  # ``place_sense``, its arctan2 NumPy's
-                d = np.empty((2, n, 2))
-                kern["place_pre"](ticks, self.balance.place_cols(self.lay), d,
-                                  self.place_buf, k0)
-                kern["place_alpha"](np.arctan2(d[0], d[1]), self.place_buf, k0)
-            self.k = k0 + n
-            return
         g = ticks[:, self._obs_cols]  # muscle lengths, velocities, forces; feet's loads
         self.sensed[:n] = g[:, :self._n_mus3].reshape(n, 3, -1)
         if self.contact:
@@ -888,6 +907,32 @@ class ReflexController:
             self.bal_buf[self._bal_rows(k0, n)] = self.balance.sense(ticks, self.lay)
         if self.place_buf is not None:
             self.place_buf[self._bal_rows(k0, n)] = self.balance.place_sense(ticks, self.lay)
+        self.k = k0 + n
+
+    def _observe_compiled(self, kern: dict, rows: np.ndarray) -> None:
+        """``observe`` in two compiled calls around NumPy's arctan2 (the same numbers);
+        the touch response's Python only in blocks with a touch."""
+        per_step, every = self.per_step, self.every
+        n = len(rows) * per_step if per_step > 1 else -(-len(rows) // every)
+        k0 = self.k
+        bal = self.balance is not None
+        g, d = self._bal_g[:n], self._place_d[:, :n]
+        touched = kern["observe_all"](
+            rows, per_step, every, n, self._obs_cols, self._n_mus3, self.contact,
+            self.sensed, self.loads, self._bal_sense_cols if bal else self._no_cols, g,
+            self._touch_cols if self._touch_cols is not None else self._no_cols,
+            self.touches, self._place_cols, d, self._place_or_none, k0)
+        if self.response is not None and self._touch_cols is not None and (
+                touched or self._was_touched[0] or self._was_touched[1]
+                or self.response.cross):
+            ticks = np.repeat(rows, per_step, axis=0) if per_step > 1 else rows[::every]
+            self._touch_onsets(k0, n, ticks)
+            if self.response.cross:
+                self._touch_landings(k0, n, ticks)
+        kern["observe_store"](g, np.arctan2(g[:, 0], g[:, 1]) if bal else self._no_lean,
+                              self.bal_buf if bal else self._no_rows,
+                              np.arctan2(d[0], d[1]) if self.place_buf is not None
+                              else self._no_alpha, self._place_or_none, k0)
         self.k = k0 + n
 
     def state(self) -> str:
@@ -926,4 +971,5 @@ class ReflexController:
                              "afferent's weights and the touch response")
         self.w = net.w
         self.response = self._response_of(net)
+        self._resp_end = None
         self._sense_touches()

@@ -464,6 +464,7 @@ class GH2010Controller:
         self._act_first = (self._act_cols.start if isinstance(self._act_cols, slice)
                            else None)
         self._ungated_b = self._ungated.astype(np.bool_)
+        self._law_numbers()
         self._held = ctx.data.ctrl
         u = self._excitations(self.delay.read(1))[0]
         ctx.data.act[self.act_adr] = u  # muscles start at the reflexes' present output
@@ -755,6 +756,24 @@ class GH2010Controller:
         self._n_feat = len(self._w_st)
         self._all_gated = bool(self.gated.all())
 
+    def _law_numbers(self) -> None:
+        """The taps and numbers the compiled laws read (``kernels.gh_laws``,
+        ``gh_features``), gathered once: the parameters as given (int or float: the same
+        IEEE operations either way, the values being small whole numbers or floats)."""
+        p, sl = self.p, self._sl
+        self._feat_taps = (sl["phi"].start, sl["knee_v"].start,
+                           sl["ds_load"].start if self._has_ds else 0,
+                           sl["ds_x"].start if self._has_ds else 0, sl["gate"].start)
+        self._law_ip = np.array([
+            self._iLean, self._iLeanV, sl["vest_load"].start, sl["vest_x"].start,
+            self._i_glu, self._i_hams, self._i_flex, int(self._place),
+            sl["place"].start, int(self.wiring == "seed003"),
+            int(bool(p.place_cd or p.place_cv))], dtype=np.int64)
+        self._law_fp = np.array([p.lean_ref, p.kp_trunk, p.kd_trunk, p.k_lean,
+                                 p.stance_load, p.k_bw, p.k_place, p.place_a0, p.place_cd,
+                                 p.place_cv], dtype=float)
+        self._sense_at: dict[int, tuple] = {}  # ``observe``'s scratch per block length
+
     def _excitations_compiled(self, kern: dict, x: np.ndarray,
                               plan: np.ndarray) -> np.ndarray:
         """``_excitations`` with its elementwise steps compiled (``kernels``; NumPy's
@@ -762,22 +781,14 @@ class GH2010Controller:
         p, n, nm, sl = self.p, len(x), self.nm, self._sl
         v = np.empty((n, 2, self._n_feat))
         stance = np.empty((n, 2, nm), dtype=np.bool_)
-        ds_load = sl["ds_load"].start if self._has_ds else 0
-        ds_x = sl["ds_x"].start if self._has_ds else 0
-        kern["gh_features"](x, sl["phi"].start, self._phi_sign, self._phi_off,
-                            self._phi_low, sl["knee_v"].start, self._has_ds, ds_load, ds_x,
-                            p.stance_load, sl["gate"].start, self._ungated_b, v, stance)
+        phi0, knee_v0, ds_load, ds_x, gate0 = self._feat_taps
+        kern["gh_features"](x, phi0, self._phi_sign, self._phi_off, self._phi_low, knee_v0,
+                            self._has_ds, ds_load, ds_x, p.stance_load, gate0,
+                            self._ungated_b, v, stance)
         u = np.empty((n, 2, nm))
-        kern["gh_select"](stance, v @ self._w_st, self._b_st, v @ self._w_sw, self._b_sw, u)
-        kern["gh_lean"](x, self._iLean, self._iLeanV, sl["vest_load"].start,
-                        sl["vest_x"].start, p.lean_ref, p.kp_trunk, p.kd_trunk, p.k_lean,
-                        p.stance_load, self.wiring == "seed003", p.k_bw, self._i_glu,
-                        self._i_hams, self._i_flex, u)
-        if self._place:
-            kern["gh_place"](x, sl["place"].start, sl["vest_load"].start, p.k_place,
-                             p.place_a0, p.place_cd, p.place_cv,
-                             bool(p.place_cd or p.place_cv), p.stance_load, self._i_flex,
-                             self._i_glu, u)
+        # ``gh_select``, ``gh_lean`` and ``gh_place`` in one call (``_law_numbers``)
+        kern["gh_laws"](stance, v @ self._w_st, self._b_st, v @ self._w_sw, self._b_sw, x,
+                        self._law_ip, self._law_fp, u)
         u = u.reshape(n, 2 * nm)
         if self._scr:
             by_foot = self._scr_by_foot
@@ -945,7 +956,23 @@ class GH2010Controller:
 
     def observe(self, rows: np.ndarray) -> None:
         """Store the block's sensed channels."""
-        self.delay.push(self._channels(rows))
+        kern = kernels()
+        if kern is None or self._ob_load is not None:
+            return self.delay.push(self._channels(rows))
+        # ``_channels`` then ``push``, compiled around NumPy's arctan2 (the same numbers)
+        n = len(rows)
+        got = self._sense_at.get(n)
+        if got is None:
+            got = self._sense_at[n] = (np.empty((n, len(self._gather))),
+                                       np.empty((n, 2)), np.empty((n, 2)),
+                                       np.empty((n, 3)))
+        v, a, b, extra = got
+        kern["gh_sense"](rows, self._gather, self._scale, self._offset, v, self._place,
+                         self._place_cols, a, b, extra)
+        d = self.delay
+        kern["gh_push"](v, np.arctan2(v[:, -2], v[:, -1]), self._place,
+                        np.arctan2(a, b) if self._place else a, extra, d.buf, d.k)
+        d.k += n
 
     def state(self) -> str:
         """The reflexes have one state (each leg's stance or swing is internal)."""

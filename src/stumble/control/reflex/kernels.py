@@ -155,11 +155,12 @@ def _compiled(numba) -> dict:
                     t[i, s, j] = -(t[i, s, j] + c[j])
 
     @jit
-    def net_out(e, bal, cols, exc, ctrl, plan, first, held):
+    def net_out(e, bal, cols, exc, ctrl, plan, plan_rows, first, held):
         """Motor neurons' excitation ``1/(1 + e)`` (n, 2, m) from ``e`` = exp(−drive), the
         trunk balance ``bal`` (n, 2, 3) added on ``cols`` (when ``bal`` has rows), and
-        the controls clipped to 0.01-1 (n, 2·m); when ``plan`` has rows, each is
-        ``held`` (the controls now) with the muscles' columns from ``first`` set."""
+        the controls clipped to 0.01-1 (n, 2·m); when ``plan`` has rows, row ``i`` is
+        ``held`` (the controls now) with the muscles' columns from ``first`` set to the
+        controls' row ``plan_rows[i]`` (the tick that physics step holds)."""
         n, _two, m = e.shape
         for i in range(n):
             for s in range(2):
@@ -173,11 +174,11 @@ def _compiled(numba) -> dict:
                     u = u if (u >= 0.01 or u != u) else 0.01
                     ctrl[i, s * m + j] = u if (u <= 1.0 or u != u) else 1.0
         if plan.shape[0]:
-            for i in range(n):
+            for i in range(plan.shape[0]):
                 for q in range(plan.shape[1]):
                     plan[i, q] = held[q]
                 for q in range(2 * m):
-                    plan[i, first + q] = ctrl[i, q]
+                    plan[i, first + q] = ctrl[plan_rows[i], q]
 
     @jit
     def ring_take(buf, first, lag, off, row, size, out):
@@ -291,6 +292,101 @@ def _compiled(numba) -> dict:
             z[1, c] = z1
 
     @jit
+    def ib_push(g, ib_gain, b, a, z, ib, d, v, p, loads, weight_n, contact, mean, inv_std,
+                buf, first, gains, touches, touch_sig):
+        """``ReflexController._rates_push_compiled`` after NumPy's power and log: the tendon
+        organs' ``ib_gain·log`` (in ``g``) filtered by ``iir2`` into ``ib``, then
+        ``net_push``, then (``touch_sig`` ≥ 0) each foot's standardised touch into that
+        signal of both sides."""
+        for i in range(g.shape[0]):
+            for c in range(g.shape[1]):
+                g[i, c] = g[i, c] * ib_gain
+        iir2(b, a, g, z, ib)
+        net_push(d, v, p, ib, loads, weight_n, contact, mean, inv_std, buf, first, gains)
+        if touch_sig >= 0:
+            n_sig = buf.shape[1] // 2
+            size = buf.shape[0]
+            m, s = mean[touch_sig], inv_std[touch_sig]
+            for i in range(g.shape[0]):
+                row = (first + i) % size
+                buf[row, touch_sig] = (touches[i, 0] - m) * s
+                buf[row, n_sig + touch_sig] = (touches[i, 1] - m) * s
+
+    @jit
+    def store_take(h, hid2, h_first, hid, first, lag, off, row, size, out):
+        """``store_rows(h, hid2, h_first)`` then ``ring_take(hid, first, …, out)``: the new
+        interneurons stored, then what the motor neurons of ticks first… read (``hid2``
+        is ``hid`` as (slots, row))."""
+        store_rows(h, hid2, h_first)
+        ring_take(hid, first, lag, off, row, size, out)
+
+    @jit
+    def bal_out(bal_buf, first, par, place_buf, rows, sensed, bal, e, cols, exc, ctrl, plan,
+                plan_rows, act_first, held):
+        """The trunk balance of the block's ticks (its ring rows from ``first``:
+        ``balance_cols``, and with a ``place_buf`` of rows ``place_drive_add``) into
+        ``bal``, then ``net_out``. ``par``: kp, kd, ref, rectified, k_lean, the stance
+        load (N), k_bw, the body weight (N), k_place, a0, c_d, c_v."""
+        size = bal_buf.shape[0]
+        for i in range(rows.shape[0]):
+            r = (first + i) % size
+            rows[i] = r
+            for j in range(bal_buf.shape[1]):
+                sensed[i, j] = bal_buf[r, j]
+        balance_cols(sensed, par[0], par[1], par[2], par[3] != 0.0, par[4], par[5], par[6],
+                     par[7], bal)
+        if place_buf.shape[0]:
+            place_drive_add(place_buf, rows, bal_buf, par[8], par[9], par[10], par[11],
+                            par[5], bal)
+        net_out(e, bal, cols, exc, ctrl, plan, plan_rows, act_first, held)
+
+    @jit
+    def observe_all(rows, per_step, every, n, obs_cols, n_mus3, contact, sensed, loads,
+                    bal_cols, bal_g, touch_cols, touches, place_cols, d, place_buf, first):
+        """``ReflexController.observe``'s gathers from a block's sensor ``rows``, tick ``i``
+        reading row ``i // per_step`` (``per_step`` > 1) or ``i·every``: ``net_observe``,
+        each foot's touch ``min(row, 1)`` into ``touches`` (when ``touch_cols`` has
+        columns) and (``place_buf`` with rows) ``place_pre``; whether a foot is touched."""
+        any_touch = False
+        for i in range(n):
+            r = i // per_step if per_step > 1 else i * every
+            x = rows[r]
+            m = n_mus3 // 3
+            for q in range(3):
+                for c in range(m):
+                    sensed[i, q, c] = x[obs_cols[q * m + c]]
+            if contact:
+                for s in range(obs_cols.shape[0] - n_mus3):
+                    loads[i, s] = -x[obs_cols[n_mus3 + s]]
+            for j in range(bal_cols.shape[0]):
+                bal_g[i, j] = x[bal_cols[j]]
+            for s in range(touch_cols.shape[0]):
+                t = x[touch_cols[s]]
+                t = t if (t <= 1.0 or t != t) else 1.0
+                touches[i, s] = t
+                if t > 0.0:
+                    any_touch = True
+            if place_buf.shape[0]:
+                size = place_buf.shape[0]
+                q = (first + i) % size
+                for s in range(2):
+                    d[0, i, s] = x[place_cols[2 + s]] - x[place_cols[0]]
+                    d[1, i, s] = x[place_cols[1]] - x[place_cols[4 + s]]
+                place_buf[q, 2] = x[place_cols[6]] - x[place_cols[3]]
+                place_buf[q, 3] = x[place_cols[6]] - x[place_cols[2]]
+                place_buf[q, 4] = x[place_cols[7]]
+        return any_touch
+
+    @jit
+    def observe_store(g, lean, bal_buf, alpha, place_buf, first):
+        """``bal_store`` (when ``bal_buf`` has rows) and ``place_alpha`` (when
+        ``place_buf`` has rows) of a block's ticks."""
+        if bal_buf.shape[0]:
+            bal_store(g, lean, bal_buf, first)
+        if place_buf.shape[0]:
+            place_alpha(alpha, place_buf, first)
+
+    @jit
     def gh_channels(rows, gather, scale, offset, v):
         """``GH2010Controller._channels``' affine map: ``v`` = rows[:, gather]·scale +
         offset (n, channels)."""
@@ -318,6 +414,57 @@ def _compiled(numba) -> dict:
             out[i, k + 2] = r6 - rows[i, cols[3]]
             out[i, k + 3] = r6 - rows[i, cols[2]]
             out[i, k + 4] = rows[i, cols[7]]
+
+    @jit
+    def gh_sense(rows, gather, scale, offset, v, place, cols, a, b, extra):
+        """``gh_channels`` into ``v``; with ``place``, ``gh_place_in``'s inputs: the legs'
+        x and z offsets ``a``, ``b`` (n, 2) for the caller's arctan2, and the COM ahead of
+        each other ankle and its speed into ``extra`` (n, 3)."""
+        gh_channels(rows, gather, scale, offset, v)
+        if place:
+            for i in range(rows.shape[0]):
+                r0 = rows[i, cols[0]]
+                r1 = rows[i, cols[1]]
+                a[i, 0] = rows[i, cols[2]] - r0
+                a[i, 1] = rows[i, cols[3]] - r0
+                b[i, 0] = r1 - rows[i, cols[4]]
+                b[i, 1] = r1 - rows[i, cols[5]]
+                r6 = rows[i, cols[6]]
+                extra[i, 0] = r6 - rows[i, cols[3]]
+                extra[i, 1] = r6 - rows[i, cols[2]]
+                extra[i, 2] = rows[i, cols[7]]
+
+    @jit
+    def gh_push(v, lean, place, alpha, extra, buf, first):
+        """A block's channels into the delay ring ``buf`` from slot ``first`` on: ``v``
+        but its last two, the ``lean``, then (``place``) the legs' angles ``alpha`` and
+        ``extra`` (``GH2010Controller._channels``' rows, pushed)."""
+        k = v.shape[1] - 1
+        size = buf.shape[0]
+        for i in range(v.shape[0]):
+            r = (first + i) % size
+            for c in range(k - 1):
+                buf[r, c] = v[i, c]
+            buf[r, k - 1] = lean[i]
+            if place:
+                buf[r, k] = alpha[i, 0]
+                buf[r, k + 1] = alpha[i, 1]
+                buf[r, k + 2] = extra[i, 0]
+                buf[r, k + 3] = extra[i, 1]
+                buf[r, k + 4] = extra[i, 2]
+
+    @jit
+    def gh_laws(stance, a, b_st, b, b_sw, x, ip, fp, u):
+        """``gh_select``, ``gh_lean`` and (``ip[7]``) ``gh_place`` into ``u``. ``ip``: the
+        lean's and its rate's taps, the vestibular loads' and feet's first taps, GLU,
+        HAMS, the flexor, placement on, its first tap, seed003 wiring, placement terms;
+        ``fp``: lean_ref, kp, kd, k_lean, the stance load, k_bw, k_place, a0, c_d, c_v."""
+        gh_select(stance, a, b_st, b, b_sw, u)
+        gh_lean(x, ip[0], ip[1], ip[2], ip[3], fp[0], fp[1], fp[2], fp[3], fp[4],
+                ip[9] != 0, fp[5], ip[4], ip[5], ip[6], u)
+        if ip[7]:
+            gh_place(x, ip[8], ip[2], fp[6], fp[7], fp[8], fp[9], ip[10] != 0, fp[4],
+                     ip[6], ip[4], u)
 
     @jit
     def gh_features(x, phi0, sign, off, low, knee_v0, has_ds, ds_load0, ds_x0,
@@ -543,10 +690,12 @@ def _compiled(numba) -> dict:
             "net_observe": net_observe, "bal_store": bal_store, "store_rows": store_rows,
             "place_pre": place_pre, "place_alpha": place_alpha,
             "place_drive_add": place_drive_add,
-            "ring_take": ring_take,
+            "ring_take": ring_take, "ib_push": ib_push, "store_take": store_take,
+            "bal_out": bal_out, "observe_all": observe_all, "observe_store": observe_store,
             "gh_channels": gh_channels, "gh_place_in": gh_place_in,
             "gh_features": gh_features, "gh_select": gh_select, "gh_lean": gh_lean,
-            "gh_place": gh_place, "gh_touch": gh_touch, "clip_plan": clip_plan}
+            "gh_place": gh_place, "gh_touch": gh_touch, "clip_plan": clip_plan,
+            "gh_sense": gh_sense, "gh_push": gh_push, "gh_laws": gh_laws}
 
 
 _KERNELS: dict | bool | None = False  # False: not looked for yet
