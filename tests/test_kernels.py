@@ -100,6 +100,65 @@ def test_network_walk_and_trips_compiled_equal_numpy():
     _same_runs(lambda: simulate_walk("network", 1.0, network=placing).recording)
 
 
+def test_numpys_own_loops_are_found_and_give_numpys_bits(compiled):
+    """``numpy_loops``: NumPy's inner loops of tanh, exp, log, power, arctan2 and matmul
+    are found on this NumPy and, called from the kernels, give NumPy's bits on arrays
+    other than the load-time check's (contiguous, in place, strided, a scalar exponent,
+    the networks' matrix products); a loop that is not float64's is refused."""
+    loops = compiled["loops"]
+    assert loops is not None, "NumPy's loops not found: the network's block is not fused"
+    rng = np.random.default_rng(7)
+    meta = np.zeros(16, dtype=np.int64)
+    h = rng.normal(0.0, 2.0, (8, 2, 42))
+    ref = np.tanh(h)
+    compiled["loop1"](loops, K.TANH, meta, h, h)  # in place, as the network runs it
+    assert np.array_equal(h, ref)
+    t = rng.normal(0.0, 5.0, (8, 2, 8))
+    out = np.empty_like(t)
+    compiled["loop1"](loops, K.EXP, meta, t, out)
+    assert np.array_equal(out, np.exp(t))
+    fin = rng.uniform(1.0, 30.0, (8, 14))
+    compiled["loop1"](loops, K.LOG, meta, fin, out := np.empty_like(fin))
+    assert np.array_equal(out, np.log(fin))
+    compiled["loop_pow"](loops, meta, fin, 0.6, out)
+    assert np.array_equal(out, np.power(fin, 0.6))
+    g = rng.normal(0.0, 1.0, (8, 7))
+    lean = np.empty(8)
+    compiled["loop_atan2_cols"](loops, meta, g, 0, 1, lean)
+    assert np.array_equal(lean, np.arctan2(g[:, 0], g[:, 1]))
+    x, w = rng.normal(0.0, 1.0, (8, 2, 70)), rng.normal(0.0, 0.3, (70, 42))
+    got, want = np.empty((8, 2, 42)), np.empty((8, 2, 42))
+    compiled["loop_matmul"](loops, meta, x, w, got)
+    np.matmul(x, w, out=want)
+    assert np.array_equal(got, want)
+    assert K._loop_address(np.add, "OO->O") is None  # object loops: not float64's
+    assert K._loop_address(np.tanh, "f->f") is None
+
+
+def test_the_fused_network_block_equals_the_calls_it_fuses():
+    """The network's block as one compiled call (NumPy's loops in it) and as the
+    separate compiled and NumPy calls: the same trip with the touch response, bit for
+    bit."""
+    from stumble.pipeline import simulate_trip
+    from stumble.trip import Scenario
+
+    K.use_numpy(False)
+    kern = K.kernels()
+    if kern is None or kern["loops"] is None:
+        pytest.skip("no compiled kernels or NumPy's loops not found")
+    sc = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.6,
+                  speed_m_per_s=1.2, start="own", duration_after_trip_s=1.0)
+    fused = simulate_trip(sc).recording
+    loops, kern["loops"] = kern["loops"], None
+    try:
+        apart = simulate_trip(sc).recording
+    finally:
+        kern["loops"] = loops
+    assert len(fused.time_s) > 100
+    for name, a in _arrays(apart).items():
+        assert np.array_equal(_arrays(fused)[name], a, equal_nan=True), name
+
+
 def test_the_touch_afferent_compiled_equals_numpy_and_is_silent_at_zero():
     """A network with the touch afferent: with its weights 0 the trip is the network's
     own, bit for bit; with weights, the same recordings with and without the kernels,

@@ -537,6 +537,7 @@ class ReflexController:
                              np.empty((self.block, 6)), np.empty((self.block, 2, 3)))
         self._no_place = np.zeros((0, 5))
         self._bal_par = None  # the balance's numbers for the compiled block (``start``)
+        self._meta = np.zeros(16, dtype=np.int64)  # the NumPy loops' arguments
 
     # views made on each use, not kept: a deep copy (``pipeline.WalkInCache``) copies
     # arrays one by one, and a kept view would then no longer see its array
@@ -647,9 +648,13 @@ class ReflexController:
         return out
 
     def _next_block_compiled(self, kern: dict) -> None:
-        """``_next_block`` with its elementwise steps compiled (``kernels``): a few fused
-        calls around NumPy's transcendentals and matrix products (the same numbers)."""
+        """``_next_block`` with its elementwise steps compiled (``kernels``): one call
+        where NumPy's own loops can be called from it (``kernels.numpy_loops``), else a
+        few fused calls around NumPy's transcendentals and matrix products (the same
+        numbers either way)."""
         k, nb = self.k, self.block
+        if kern["loops"] is not None and self._fused:
+            return self._next_block_fused(kern)
         if k > self.block_start:  # ``_rates_push_compiled``, fused
             first, n = self.block_start, k - self.block_start
             d, v, absv, fin = (a[:n] for a in self._scratch[:4])
@@ -695,6 +700,45 @@ class ReflexController:
             kern["net_out"](e, self._no_balance, self._bal_cols, self.exc_block,
                             self.ctrl_block, plan, self._plan_rows, self._act_first,
                             self._held)
+        self._plan_done = self._plan_in_kernel
+        if self.response is not None:
+            self._add_response(k, nb)
+        self.block_start = k
+
+    def _fusable(self) -> bool:
+        """Whether the block can be one compiled call: the weights C-contiguous (the
+        matrix products then NumPy's own calls, strides and all)."""
+        return all(a.flags.c_contiguous and a.dtype == np.float64
+                   for a in (self.w, self.mv, self.b, self.c))
+
+    def _next_block_fused(self, kern: dict) -> None:
+        """``_next_block_compiled`` as one compiled call (``kernels.net_update``), then
+        the touch response."""
+        k, nb = self.k, self.block
+        first, n_r = self.block_start, k - self.block_start
+        upto = k + self.a_min
+        n_h = upto - self.h_done
+        x, h = self._in_scratch(n_h) if n_h > 0 else self._in_scratch(1)
+        self.exc_block = np.empty((nb, 2, self.nm))
+        self.ctrl_block = np.empty((nb, 2 * self.nm))
+        bal = self.balance
+        hid, t = self._out_bufs
+        rows, sensed, bal_drive = self._bal_scratch
+        kern["net_update"](
+            kern["loops"], self._meta, n_r > 0, first, n_r, self.sensed, self.k_mm,
+            self.l_ref, IB_FORCE_N, self._scratch, IA_VELOCITY_EXPONENT, IB_GAIN,
+            self.gto.b, self.gto.a, self.gto.z, self.loads, self.body_weight_n,
+            self.contact, self.net.mean, self.inv_std, self._sig2d, _RATE_GAINS,
+            self.touches, self._touch_q, n_h, self.h_done, self.sig_buf, self.in_lag,
+            self.in_off, self.sig_row, self.n_buf, x, h, self.w, self.b, self._hid2d,
+            self.hid_buf, k, self.c_lag, self.hid_off, self.hid_row, hid, self.mv, t,
+            self.c, bal is not None, k - bal.lag if bal is not None else 0,
+            self.bal_buf if bal is not None else self._no_rows, self._bal_par_or_none,
+            self._place_or_none, rows, sensed, bal_drive, self._bal_cols, self.exc_block,
+            self.ctrl_block, self.plan if self._plan_in_kernel else self._no_plan,
+            self._plan_rows, self._act_first, self._held, self._no_balance)
+        if n_h > 0:
+            self.h_done = upto
         self._plan_done = self._plan_in_kernel
         if self.response is not None:
             self._add_response(k, nb)
@@ -821,6 +865,9 @@ class ReflexController:
                             else np.zeros(8, dtype=np.int64))
         self._no_cols, self._no_lean = np.zeros(0, dtype=np.int64), np.zeros(0)
         self._no_rows, self._no_alpha = np.zeros((0, 6)), np.zeros((0, 2))
+        self._lean_buf = np.empty(self.block * self.every)
+        self._alpha_buf = np.empty((self.block * self.every, 2))
+        self._fused = self._fusable()
         if self.balance is not None:
             b = self.balance
             self._bal_par = np.array([
@@ -828,6 +875,7 @@ class ReflexController:
                 float(b.k_lean), b.stance_load * b.weight_n, float(b.k_bw),
                 float(b.weight_n), float(b.k_place), float(b.place_a0), float(b.place_cd),
                 float(b.place_cv)])
+        self._bal_par_or_none = self._bal_par if self._bal_par is not None else np.zeros(12)
         self.period_steps = self.block * self.every // self.per_step
         if self.history is not None:
             hist, gto_state = self.history
@@ -916,24 +964,43 @@ class ReflexController:
         n = len(rows) * per_step if per_step > 1 else -(-len(rows) // every)
         k0 = self.k
         bal = self.balance is not None
+        if kern["loops"] is not None:  # one call, NumPy's arctan2 loop in it
+            touched = kern["net_sense"](
+                kern["loops"], self._meta, rows, per_step, every, n, self._obs_cols,
+                self._n_mus3, self.contact, self.sensed, self.loads,
+                self._bal_sense_cols if bal else self._no_cols, self._bal_g,
+                self._touch_cols if self._touch_cols is not None else self._no_cols,
+                self.touches, self._place_cols, self._place_d, self._place_or_none, k0,
+                self._lean_buf, self._alpha_buf, self.bal_buf if bal else self._no_rows,
+                self._no_alpha)
+            self._touch_response_sense(touched, rows, k0, n)
+            self.k = k0 + n
+            return
         g, d = self._bal_g[:n], self._place_d[:, :n]
         touched = kern["observe_all"](
             rows, per_step, every, n, self._obs_cols, self._n_mus3, self.contact,
             self.sensed, self.loads, self._bal_sense_cols if bal else self._no_cols, g,
             self._touch_cols if self._touch_cols is not None else self._no_cols,
             self.touches, self._place_cols, d, self._place_or_none, k0)
-        if self.response is not None and self._touch_cols is not None and (
-                touched or self._was_touched[0] or self._was_touched[1]
-                or self.response.cross):
-            ticks = np.repeat(rows, per_step, axis=0) if per_step > 1 else rows[::every]
-            self._touch_onsets(k0, n, ticks)
-            if self.response.cross:
-                self._touch_landings(k0, n, ticks)
+        self._touch_response_sense(touched, rows, k0, n)
         kern["observe_store"](g, np.arctan2(g[:, 0], g[:, 1]) if bal else self._no_lean,
                               self.bal_buf if bal else self._no_rows,
                               np.arctan2(d[0], d[1]) if self.place_buf is not None
                               else self._no_alpha, self._place_or_none, k0)
         self.k = k0 + n
+
+    def _touch_response_sense(self, touched: bool, rows: np.ndarray, k0: int,
+                              n: int) -> None:
+        """The touch response's onsets and landings among a block's ``n`` ticks from
+        ``k0`` (Python, in blocks with a touch, one just ended or a crossing to watch)."""
+        if self.response is not None and self._touch_cols is not None and (
+                touched or self._was_touched[0] or self._was_touched[1]
+                or self.response.cross):
+            per_step, every = self.per_step, self.every
+            ticks = np.repeat(rows, per_step, axis=0) if per_step > 1 else rows[::every]
+            self._touch_onsets(k0, n, ticks)
+            if self.response.cross:
+                self._touch_landings(k0, n, ticks)
 
     def state(self) -> str:
         """The network has one state."""
@@ -970,6 +1037,7 @@ class ReflexController:
             raise ValueError("retouch: the networks differ in more than the touch "
                              "afferent's weights and the touch response")
         self.w = net.w
+        self._fused = self._fusable() if hasattr(self, "_fused") else False
         self.response = self._response_of(net)
         self._resp_end = None
         self._sense_touches()

@@ -12,6 +12,14 @@ over whole walks and trips. What would not be the same stays NumPy's: its transc
 functions (``tanh``, ``exp``, ``log``, ``power``, ``arctan2``: SIMD implementations that
 round differently from a compiled libm on some CPUs) and its matrix products (BLAS).
 
+Where NumPy's own code would differ from a compiled one, the kernels can still call it:
+``numpy_loops`` finds the inner loops NumPy itself runs for those functions (a ufunc's
+loop for float64, read from the ufunc object; ``matmul``'s calls OpenBLAS as
+``np.matmul`` does) and the kernels call them with the shapes and strides NumPy would, so
+that a whole block of the network is one compiled call. They are used only after a check
+at load that each gives NumPy's bits on test arrays of the shapes the controllers use;
+where the check fails (another NumPy's layout), the calls above stay NumPy's.
+
 Numba is the optional extra ``fast`` (``pip install -e ".[fast]"``, in ``dev`` too).
 Without it, or with ``STUMBLE_KERNELS=numpy`` in the environment, the NumPy code runs;
 the numbers are the same either way, only the time differs (``benchmarks/bench_reflex.py``).
@@ -47,9 +55,197 @@ def _load():
         return None
 
 
+# NumPy's inner loops the kernels call (``numpy_loops``), by index
+LOOPS = (("tanh", "d->d"), ("exp", "d->d"), ("log", "d->d"), ("power", "dd->d"),
+         ("arctan2", "dd->d"), ("matmul", "dd->d"))
+TANH, EXP, LOG, POWER, ARCTAN2, MATMUL = range(len(LOOPS))
+_NPY_DOUBLE = 12  # NumPy's type number of float64
+
+
+def _loop_address(ufunc, sig: str) -> int | None:
+    """Address of the inner loop NumPy runs for ``ufunc`` on ``sig``, read from its
+    ``PyUFuncObject`` (``functions[k]``; CPython's 16-byte object head, then four ints),
+    or None where the object is not laid out so (its type count and the loop's type
+    codes are checked) or the loop needs a data pointer."""
+    import ctypes
+
+    try:
+        k = ufunc.types.index(sig)
+        base, nargs = id(ufunc), ufunc.nargs
+        if ctypes.c_int.from_address(base + 24).value != nargs:
+            return None
+        functions = ctypes.c_void_p.from_address(base + 32).value
+        data = ctypes.c_void_p.from_address(base + 40).value
+        if ctypes.c_int.from_address(base + 48).value != len(ufunc.types) or not functions:
+            return None
+        types = ctypes.c_void_p.from_address(base + 64).value
+        codes = ctypes.string_at(types + k * nargs, nargs)
+        if any(c != _NPY_DOUBLE for c in codes):
+            return None
+        if data and ctypes.c_void_p.from_address(data + 8 * k).value:
+            return None
+        return ctypes.c_void_p.from_address(functions + 8 * k).value
+    except Exception:  # (any surprise: the NumPy calls stay)
+        return None
+
+
+def _loop_caller(numba):
+    """A compiled call of a NumPy inner loop by address: ``call(fn, args, dims, steps)``
+    with the loop's data pointer NULL (addresses as integers, so that kernels using it
+    are cached)."""
+    from llvmlite import ir
+    from numba.extending import intrinsic
+
+    @intrinsic
+    def call_loop(typingctx, fn, args, dims, steps):
+        sig = numba.types.void(numba.types.intp, numba.types.intp, numba.types.intp,
+                               numba.types.intp)
+
+        def codegen(context, builder, signature, a):
+            ptr = ir.IntType(8).as_pointer()
+            fnty = ir.FunctionType(ir.VoidType(), [ptr, ptr, ptr, ptr])
+            f = builder.inttoptr(a[0], fnty.as_pointer())
+            builder.call(f, [builder.inttoptr(v, ptr) for v in a[1:]]
+                         + [ir.Constant(ptr, None)])
+            return context.get_dummy_value()
+
+        return sig, codegen
+
+    return call_loop
+
+
+def _checked_loops(kern: dict) -> np.ndarray | None:
+    """``LOOPS``' addresses (int64) if each, called by the kernels, gives NumPy's bits on
+    test arrays (contiguous, strided, a scalar exponent; the matrix products of the
+    networks' sizes), else None."""
+    addr = [_loop_address(getattr(np, name), sig) for name, sig in LOOPS]
+    if any(a is None for a in addr):
+        return None
+    loops = np.array(addr, dtype=np.int64)
+    meta = np.zeros(16, dtype=np.int64)
+    rng = np.random.default_rng(20261205)
+    same = lambda a, b: a.shape == b.shape and np.array_equal(  # noqa: E731
+        a.view(np.int64), b.view(np.int64))
+    try:
+        for n in (1, 7, 16, 33, 200, 1001):
+            x = rng.normal(0.0, 3.0, n)
+            y = rng.normal(0.0, 3.0, n)
+            for i, ref in ((TANH, np.tanh(x)), (EXP, np.exp(x)),
+                           (LOG, np.log(np.abs(x) + 1.0))):
+                out = np.empty(n)
+                src = np.abs(x) + 1.0 if i == LOG else x
+                kern["loop1"](loops, i, meta, src, out)
+                if not same(out, ref):
+                    return None
+            out = np.empty(n)
+            kern["loop_pow"](loops, meta, np.abs(x), 0.6, out)
+            if not same(out, np.power(np.abs(x), 0.6)):
+                return None
+            g = rng.normal(0.0, 1.0, (n, 7))
+            out = np.empty(n)
+            kern["loop_atan2_cols"](loops, meta, g, 0, 1, out)
+            if not same(out, np.arctan2(g[:, 0], g[:, 1])):
+                return None
+            out = np.empty(n)
+            kern["loop2"](loops, ARCTAN2, meta, x, y, out)
+            if not same(out, np.arctan2(x, y)):
+                return None
+        for n, k, p in ((8, 60, 120), (4, 33, 7), (1, 50, 7), (12, 200, 21), (8, 7, 3)):
+            x = rng.normal(0.0, 1.0, (n, 2, k))
+            w = rng.normal(0.0, 1.0, (k, p))
+            out, ref = np.empty((n, 2, p)), np.empty((n, 2, p))
+            kern["loop_matmul"](loops, meta, x, w, out)
+            np.matmul(x, w, out=ref)
+            if not same(out, ref):
+                return None
+    except Exception:
+        return None
+    return loops
+
+
 def _compiled(numba) -> dict:
     """Every kernel, compiled (lazily, cached by Numba) by ``numba``."""
     jit = numba.njit(cache=True, error_model="numpy", nogil=True)
+    call_loop = _loop_caller(numba)
+
+    @jit
+    def loop1(loops, i, meta, x, out):
+        """NumPy's loop ``i`` of one argument over contiguous ``x`` into ``out`` (as NumPy
+        runs it on a contiguous array of any shape: one loop of ``x.size``)."""
+        m = meta.ctypes.data
+        meta[0] = x.ctypes.data
+        meta[1] = out.ctypes.data
+        meta[2] = x.size
+        meta[3] = 8
+        meta[4] = 8
+        call_loop(loops[i], m, m + 16, m + 24)
+
+    @jit
+    def loop2(loops, i, meta, a, b, out):
+        """NumPy's loop ``i`` of two contiguous arguments of one shape into ``out``."""
+        m = meta.ctypes.data
+        meta[0] = a.ctypes.data
+        meta[1] = b.ctypes.data
+        meta[2] = out.ctypes.data
+        meta[3] = a.size
+        meta[4] = 8
+        meta[5] = 8
+        meta[6] = 8
+        call_loop(loops[i], m, m + 24, m + 32)
+
+    @jit
+    def loop_pow(loops, meta, x, e, out):
+        """``np.power(x, e, out=out)``, ``x`` contiguous and ``e`` a scalar (NumPy's
+        loop with the exponent's stride 0)."""
+        m = meta.ctypes.data
+        meta[8] = 0
+        ev = meta[8:9].view(np.float64)
+        ev[0] = e
+        meta[0] = x.ctypes.data
+        meta[1] = ev.ctypes.data
+        meta[2] = out.ctypes.data
+        meta[3] = x.size
+        meta[4] = 8
+        meta[5] = 0
+        meta[6] = 8
+        call_loop(loops[POWER], m, m + 24, m + 32)
+
+    @jit
+    def loop_atan2_cols(loops, meta, g, i, j, out):
+        """``np.arctan2(g[:, i], g[:, j])`` of a C-contiguous (n, c) ``g`` into ``out``
+        (n,) (NumPy's loop over the two strided columns)."""
+        m = meta.ctypes.data
+        meta[0] = g.ctypes.data + 8 * i
+        meta[1] = g.ctypes.data + 8 * j
+        meta[2] = out.ctypes.data
+        meta[3] = g.shape[0]
+        meta[4] = g.strides[0]
+        meta[5] = g.strides[0]
+        meta[6] = 8
+        call_loop(loops[ARCTAN2], m, m + 24, m + 32)
+
+    @jit
+    def loop_matmul(loops, meta, x, w, out):
+        """``np.matmul(x, w, out=out)`` of (n, a, k) by (k, p) into (n, a, p): NumPy's
+        gufunc loop over the n matrices (``w``'s outer stride 0)."""
+        m = meta.ctypes.data
+        meta[0] = x.ctypes.data
+        meta[1] = w.ctypes.data
+        meta[2] = out.ctypes.data
+        meta[3] = x.shape[0]
+        meta[4] = x.shape[1]
+        meta[5] = x.shape[2]
+        meta[6] = w.shape[1]
+        meta[7] = x.strides[0]
+        meta[8] = 0
+        meta[9] = out.strides[0]
+        meta[10] = x.strides[1]
+        meta[11] = x.strides[2]
+        meta[12] = w.strides[0]
+        meta[13] = w.strides[1]
+        meta[14] = out.strides[1]
+        meta[15] = out.strides[2]
+        call_loop(loops[MATMUL], m, m + 24, m + 56)
 
     @jit
     def balance_cols(sensed, kp, kd, ref, rectified, k_lean, swing_below_n, k_bw,
@@ -416,6 +612,66 @@ def _compiled(numba) -> dict:
             out[i, k + 4] = rows[i, cols[7]]
 
     @jit
+    def net_update(loops, meta, rates, first, n_r, sensed, k_mm, l_ref, ib_force, sc,
+                   ia_exp, ib_gain, gb, ga, gz, loads, weight_n, contact, mean, inv_std,
+                   sig2d, gains, touches, touch_q, n_h, h_first, sig_buf, in_lag, in_off,
+                   sig_row, n_buf, x, h, w, b, hid2d, hid_buf, k, c_lag, hid_off, hid_row,
+                   hid, mv, t, c, bal_on, bal_first, bal_buf, bal_par, place_buf, bal_rows,
+                   bal_sensed,
+                   bal, bal_cols, exc, ctrl, plan, plan_rows, act_first, held, no_bal):
+        """``ReflexController._next_block_compiled`` but its touch response, in one call:
+        the same kernels, and NumPy's own loops where it calls NumPy (``loop1``...)."""
+        if rates:  # the ticks sensed since the last block: receptors, pushed
+            d, v, absv, fin = sc[0][:n_r], sc[1][:n_r], sc[2][:n_r], sc[3][:n_r]
+            net_pre(sensed[:n_r], k_mm, l_ref, ib_force, d, v, absv, fin)
+            p = sc[5][:n_r]
+            loop_pow(loops, meta, absv, ia_exp, p)
+            g = sc[6][:n_r]
+            loop1(loops, LOG, meta, fin, g)
+            ib_push(g, ib_gain, gb, ga, gz, sc[4][:n_r], d, v, p, loads[:n_r], weight_n,
+                    contact, mean, inv_std, sig2d, first, gains, touches[:n_r], touch_q)
+        if n_h > 0:  # the interneurons now sensed: tanh(x @ w + b), stored
+            ring_take(sig_buf, h_first, in_lag, in_off, sig_row, n_buf, x)
+            loop_matmul(loops, meta, x, w, h)
+            for i in range(h.shape[0]):
+                for s in range(2):
+                    for j in range(h.shape[2]):
+                        h[i, s, j] = h[i, s, j] + b[j]
+            loop1(loops, TANH, meta, h, h)
+            store_take(h, hid2d, h_first, hid_buf, k, c_lag, hid_off, hid_row, n_buf, hid)
+        else:
+            ring_take(hid_buf, k, c_lag, hid_off, hid_row, n_buf, hid)
+        loop_matmul(loops, meta, hid, mv, t)
+        net_drive(t, c)
+        loop1(loops, EXP, meta, t, t)
+        if bal_on:
+            bal_out(bal_buf, bal_first, bal_par, place_buf, bal_rows, bal_sensed, bal, t,
+                    bal_cols,
+                    exc, ctrl, plan, plan_rows, act_first, held)
+        else:
+            net_out(t, no_bal, bal_cols, exc, ctrl, plan, plan_rows, act_first, held)
+
+    @jit
+    def net_sense(loops, meta, rows, per_step, every, n, obs_cols, n_mus3, contact, sensed,
+                  loads, bal_cols, bal_g, touch_cols, touches, place_cols, d, place_buf,
+                  first, lean, alpha, bal_buf, no_alpha):
+        """``ReflexController._observe_compiled`` in one call (NumPy's arctan2 loop);
+        whether a foot is touched."""
+        touched = observe_all(rows, per_step, every, n, obs_cols, n_mus3, contact, sensed,
+                              loads, bal_cols, bal_g, touch_cols, touches, place_cols, d,
+                              place_buf, first)
+        g = bal_g[:n]
+        ln = lean[:n]
+        if bal_buf.shape[0]:
+            loop_atan2_cols(loops, meta, g, 0, 1, ln)
+        al = no_alpha
+        if place_buf.shape[0]:
+            al = alpha[:n]
+            loop2(loops, ARCTAN2, meta, d[0, :n], d[1, :n], al)
+        observe_store(g, ln, bal_buf, al, place_buf, first)
+        return touched
+
+    @jit
     def gh_sense(rows, gather, scale, offset, v, place, cols, a, b, extra):
         """``gh_channels`` into ``v``; with ``place``, ``gh_place_in``'s inputs: the legs'
         x and z offsets ``a``, ``b`` (n, 2) for the caller's arctan2, and the COM ahead of
@@ -685,7 +941,7 @@ def _compiled(numba) -> dict:
                 for q in range(u.shape[1]):
                     plan[i, first + q] = u[i, q]
 
-    return {"iir2": iir2, "balance_cols": balance_cols, "net_pre": net_pre,
+    kern = {"iir2": iir2, "balance_cols": balance_cols, "net_pre": net_pre,
             "net_push": net_push, "net_drive": net_drive, "net_out": net_out,
             "net_observe": net_observe, "bal_store": bal_store, "store_rows": store_rows,
             "place_pre": place_pre, "place_alpha": place_alpha,
@@ -695,7 +951,12 @@ def _compiled(numba) -> dict:
             "gh_channels": gh_channels, "gh_place_in": gh_place_in,
             "gh_features": gh_features, "gh_select": gh_select, "gh_lean": gh_lean,
             "gh_place": gh_place, "gh_touch": gh_touch, "clip_plan": clip_plan,
-            "gh_sense": gh_sense, "gh_push": gh_push, "gh_laws": gh_laws}
+            "gh_sense": gh_sense, "gh_push": gh_push, "gh_laws": gh_laws,
+            "loop1": loop1, "loop2": loop2, "loop_pow": loop_pow,
+            "loop_atan2_cols": loop_atan2_cols, "loop_matmul": loop_matmul,
+            "net_update": net_update, "net_sense": net_sense}
+    kern["loops"] = _checked_loops(kern)  # None: NumPy's loops not found as expected
+    return kern
 
 
 _KERNELS: dict | bool | None = False  # False: not looked for yet
