@@ -135,10 +135,11 @@ def test_numpys_own_loops_are_found_and_give_numpys_bits(compiled):
     assert K._loop_address(np.tanh, "f->f") is None
 
 
-def test_the_fused_network_block_equals_the_calls_it_fuses():
-    """The network's block as one compiled call (NumPy's loops in it) and as the
-    separate compiled and NumPy calls: the same trip with the touch response, bit for
-    bit."""
+@pytest.mark.parametrize("controller", ["reflex", "gh2010"])
+def test_the_fused_block_equals_the_calls_it_fuses(controller):
+    """A reflex controller's block as one compiled call (NumPy's loops in it) and as the
+    separate compiled and NumPy calls: the same late-swing trip with the touch's
+    reflexes, bit for bit."""
     from stumble.pipeline import simulate_trip
     from stumble.trip import Scenario
 
@@ -146,7 +147,7 @@ def test_the_fused_network_block_equals_the_calls_it_fuses():
     kern = K.kernels()
     if kern is None or kern["loops"] is None:
         pytest.skip("no compiled kernels or NumPy's loops not found")
-    sc = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.6,
+    sc = Scenario(controller=controller, mechanism="obstacle", swing_fraction=0.6,
                   speed_m_per_s=1.2, start="own", duration_after_trip_s=1.0)
     fused = simulate_trip(sc).recording
     loops, kern["loops"] = kern["loops"], None

@@ -51,6 +51,10 @@ class DelayTaps:
 
     def read(self, n: int) -> np.ndarray:
         """(n, taps): each tap's channel at its lag before each of the next n ticks."""
+        return self.buf.take(self.read_index(n))
+
+    def read_index(self, n: int) -> np.ndarray:
+        """The flat indices into ``buf`` (n, taps) that ``read(n)`` gathers."""
         if n > self.block:
             raise ValueError(f"{n} ticks ahead is more than the shortest lag ({self.block})")
         key = (self.k % self.size, n)
@@ -58,7 +62,7 @@ class DelayTaps:
         if idx is None:
             ticks = self.k + np.arange(n)[:, None] - self.lags[None, :]
             idx = self._read_at[key] = (ticks % self.size) * self.buf.shape[1] + self.cols
-        return self.buf.take(idx)
+        return idx
 
 
 class DelayLine(DelayTaps):

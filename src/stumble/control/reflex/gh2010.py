@@ -773,6 +773,14 @@ class GH2010Controller:
                                  p.stance_load, p.k_bw, p.k_place, p.place_a0, p.place_cd,
                                  p.place_cv], dtype=float)
         self._sense_at: dict[int, tuple] = {}  # ``observe``'s scratch per block length
+        self._angles: dict[int, tuple] = {}  # ``_angles_at``'s
+        self._upd_at: dict[int, tuple] = {}  # ``_update_fused``'s scratch per block length
+        self._touch_taps = (sl["touch"].start, sl["x_touch"].start, sl["vest_load"].start,
+                            sl["vest_x"].start)
+        self._meta = np.zeros(16, dtype=np.int64)  # NumPy's loops' arguments (``kernels``)
+        # one compiled call a block where the laws' weights are NumPy's C-contiguous
+        self._fused = all(w.flags.c_contiguous and w.dtype == np.float64
+                          for w in (self._w_st, self._w_sw))
 
     def _excitations_compiled(self, kern: dict, x: np.ndarray,
                               plan: np.ndarray) -> np.ndarray:
@@ -947,11 +955,54 @@ class GH2010Controller:
     def update(self, ctx: Context) -> np.ndarray:
         """The next block's excitations, from what its shortest path has sensed."""
         self._held = ctx.data.ctrl
+        kern = kernels()
+        if (kern is not None and kern["loops"] is not None and self._fused
+                and self.lean_free is None):
+            return self._update_fused(kern, ctx)
         u = self._excitations(self.delay.read(self.period_steps), self.plan)
         if self._plan_done:
             return self.plan
         self.plan[:] = ctx.data.ctrl
         self.plan[:, self._act_cols] = u
+        return self.plan
+
+    def _update_fused(self, kern: dict, ctx: Context) -> np.ndarray:
+        """``update`` as one compiled call (``kernels.gh_update``: the delayed taps, the
+        laws with NumPy's own matrix-product loop, the touch's reflexes, the plan)."""
+        p, n, d = self.p, self.period_steps, self.delay
+        idx = d.read_index(n)
+        got = self._upd_at.get(n)
+        if got is None:
+            nm = self.nm
+            got = self._upd_at[n] = (
+                np.empty((n, idx.shape[1])), np.empty((n, 2, self._n_feat)),
+                np.empty((n, 2, nm), dtype=np.bool_), np.empty((n, 2, nm)),
+                np.empty((n, 2, nm)), np.empty((n, 2, nm)))
+        x, v, stance, a, b, u = got
+        phi0, knee_v0, ds_load, ds_x, gate0 = self._feat_taps
+        touch0, xt0, load0, xf0 = self._touch_taps
+        by_foot = self._scr_by_foot
+        if self._scr:
+            self._mark_box[0] = self._mark
+        in_kernel = self._act_first is not None
+        kern["gh_update"](
+            kern["loops"], self._meta, d.buf, idx, x, phi0, self._phi_sign, self._phi_off,
+            self._phi_low, knee_v0, self._has_ds, ds_load, ds_x, p.stance_load, gate0,
+            self._ungated_b, v, stance, self._w_st, a, self._b_st, self._w_sw, b,
+            self._b_sw, self._law_ip, self._law_fp, u, self._scr, touch0, xt0, load0, xf0,
+            self._scr_hold, self._scr_vas_after, by_foot, p.scr_ahead_m,
+            self._w_scr if by_foot else self._no_sets,
+            self._no_any if by_foot else self._w_scr, self._w_scr_vas, self._cross,
+            self._cross_hold, p.cross_ahead_m, self._w_cross, self._scr_since,
+            self._touched, self._ahead, self._armed, self._cross_since, self._was_on,
+            self._mark_box, PRE_ACTIVATION, self.plan if in_kernel else self._no_plan,
+            self._act_first or 0, self._held)
+        if self._scr:
+            self._mark = float(self._mark_box[0])
+        if in_kernel:
+            return self.plan
+        self.plan[:] = ctx.data.ctrl
+        self.plan[:, self._act_cols] = u.reshape(n, -1)
         return self.plan
 
     def observe(self, rows: np.ndarray) -> None:
@@ -970,9 +1021,22 @@ class GH2010Controller:
         kern["gh_sense"](rows, self._gather, self._scale, self._offset, v, self._place,
                          self._place_cols, a, b, extra)
         d = self.delay
-        kern["gh_push"](v, np.arctan2(v[:, -2], v[:, -1]), self._place,
-                        np.arctan2(a, b) if self._place else a, extra, d.buf, d.k)
+        if kern["loops"] is not None:  # one call, NumPy's arctan2 loop in it
+            lean, alpha = self._angles_at(n)
+            kern["gh_observe"](kern["loops"], self._meta, rows, self._gather, self._scale,
+                               self._offset, v, self._place, self._place_cols, a, b, extra,
+                               lean, alpha, d.buf, d.k)
+        else:
+            kern["gh_push"](v, np.arctan2(v[:, -2], v[:, -1]), self._place,
+                            np.arctan2(a, b) if self._place else a, extra, d.buf, d.k)
         d.k += n
+
+    def _angles_at(self, n: int) -> tuple[np.ndarray, np.ndarray]:
+        """Kept buffers of ``n`` ticks' lean (n,) and legs' angles (n, 2)."""
+        got = self._angles.get(n)
+        if got is None:
+            got = self._angles[n] = (np.empty(n), np.empty((n, 2)))
+        return got
 
     def state(self) -> str:
         """The reflexes have one state (each leg's stance or swing is internal)."""

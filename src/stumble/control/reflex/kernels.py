@@ -672,6 +672,45 @@ def _compiled(numba) -> dict:
         return touched
 
     @jit
+    def gh_update(loops, meta, buf, idx, x, phi0, sign, off, low, knee_v0, has_ds, ds_load,
+                  ds_x, stance_load, gate0, ungated, v, stance, w_st, a, b_st, w_sw, bb, b_sw,
+                  ip, fp, u, scr, touch0, xt0, load0, xf0, hold, vas_after, by_foot, ahead_m,
+                  w_sets, w_any, w_vas, cross, cross_hold, cross_ahead, w_cross, scr_since,
+                  touched_was, ahead_was, armed, cross_since, was_on, mark, lo, plan,
+                  act_first, held):
+        """``GH2010Controller.update``'s compiled path in one call: the delayed taps
+        (``DelayTaps.read``: ``buf``'s flat elements ``idx``) into ``x``, ``gh_features``,
+        the two laws' matrix products (NumPy's loop), ``gh_laws``, ``gh_touch`` (``scr``)
+        and ``clip_plan``; ``u`` (n, 2, nm) holds the excitations."""
+        flat = buf.reshape(-1)
+        for i in range(idx.shape[0]):
+            for j in range(idx.shape[1]):
+                x[i, j] = flat[idx[i, j]]
+        gh_features(x, phi0, sign, off, low, knee_v0, has_ds, ds_load, ds_x, stance_load,
+                    gate0, ungated, v, stance)
+        loop_matmul(loops, meta, v, w_st, a)
+        loop_matmul(loops, meta, v, w_sw, bb)
+        gh_laws(stance, a, b_st, bb, b_sw, x, ip, fp, u)
+        u2 = u.reshape(u.shape[0], -1)
+        if scr:
+            gh_touch(x, touch0, xt0, load0, xf0, stance_load, hold, vas_after, by_foot,
+                     ahead_m, w_sets, w_any, w_vas, cross, cross_hold, cross_ahead, w_cross,
+                     scr_since, touched_was, ahead_was, armed, cross_since, was_on, mark, u2)
+        clip_plan(u2, lo, plan, act_first, held)
+
+    @jit
+    def gh_observe(loops, meta, rows, gather, scale, offset, v, place, cols, a, b, extra,
+                   lean, alpha, buf, first):
+        """``GH2010Controller.observe``'s compiled path in one call: ``gh_sense``, the
+        lean's and the legs' arctan2 (NumPy's loop), ``gh_push``."""
+        gh_sense(rows, gather, scale, offset, v, place, cols, a, b, extra)
+        k = v.shape[1]
+        loop_atan2_cols(loops, meta, v, k - 2, k - 1, lean)
+        if place:
+            loop2(loops, ARCTAN2, meta, a, b, alpha)
+        gh_push(v, lean, place, alpha, extra, buf, first)
+
+    @jit
     def gh_sense(rows, gather, scale, offset, v, place, cols, a, b, extra):
         """``gh_channels`` into ``v``; with ``place``, ``gh_place_in``'s inputs: the legs'
         x and z offsets ``a``, ``b`` (n, 2) for the caller's arctan2, and the COM ahead of
@@ -954,7 +993,8 @@ def _compiled(numba) -> dict:
             "gh_sense": gh_sense, "gh_push": gh_push, "gh_laws": gh_laws,
             "loop1": loop1, "loop2": loop2, "loop_pow": loop_pow,
             "loop_atan2_cols": loop_atan2_cols, "loop_matmul": loop_matmul,
-            "net_update": net_update, "net_sense": net_sense}
+            "net_update": net_update, "net_sense": net_sense, "gh_update": gh_update,
+            "gh_observe": gh_observe}
     kern["loops"] = _checked_loops(kern)  # None: NumPy's loops not found as expected
     return kern
 
