@@ -181,48 +181,40 @@ def _compiled(numba) -> dict:
         call_loop(loops[i], m, m + 16, m + 24)
 
     @jit
+    def loop_binary(fn, meta, pa, sa, pb, sb, po, n):
+        """The NumPy loop at ``fn`` of two arguments at addresses ``pa``, ``pb`` (strides
+        ``sa``, ``sb`` bytes) into a contiguous ``po``, ``n`` elements."""
+        m = meta.ctypes.data
+        meta[0] = pa
+        meta[1] = pb
+        meta[2] = po
+        meta[3] = n
+        meta[4] = sa
+        meta[5] = sb
+        meta[6] = 8
+        call_loop(fn, m, m + 24, m + 32)
+
+    @jit
     def loop2(loops, i, meta, a, b, out):
         """NumPy's loop ``i`` of two contiguous arguments of one shape into ``out``."""
-        m = meta.ctypes.data
-        meta[0] = a.ctypes.data
-        meta[1] = b.ctypes.data
-        meta[2] = out.ctypes.data
-        meta[3] = a.size
-        meta[4] = 8
-        meta[5] = 8
-        meta[6] = 8
-        call_loop(loops[i], m, m + 24, m + 32)
+        loop_binary(loops[i], meta, a.ctypes.data, 8, b.ctypes.data, 8, out.ctypes.data,
+                    a.size)
 
     @jit
     def loop_pow(loops, meta, x, e, out):
         """``np.power(x, e, out=out)``, ``x`` contiguous and ``e`` a scalar (NumPy's
-        loop with the exponent's stride 0)."""
-        m = meta.ctypes.data
-        meta[8] = 0
-        ev = meta[8:9].view(np.float64)
+        loop with the exponent's stride 0; the exponent in ``meta[15]``)."""
+        ev = meta[15:16].view(np.float64)
         ev[0] = e
-        meta[0] = x.ctypes.data
-        meta[1] = ev.ctypes.data
-        meta[2] = out.ctypes.data
-        meta[3] = x.size
-        meta[4] = 8
-        meta[5] = 0
-        meta[6] = 8
-        call_loop(loops[POWER], m, m + 24, m + 32)
+        loop_binary(loops[POWER], meta, x.ctypes.data, 8, ev.ctypes.data, 0,
+                    out.ctypes.data, x.size)
 
     @jit
     def loop_atan2_cols(loops, meta, g, i, j, out):
         """``np.arctan2(g[:, i], g[:, j])`` of a C-contiguous (n, c) ``g`` into ``out``
         (n,) (NumPy's loop over the two strided columns)."""
-        m = meta.ctypes.data
-        meta[0] = g.ctypes.data + 8 * i
-        meta[1] = g.ctypes.data + 8 * j
-        meta[2] = out.ctypes.data
-        meta[3] = g.shape[0]
-        meta[4] = g.strides[0]
-        meta[5] = g.strides[0]
-        meta[6] = 8
-        call_loop(loops[ARCTAN2], m, m + 24, m + 32)
+        loop_binary(loops[ARCTAN2], meta, g.ctypes.data + 8 * i, g.strides[0],
+                    g.ctypes.data + 8 * j, g.strides[0], out.ctypes.data, g.shape[0])
 
     @jit
     def loop_matmul(loops, meta, x, w, out):
@@ -600,6 +592,14 @@ def _compiled(numba) -> dict:
         for i in range(rows.shape[0]):
             for c in range(k):
                 out[i, c] = v[i, c]
+        place_offsets(rows, cols, a, b, out, k + 2)
+
+    @jit
+    def place_offsets(rows, cols, a, b, out, c0):
+        """The placement's inputs from ``rows[:, cols]`` (pelvis x, z, ankles' x, ankles'
+        z, COM x, vx): each leg's pelvis-to-ankle x and z into ``a``, ``b`` (n, 2), and
+        into ``out``'s columns ``c0``… the COM ahead of each other ankle and its speed."""
+        for i in range(rows.shape[0]):
             r0 = rows[i, cols[0]]
             r1 = rows[i, cols[1]]
             a[i, 0] = rows[i, cols[2]] - r0
@@ -607,9 +607,9 @@ def _compiled(numba) -> dict:
             b[i, 0] = r1 - rows[i, cols[4]]
             b[i, 1] = r1 - rows[i, cols[5]]
             r6 = rows[i, cols[6]]
-            out[i, k + 2] = r6 - rows[i, cols[3]]
-            out[i, k + 3] = r6 - rows[i, cols[2]]
-            out[i, k + 4] = rows[i, cols[7]]
+            out[i, c0] = r6 - rows[i, cols[3]]
+            out[i, c0 + 1] = r6 - rows[i, cols[2]]
+            out[i, c0 + 2] = rows[i, cols[7]]
 
     @jit
     def net_update(loops, meta, rates, first, n_r, sensed, k_mm, l_ref, ib_force, sc,
@@ -717,17 +717,7 @@ def _compiled(numba) -> dict:
         each other ankle and its speed into ``extra`` (n, 3)."""
         gh_channels(rows, gather, scale, offset, v)
         if place:
-            for i in range(rows.shape[0]):
-                r0 = rows[i, cols[0]]
-                r1 = rows[i, cols[1]]
-                a[i, 0] = rows[i, cols[2]] - r0
-                a[i, 1] = rows[i, cols[3]] - r0
-                b[i, 0] = r1 - rows[i, cols[4]]
-                b[i, 1] = r1 - rows[i, cols[5]]
-                r6 = rows[i, cols[6]]
-                extra[i, 0] = r6 - rows[i, cols[3]]
-                extra[i, 1] = r6 - rows[i, cols[2]]
-                extra[i, 2] = rows[i, cols[7]]
+            place_offsets(rows, cols, a, b, extra, 0)
 
     @jit
     def gh_push(v, lean, place, alpha, extra, buf, first):
