@@ -135,6 +135,18 @@ def test_numpys_own_loops_are_found_and_give_numpys_bits(compiled):
     assert K._loop_address(np.tanh, "f->f") is None
 
 
+def test_loops_that_do_not_give_numpys_bits_are_not_used(compiled, monkeypatch):
+    """``numpy_loops`` checks each loop against NumPy before the kernels use it: with
+    exp's address standing in for tanh's (a layout read wrongly), it refuses them all,
+    and the blocks run as separate calls."""
+    real = K._loop_address
+    monkeypatch.setattr(K, "_loop_address", lambda uf, sig: real(
+        np.exp if uf is np.tanh else uf, sig))
+    assert K.numpy_loops(compiled) is None
+    monkeypatch.setattr(K, "_loop_address", real)
+    assert K.numpy_loops(compiled) is not None
+
+
 @pytest.mark.parametrize("controller", ["reflex", "gh2010"])
 def test_the_fused_block_equals_the_calls_it_fuses(controller):
     """A reflex controller's block as one compiled call (NumPy's loops in it) and as the

@@ -114,7 +114,7 @@ def _loop_caller(numba):
     return call_loop
 
 
-def _checked_loops(kern: dict) -> np.ndarray | None:
+def numpy_loops(kern: dict) -> np.ndarray | None:
     """``LOOPS``' addresses (int64) if each, called by the kernels, gives NumPy's bits on
     test arrays (contiguous, strided, a scalar exponent; the matrix products of the
     networks' sizes), else None."""
@@ -985,7 +985,7 @@ def _compiled(numba) -> dict:
             "loop_atan2_cols": loop_atan2_cols, "loop_matmul": loop_matmul,
             "net_update": net_update, "net_sense": net_sense, "gh_update": gh_update,
             "gh_observe": gh_observe}
-    kern["loops"] = _checked_loops(kern)  # None: NumPy's loops not found as expected
+    kern["loops"] = numpy_loops(kern)  # None: NumPy's loops not found as expected
     return kern
 
 
@@ -1006,4 +1006,4 @@ def use_numpy(flag: bool = True) -> None:
     _KERNELS = None if flag else False
 
 
-__all__ = ["ENV", "kernels", "use_numpy"]
+__all__ = ["ENV", "LOOPS", "kernels", "numpy_loops", "use_numpy"]
