@@ -1,6 +1,6 @@
 """Speed of the reflex controllers against the engine's limit (run on demand).
 
-Run:  python benchmarks/bench_reflex.py [--repeats N]
+Run:  python benchmarks/bench_reflex.py [--repeats N] [--parts]
 
 For a reflex trip (CASE 1 of seed 003: obstacle at 0.13 of swing, 1.2 m/s; the network
 the default one, ``placement-both`` since 2026-12-05, and the open-loop one for
@@ -13,6 +13,12 @@ times the whole ``sim.run`` loop and a bare loop that replays the recorded contr
 the same model from the same state after the controller's start, doing nothing else
 (``mj_step`` per control row): the physical limit of this engine for that motion. CPU
 time of this process, best of N, so that other work on the machine matters less.
+With ``--parts`` it prints instead where a block's time goes, for the network's CASE 1
+trip and 10 s walk and Geyer & Herr's: wall time per block (µs) of the controller's
+update and of its one compiled call in it (``kernels.net_update`` / ``gh_update``), its
+sensing (``observe``), the physics block (``sim._Stepper.advance``), the recording
+(``_Buffers.extend``), the stop rule, and the whole loop (each part timed around its
+call, which adds about a microsecond a call).
 Prints per run: steps (of 1 or 2 ms: the network runs at 2 ms by default since
 2026-12-04, at 1 ms for comparison; the default GH2010 set was fitted at 2 ms),
 simulated seconds, µs per step of each, their ratio (the
@@ -84,10 +90,74 @@ def measure(label: str, make, repeats: int, whole: bool = False) -> None:
           f"({last})")
 
 
+def parts() -> None:
+    """Where a block's time goes (``--parts``; module docstring)."""
+    import collections
+
+    import stumble.analysis as analysis
+    import stumble.sim as sim
+    from stumble.control.reflex.controller import ReflexController
+    from stumble.control.reflex.gh2010 import GH2010Controller
+    from stumble.control.reflex.kernels import kernels
+
+    took: collections.Counter = collections.Counter()
+    calls: collections.Counter = collections.Counter()
+    kern = kernels() or {}
+    undo = []
+
+    def timed(owner, name, key, setter=setattr, getter=getattr):
+        f = getter(owner, name)
+
+        def g(*a, **k):
+            t0 = time.perf_counter()
+            out = f(*a, **k)
+            took[key] += time.perf_counter() - t0
+            calls[key] += 1
+            return out
+        setter(owner, name, g)
+        undo.append((owner, name, f, setter))
+
+    for cls in (ReflexController, GH2010Controller):
+        timed(cls, "update", "update")
+        timed(cls, "observe", "observe")
+    for name in ("net_update", "gh_update"):
+        if name in kern:
+            timed(kern, name, "one compiled call (in update)", dict.__setitem__,
+                  dict.__getitem__)
+    timed(sim._Stepper, "advance", "physics block (advance)")
+    timed(sim._Buffers, "extend", "recording (extend)")
+    timed(analysis.StopRule, "__call__", "stop rule")
+    case1 = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.13,
+                     speed_m_per_s=1.2, duration_after_trip_s=3.0)
+    runs = (("network, CASE 1 trip", lambda: pipeline.simulate_trip(case1).recording),
+            ("network, 10 s walk", lambda: pipeline.simulate_walk(
+                "network", 10.0, speed_m_per_s=1.2).recording),
+            ("gh2010, CASE 1 trip", lambda: pipeline.simulate_trip(case1.with_(
+                controller="gh2010", start="playback")).recording),
+            ("gh2010, 10 s walk", lambda: pipeline.simulate_walk("gh2010", 10.0).recording))
+    print("wall time per block (µs), each part timed around its call")
+    for label, run in runs:
+        run()  # warm: caches, compiled kernels
+        took.clear()
+        calls.clear()
+        rec = run()
+        n = calls["update"]  # blocks
+        print(f"{label} ({rec.steps} steps in {n} blocks):")
+        for key, v in took.items():
+            print(f"  {key:32s} {1e6 * v / n:7.1f}")
+        print(f"  {'the whole loop':32s} {1e6 * rec.wall_time_s / n:7.1f}")
+    for owner, name, f, setter in undo:
+        setter(owner, name, f)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--parts", action="store_true",
+                    help="where a block's time goes (see the module docstring)")
     args = ap.parse_args()
+    if args.parts:
+        return parts()
     print("CPU time of this process, best of", args.repeats, "(the run includes building "
           "the body and the walk's set-up; the walk before is cached)")
     sc = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.13,
