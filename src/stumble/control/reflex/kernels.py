@@ -68,7 +68,10 @@ def _loop_address(ufunc, sig: str) -> int | None:
     or None where the object is not laid out so (its type count and the loop's type
     codes are checked) or the loop needs a data pointer."""
     import ctypes
+    import sys
 
+    if sys.implementation.name != "cpython" or sys.maxsize < 2**63 - 1:
+        return None  # (an object's address and head as CPython's on 64 bits only)
     try:
         k = ufunc.types.index(sig)
         base, nargs = id(ufunc), ufunc.nargs
