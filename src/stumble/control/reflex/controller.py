@@ -655,7 +655,7 @@ class ReflexController:
         k, nb = self.k, self.block
         if kern["loops"] is not None and self._fused:
             return self._next_block_fused(kern)
-        if k > self.block_start:  # ``_rates_push_compiled``, fused
+        if k > self.block_start:  # the ticks sensed since the last block: receptors, pushed
             first, n = self.block_start, k - self.block_start
             d, v, absv, fin = (a[:n] for a in self._scratch[:4])
             kern["net_pre"](self.sensed[:n], self.k_mm, self.l_ref, IB_FORCE_N, d, v, absv,

@@ -485,10 +485,10 @@ def _compiled(numba) -> dict:
     @jit
     def ib_push(g, ib_gain, b, a, z, ib, d, v, p, loads, weight_n, contact, mean, inv_std,
                 buf, first, gains, touches, touch_sig):
-        """``ReflexController._rates_push_compiled`` after NumPy's power and log: the tendon
-        organs' ``ib_gain·log`` (in ``g``) filtered by ``iir2`` into ``ib``, then
-        ``net_push``, then (``touch_sig`` ≥ 0) each foot's standardised touch into that
-        signal of both sides."""
+        """The receptors of ``ReflexController._next_block_compiled`` after NumPy's power
+        and log: the tendon organs' ``ib_gain·log`` (in ``g``) filtered by ``iir2`` into
+        ``ib``, then ``net_push``, then (``touch_sig`` ≥ 0) each foot's standardised
+        touch into that signal of both sides."""
         for i in range(g.shape[0]):
             for c in range(g.shape[1]):
                 g[i, c] = g[i, c] * ib_gain
