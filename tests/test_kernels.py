@@ -135,6 +135,21 @@ def test_numpys_own_loops_are_found_and_give_numpys_bits(compiled):
     assert K._loop_address(np.tanh, "f->f") is None
 
 
+def test_kernels_close_over_nothing_compiled_so_that_numbas_cache_holds(compiled):
+    """Numba keys a cached function by the pickled values of its closure cells, and a
+    compiled function (or intrinsic) pickles differently in every process: a kernel that
+    closed over another would be compiled again in each (seconds a process). Each kernel
+    reaches the others as module globals instead."""
+    for name, fn in compiled.items():
+        if name == "loops":
+            continue
+        cells = fn.py_func.__closure__ or ()
+        held = [type(c.cell_contents).__name__ for c in cells
+                if hasattr(c.cell_contents, "py_func") or "Intrinsic" in
+                type(c.cell_contents).__name__]
+        assert not held, (name, held)
+
+
 def test_loops_that_do_not_give_numpys_bits_are_not_used(compiled, monkeypatch):
     """``numpy_loops`` checks each loop against NumPy before the kernels use it: with
     exp's address standing in for tanh's (a layout read wrongly), it refuses them all,

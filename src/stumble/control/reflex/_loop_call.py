@@ -1,0 +1,27 @@
+"""A compiled call of one of NumPy's inner loops by its address (``kernels``; Numba).
+
+Defined at module level so that Numba's cache keys the kernels that use it the same in
+every process (an intrinsic made anew in each would make them compile again each time).
+"""
+
+from __future__ import annotations
+
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic
+
+
+@intrinsic
+def call_loop(typingctx, fn, args, dims, steps):
+    """``fn(args, dims, steps, NULL)``: a NumPy loop (``PyUFuncGenericFunction``) at
+    address ``fn``, its three arrays at the addresses given (integers)."""
+    sig = types.void(types.intp, types.intp, types.intp, types.intp)
+
+    def codegen(context, builder, signature, a):
+        ptr = ir.IntType(8).as_pointer()
+        fnty = ir.FunctionType(ir.VoidType(), [ptr, ptr, ptr, ptr])
+        f = builder.inttoptr(a[0], fnty.as_pointer())
+        builder.call(f, [builder.inttoptr(v, ptr) for v in a[1:]] + [ir.Constant(ptr, None)])
+        return context.get_dummy_value()
+
+    return sig, codegen
