@@ -24,7 +24,11 @@ Numba is the optional extra ``fast`` (``pip install -e ".[fast]"``, in ``dev`` t
 Without it, or with ``STUMBLE_KERNELS=numpy`` in the environment, the NumPy code runs;
 the numbers are the same either way, only the time differs (``benchmarks/bench_reflex.py``).
 The first use in a process compiles the kernels (a few seconds, the first time on a
-machine) or loads them from Numba's cache (about 0.2 s with Numba's import).
+machine) or loads them from Numba's cache (about 0.4 s with Numba's import and the check
+of NumPy's loops). Kernels reach each other as module globals, never as closure cells:
+Numba keys its cache by the cells' pickled values, and a compiled function pickles
+differently in every process, so a kernel closing over another would compile anew in
+each.
 """
 
 from __future__ import annotations
