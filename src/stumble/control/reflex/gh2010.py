@@ -464,7 +464,7 @@ class GH2010Controller:
         self._act_first = (self._act_cols.start if isinstance(self._act_cols, slice)
                            else None)
         self._ungated_b = self._ungated.astype(np.bool_)
-        self._law_numbers()
+        self._bind_compiled()
         self._held = ctx.data.ctrl
         u = self._excitations(self.delay.read(1))[0]
         ctx.data.act[self.act_adr] = u  # muscles start at the reflexes' present output
@@ -756,10 +756,11 @@ class GH2010Controller:
         self._n_feat = len(self._w_st)
         self._all_gated = bool(self.gated.all())
 
-    def _law_numbers(self) -> None:
-        """The taps and numbers the compiled laws read (``kernels.gh_laws``,
-        ``gh_features``), gathered once: the parameters as given (int or float: the same
-        IEEE operations either way, the values being small whole numbers or floats)."""
+    def _bind_compiled(self) -> None:
+        """What the compiled paths read, gathered once at ``start``: the taps and numbers
+        of the laws (``kernels.gh_laws``, ``gh_features``, ``gh_touch``; the parameters as
+        given, int or float: the same IEEE operations either way), kept scratch per block
+        length, and whether ``update`` can be one call (``_update_fused``)."""
         p, sl = self.p, self._sl
         self._feat_taps = (sl["phi"].start, sl["knee_v"].start,
                            sl["ds_load"].start if self._has_ds else 0,
@@ -794,7 +795,7 @@ class GH2010Controller:
                             self._has_ds, ds_load, ds_x, p.stance_load, gate0,
                             self._ungated_b, v, stance)
         u = np.empty((n, 2, nm))
-        # ``gh_select``, ``gh_lean`` and ``gh_place`` in one call (``_law_numbers``)
+        # ``gh_select``, ``gh_lean`` and ``gh_place`` in one call (``_bind_compiled``)
         kern["gh_laws"](stance, v @ self._w_st, self._b_st, v @ self._w_sw, self._b_sw, x,
                         self._law_ip, self._law_fp, u)
         u = u.reshape(n, 2 * nm)
@@ -1018,8 +1019,6 @@ class GH2010Controller:
                                        np.empty((n, 2)), np.empty((n, 2)),
                                        np.empty((n, 3)))
         v, a, b, extra = got
-        kern["gh_sense"](rows, self._gather, self._scale, self._offset, v, self._place,
-                         self._place_cols, a, b, extra)
         d = self.delay
         if kern["loops"] is not None:  # one call, NumPy's arctan2 loop in it
             lean, alpha = self._angles_at(n)
@@ -1027,6 +1026,8 @@ class GH2010Controller:
                                self._offset, v, self._place, self._place_cols, a, b, extra,
                                lean, alpha, d.buf, d.k)
         else:
+            kern["gh_sense"](rows, self._gather, self._scale, self._offset, v, self._place,
+                             self._place_cols, a, b, extra)
             kern["gh_push"](v, np.arctan2(v[:, -2], v[:, -1]), self._place,
                             np.arctan2(a, b) if self._place else a, extra, d.buf, d.k)
         d.k += n
