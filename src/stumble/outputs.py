@@ -127,7 +127,8 @@ def write_media(out: Path, result: TripResult, video: bool, progress: bool) -> l
 
     s = result.summary
     rec = result.recording
-    title = (f"{s['strategy']} ({s['variant']}), {s['mechanism']} trip at "
+    variant = f" ({s['variant']})" if s.get("variant") else ""  # (none: no recovery step)
+    title = (f"{s['strategy']}{variant}, {s['mechanism']} trip at "
              f"{s['swing_fraction']:.2f} of swing, {s['speed_m_per_s']} m/s: "
              f"{'recovered' if s['recovered'] else 'fell' if s['fell'] else 'no recovery'}")
     tripped = s["trip_time_s"] is not None
