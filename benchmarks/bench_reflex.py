@@ -14,11 +14,13 @@ the same model from the same state after the controller's start, doing nothing e
 (``mj_step`` per control row): the physical limit of this engine for that motion. CPU
 time of this process, best of N, so that other work on the machine matters less.
 With ``--parts`` it prints instead where a block's time goes, for the network's CASE 1
-trip and 10 s walk and Geyer & Herr's: wall time per block (µs) of the controller's
-update and of its one compiled call in it (``kernels.net_update`` / ``gh_update``), its
-sensing (``observe``), the physics block (``sim._Stepper.advance``), the recording
-(``_Buffers.extend``), the stop rule, and the whole loop (each part timed around its
-call, which adds about a microsecond a call).
+trip and 10 s walk and Geyer & Herr's: wall time per block (µs, over all blocks) of the
+network's blocks run natively (``ReflexController.run_blocks``: several blocks, the
+physics included, in one compiled call), and of the blocks run one by one: the
+controller's update and its one compiled call in it (``kernels.net_update`` /
+``gh_update``), its sensing (``observe``), the physics block (``sim._Stepper.advance``);
+then the recording (``_Buffers.extend``), the stop rule, and the whole loop (each part
+timed around its call, which adds about a microsecond a call).
 Prints per run: steps (of 1 or 2 ms: the network runs at 2 ms by default since
 2026-12-04, at 1 ms for comparison; the default GH2010 set was fitted at 2 ms),
 simulated seconds, µs per step of each, their ratio (the
@@ -120,6 +122,17 @@ def parts() -> None:
     for cls in (ReflexController, GH2010Controller):
         timed(cls, "update", "update")
         timed(cls, "observe", "observe")
+    run_blocks = ReflexController.run_blocks
+
+    def natively(self, *a):  # several blocks, the physics included, in one call
+        t0 = time.perf_counter()
+        got = run_blocks(self, *a)
+        if got is not None:
+            took["blocks run natively (run_blocks)"] += time.perf_counter() - t0
+            calls["native"] += got[3]
+        return got
+    ReflexController.run_blocks = natively
+    undo.append((ReflexController, "run_blocks", run_blocks, setattr))
     for name in ("net_update", "gh_update"):
         if name in kern:
             timed(kern, name, "one compiled call (in update)", dict.__setitem__,
@@ -127,6 +140,7 @@ def parts() -> None:
     timed(sim._Stepper, "advance", "physics block (advance)")
     timed(sim._Buffers, "extend", "recording (extend)")
     timed(analysis.StopRule, "__call__", "stop rule")
+    timed(analysis.StopRule, "block", "stop rule (bulk)")
     case1 = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.13,
                      speed_m_per_s=1.2, duration_after_trip_s=3.0)
     runs = (("network, CASE 1 trip", lambda: pipeline.simulate_trip(case1).recording),
@@ -141,11 +155,12 @@ def parts() -> None:
         took.clear()
         calls.clear()
         rec = run()
-        n = calls["update"]  # blocks
-        print(f"{label} ({rec.steps} steps in {n} blocks):")
+        n = calls["update"] + calls["native"]  # blocks
+        print(f"{label} ({rec.steps} steps in {n} blocks, {calls['native']} of them "
+              "natively):")
         for key, v in took.items():
-            print(f"  {key:32s} {1e6 * v / n:7.1f}")
-        print(f"  {'the whole loop':32s} {1e6 * rec.wall_time_s / n:7.1f}")
+            print(f"  {key:36s} {1e6 * v / n:7.1f}")
+        print(f"  {'the whole loop':36s} {1e6 * rec.wall_time_s / n:7.1f}")
     for owner, name, f, setter in undo:
         setter(owner, name, f)
 

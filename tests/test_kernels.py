@@ -290,3 +290,111 @@ def test_the_touch_response_compiled_equals_numpy_and_starts_after_its_latency(t
     n = min(len(rec.qpos), len(plain.qpos))
     differs = np.flatnonzero(np.abs(rec.qpos[:n] - plain.qpos[:n]).max(axis=1) > 0)
     assert len(differs) and 0.065 < rec.time_s[differs[0]] < 0.15
+
+
+def _native_runs(monkeypatch, run):
+    """``run()`` with whole blocks in one compiled call, the physics included
+    (``ReflexController.run_blocks``), and block by block (``sim.native_physics`` off):
+    (the two results, the blocks the first ran natively)."""
+    import stumble.sim as sim
+    from stumble.control.reflex.controller import ReflexController
+    from stumble.control.reflex.gh2010 import GH2010Controller
+
+    K.use_numpy(False)
+    kern = K.kernels()
+    if kern is None or kern["loops"] is None:
+        pytest.skip("no compiled kernels or NumPy's loops not found")
+    native_blocks = []
+    for cls in (ReflexController, GH2010Controller):
+        def counted(self, *a, _real=cls.run_blocks):
+            got = _real(self, *a)
+            native_blocks.append(0 if got is None else got[3])
+            return got
+
+        monkeypatch.setattr(cls, "run_blocks", counted)
+    fast = run()
+    monkeypatch.setattr(sim, "native_physics", lambda m, d: None)
+    return fast, run(), sum(native_blocks)
+
+
+@pytest.mark.parametrize("controller", ["reflex", "gh2010"])
+@pytest.mark.parametrize("case", ["walk", "case1", "own-lowering", "own-elevating", "force"])
+def test_blocks_run_natively_equal_block_by_block(monkeypatch, controller, case):
+    """Each reflex controller's walk, its CASE 1 trip from the recording (the network's
+    touch response, Geyer & Herr's stumbling reflexes; a fall), own-gait trips (the walk
+    to the trip stopped by ``TripTimer``) and a force trip (blocks under the force stay
+    Python): whole blocks in one compiled call, the physics included, give the recording
+    and the summary of block-by-block stepping, bit for bit, and most blocks do run
+    natively."""
+    from stumble.pipeline import simulate_trip, simulate_walk
+    from stumble.trip import Scenario
+
+    if case == "walk":
+        def run():
+            return simulate_walk("network" if controller == "reflex" else "gh2010", 3.0,
+                                 speed_m_per_s=1.0)
+    else:
+        sc = {"case1": Scenario(controller="reflex", mechanism="obstacle",
+                                swing_fraction=0.13, speed_m_per_s=1.2,
+                                duration_after_trip_s=3.0),
+              "own-lowering": Scenario(controller="reflex", mechanism="obstacle",
+                                       swing_fraction=0.7, speed_m_per_s=1.2, start="own"),
+              "own-elevating": Scenario(controller="reflex", mechanism="obstacle",
+                                        swing_fraction=0.1, speed_m_per_s=1.4,
+                                        start="own"),
+              "force": Scenario(controller="reflex", mechanism="force", swing_fraction=0.3,
+                                speed_m_per_s=1.0, start="own")}[case].with_(
+            controller=controller)
+
+        def run():
+            return simulate_trip(sc)
+    fast, ref, n_native = _native_runs(monkeypatch, run)
+    a, b = _arrays(fast.recording), _arrays(ref.recording)
+    assert a.keys() == b.keys() and len(b["time_s"]) > 100
+    for name, x in b.items():
+        assert np.array_equal(a[name], x, equal_nan=True), name
+    assert fast.recording.stop_reason == ref.recording.stop_reason
+    assert ({k: v for k, v in fast.summary.items() if k != "wall_time_s"}
+            == {k: v for k, v in ref.summary.items() if k != "wall_time_s"})
+    steps = ref.recording.steps if case == "walk" else len(b["time_s"]) * 2
+    per_block = 4 if controller == "reflex" else 2  # steps a block at 2 ms
+    assert n_native * per_block > 0.5 * steps
+
+
+def test_the_walk_to_a_trip_stops_natively_where_block_by_block_does(monkeypatch):
+    """An own-gait trip's walk, stopped at the trip instant by ``TripTimer`` (its quiet
+    time, the foot it watches): natively the same instant, and the controller goes on
+    from the same state (the same trip after it)."""
+    from stumble.pipeline import simulate_trip
+    from stumble.trip import Scenario
+
+    sc = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.45,
+                  speed_m_per_s=1.0, start="own", duration_after_trip_s=1.0)
+    fast, ref, n_native = _native_runs(monkeypatch, lambda: simulate_trip(sc))
+    assert n_native > 500  # the walk to the trip, 4 s and more, mostly native
+    assert fast.summary["walk_in"] == ref.summary["walk_in"]
+    assert np.array_equal(fast.recording.qpos, ref.recording.qpos)
+
+
+def test_native_physics_reads_mujocos_warnings_and_refuses_what_a_rollout_resets():
+    """``sim.native_physics``: its view of the data's warning counters is MuJoCo's; a
+    model with mocap bodies (which a rollout resets each block) is refused."""
+    import mujoco
+
+    import stumble.sim as sim
+
+    m = mujoco.MjModel.from_xml_string(
+        "<mujoco><worldbody><body><freejoint/><geom size='.1'/></body></worldbody>"
+        "</mujoco>")
+    d = mujoco.MjData(m)
+    phys = sim.native_physics(m, d)
+    assert phys is not None and phys.warnings.shape == (len(d.warning), 2)
+    bad = int(mujoco.mjtWarning.mjWARN_BADQACC)
+    d.warning[bad].number = 3
+    assert phys.warnings[bad, 1] == 3
+    phys.warnings[bad, 1] = 0
+    assert d.warning[bad].number == 0
+    mocap = mujoco.MjModel.from_xml_string(
+        "<mujoco><worldbody><body mocap='true'><geom size='.1'/></body></worldbody>"
+        "</mujoco>")
+    assert sim.native_physics(mocap, mujoco.MjData(mocap)) is None

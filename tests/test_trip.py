@@ -120,8 +120,9 @@ def test_recovery_rule_walk_on_asks_for_walking_to_the_end():
 
 def test_posed_reuses_one_scratch_data_per_model_with_fresh_kinematics():
     """``trip.posed``: the obstacle's set-up reads poses through one kept MjData per
-    model (making one costs about 0.4 ms), whose positions are those of a fresh MjData
-    in that pose, whatever pose it held before."""
+    model's sizes (making one costs about 0.4 ms; ``build`` hands out copies), whose
+    positions are those of a fresh MjData of that model in that pose, whatever pose or
+    model it held before."""
     import mujoco
     import numpy as np
 
@@ -139,5 +140,13 @@ def test_posed_reuses_one_scratch_data_per_model_with_fresh_kinematics():
     fresh.qpos[:] = q1
     mujoco.mj_kinematics(m, fresh)
     assert np.array_equal(b.xpos, fresh.xpos) and np.array_equal(b.site_xpos, fresh.site_xpos)
-    other = build(planar=True, actuation="muscles").model  # a copy: its own data
-    assert posed(other, q1) is not b
+    other = build(planar=True, actuation="muscles").model  # a copy: the same sizes
+    other.body_pos[1, 0] += 0.5  # (moved: its own kinematics in the shared data)
+    c = posed(other, q1)
+    assert c is b and not np.array_equal(c.xpos, fresh.xpos)
+    mine = mujoco.MjData(other)
+    mine.qpos[:] = q1
+    mujoco.mj_kinematics(other, mine)
+    assert np.array_equal(c.xpos, mine.xpos)
+    servo = build(planar=False).model  # other sizes: its own data
+    assert posed(servo, servo.qpos0) is not b

@@ -59,6 +59,9 @@ def com_over_base(s: Sensors) -> bool:
     return bool(np.all(s.com[:2] >= lo) and np.all(s.com[:2] <= hi))
 
 
+_BULK_MIN = 8  # samples worth NumPy's overhead (``StopRule.block``)
+
+
 @dataclass
 class StopRule:
     """Stops a run at a fall, or once the person has recovered (see module docstring).
@@ -91,6 +94,39 @@ class StopRule:
     _airborne_since: float | None = 0.0  # the swing foot is in the air at the trip
     walk_on_s: float | None = None
     _com_x: list = field(default_factory=list)
+
+    @property
+    def quiet_until_s(self) -> float | None:
+        """Before this time only a fall stops the run (``walk_on_s``: recovered is
+        judged then), or None (a landing may end it at any time)."""
+        return self.walk_on_s
+
+    def block(self, lay, rows: np.ndarray, t: np.ndarray) -> tuple[int, str]:
+        """The rule over samples in order (sensor ``rows``, times ``t``, s): the index
+        of the one that stops the run and why, or (len(t), ""). The same verdicts and
+        state as calling it on each; a stretch after the landing and before
+        ``walk_on_s``, where only a fall can stop it, in bulk."""
+        s, n, j = Sensors(), len(t), 0
+        while j < n:
+            if (self.walk_on_s is not None and self.landing_s is not None
+                    and n - j >= _BULK_MIN):
+                quiet = t[j:] < self.walk_on_s - 1e-9
+                m = len(quiet) if quiet.all() else int(quiet.argmin())
+                if m:
+                    v = rows[j:j + m][:, lay.decode_index]
+                    fall = (v[:, 4] - v[:, 5] - v[:, 6] > 0.5) | (v[:, 13] < self.fall_height_m)
+                    f = int(fall.argmax()) if fall.any() else m
+                    self._com_x += zip(t[j:j + f].tolist(), v[:f, 7].tolist(), strict=True)
+                    if f < m:
+                        self.fell_s = float(t[j + f])
+                        return j + f, "fell"
+                    j += m
+                    continue
+            why = self(s.set(lay, rows[j], float(t[j])))
+            if why:
+                return j, why
+            j += 1
+        return n, ""
 
     def __call__(self, s: Sensors) -> str:
         if s.segment_on_floor or s.pelvis_height < self.fall_height_m:
@@ -272,6 +308,23 @@ class WalkStop:
 
     fall_height_m: float
     fell_s: float | None = None
+    quiet_until_s = float("inf")  # nothing but a fall stops a walk
+
+    def block(self, lay, rows: np.ndarray, t: np.ndarray) -> tuple[int, str]:
+        """The rule over samples (``StopRule.block``), in bulk."""
+        if len(t) < _BULK_MIN:
+            s = Sensors()
+            for j in range(len(t)):
+                if self(s.set(lay, rows[j], float(t[j]))):
+                    return j, "fell"
+            return len(t), ""
+        v = rows[:, lay.decode_index]
+        fall = (v[:, 4] - v[:, 5] - v[:, 6] > 0.5) | (v[:, 13] < self.fall_height_m)
+        if not fall.any():
+            return len(t), ""
+        f = int(fall.argmax())
+        self.fell_s = float(t[f])
+        return f, "fell"
 
     def __call__(self, s: Sensors) -> str:
         if s.segment_on_floor or s.pelvis_height < self.fall_height_m:
@@ -302,11 +355,35 @@ class TripTimer:
     _down: int = 0  # samples the foot has been on the floor without a break
     _down_since: float = 0.0
 
+    _on: bool | None = None  # the foot on the floor at the last sample
+
+    @property
+    def quiet_until_s(self) -> float:
+        """Before this time only a fall stops the walk while the foot's floor contact
+        stays as at the last sample (``watch_foot``): never while it is on the floor
+        (a trip comes in swing, after a toe-off), ``toe_off_s`` + the trip's share of
+        the swing in a swing that counts, never in one that does not; before ``after_s``
+        in any case, and nothing is known before the first sample."""
+        if self._on is None:
+            return 0.0
+        if (not self._on and self.toe_off_s is not None and self.toe_off_s >= self.after_s
+                and self.swings_s):
+            return max(self.after_s, self.toe_off_s + self.swing_fraction
+                       * float(np.mean(self.swings_s[-2:])))
+        return np.inf
+
+    @property
+    def watch_foot(self) -> tuple[int, bool] | None:
+        """The foot whose floor contact ``quiet_until_s`` holds for (0 right, 1 left),
+        and that contact at the last sample."""
+        return None if self._on is None else (SIDES.index(self.side), self._on)
+
     def __call__(self, s: Sensors) -> str:
         if s.segment_on_floor or s.pelvis_height < self.fall_height_m:
             self.fell_s = s.t
             return "fell"
         on = s.foot_on_floor[self.side]
+        self._on = on
         if self._landed is None:  # the first sample: a foot on the floor is in stance
             self._landed = on
         if on:

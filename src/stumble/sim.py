@@ -157,6 +157,159 @@ class Controller(Protocol):
     def state(self) -> str:
         """Name of the current state (for the recording)."""
 
+    # Optional: ``run_blocks(physics, n, guard)`` runs up to ``n`` whole blocks, the
+    # physics included, in one compiled call (``NativePhysics``): the numbers of ``update``,
+    # a rollout of its controls and ``observe`` block by block, bit for bit. It returns
+    # (states, sensor rows, controls, blocks run), or None where it cannot (``run`` then
+    # goes on block by block); it may stop after any whole block, and must stop after
+    # one in which ``guard`` says the run could end (``FallGuard``).
+
+
+@dataclass(frozen=True)
+class FallGuard:
+    """What a compiled block loop checks after every step, to stop after that block:
+    a segment on the floor or the pelvis below ``fall_height_m`` (``analysis.StopRule``'s
+    fall); and, where ``foot_col`` is a sensor column (else −1), that foot's floor
+    contact (its load beyond ``CONTACT_FORCE_MIN_N``) other than ``foot_on``, the stop
+    rule's last (``analysis.TripTimer``). ``cols``: the sensor columns of ``Sensors``'
+    values 4, 5, 6 (the segments' and the feet's floor contacts) and 13 (the pelvis
+    height)."""
+
+    cols: np.ndarray
+    fall_height_m: float
+    foot_col: int = -1
+    foot_on: bool = False
+
+
+class NativePhysics:
+    """MuJoCo's step for a compiled loop: the addresses of ``mj_step`` and
+    ``mj_getState``, of the model and data, and views of the data's controls, sensors
+    and warning counters. ``native_physics`` builds it, or says why it cannot."""
+
+    __slots__ = ("addr", "ctrl", "data", "nstate", "sensordata", "warnings")
+
+    def __init__(self, addr: np.ndarray, data: mujoco.MjData, warnings: np.ndarray,
+                 nstate: int):
+        self.addr = addr  # int64: mj_step, mj_getState, model, data, the state's spec
+        self.data = data  # kept alive while the views are used
+        self.ctrl, self.sensordata = data.ctrl, data.sensordata
+        self.warnings = warnings  # int32 (mjNWARNING, 2): lastinfo, number
+        self.nstate = nstate
+
+
+_LIB: dict = {}  # mj_step's and mj_getState's addresses, once per process
+
+NATIVE_BLOCKS_MAX = 256  # blocks a compiled loop runs at most per call (its buffers' size)
+_SCRATCH: dict = {}  # ``native_scratch``'s buffers, per shape
+
+
+def native_scratch(physics: NativePhysics, steps: int) -> tuple[np.ndarray, ...]:
+    """Buffers for a compiled block loop of up to ``steps`` steps (states, sensor rows,
+    controls), kept per process and shape, not per controller (a controller's deep copy
+    need not copy them): what a ``run_blocks`` returns is good until the next call."""
+    key = (steps, physics.nstate, len(physics.sensordata), len(physics.ctrl))
+    got = _SCRATCH.get(key)
+    if got is None:
+        got = _SCRATCH[key] = (np.empty((steps, key[1])), np.empty((steps, key[2])),
+                               np.empty((steps, key[3])))
+    return got
+
+
+def _mujoco_functions() -> tuple[int, int] | None:
+    """The addresses of ``mj_step`` and ``mj_getState`` in the MuJoCo library the
+    bindings load, or None (not found)."""
+    if "fns" not in _LIB:
+        import ctypes
+        import glob
+        import os
+
+        fns = None
+        here = os.path.dirname(mujoco.__file__)
+        for path in sorted(glob.glob(os.path.join(here, "libmujoco.so*"))
+                           + glob.glob(os.path.join(here, "libmujoco*.dylib"))
+                           + glob.glob(os.path.join(here, "mujoco.dll"))):
+            try:
+                lib = ctypes.CDLL(path)
+                fns = tuple(ctypes.cast(getattr(lib, f), ctypes.c_void_p).value
+                            for f in ("mj_step", "mj_getState"))
+                break
+            except (OSError, AttributeError):
+                continue
+        _LIB["fns"] = fns
+    return _LIB["fns"]
+
+
+def _warning_offset() -> int:
+    """Where ``mjData.warning`` sits in the struct, by the layout of the fields before it
+    in MuJoCo's header (``mjdata.h``, MuJoCo 3.3-4.0)."""
+    import ctypes
+
+    class _Solver(ctypes.Structure):
+        _fields_ = [("improvement", ctypes.c_double), ("gradient", ctypes.c_double),
+                    ("lineslope", ctypes.c_double), ("nactive", ctypes.c_int),
+                    ("nchange", ctypes.c_int), ("neval", ctypes.c_int),
+                    ("nupdate", ctypes.c_int)]
+
+    n_island, n_solver = 20, 200  # mjNISLAND, mjNSOLVER (mjmodel.h)
+
+    class _Head(ctypes.Structure):
+        _fields_ = [("narena", ctypes.c_int64), ("nbuffer", ctypes.c_int64),
+                    ("nplugin", ctypes.c_int), ("pstack", ctypes.c_size_t),
+                    ("pbase", ctypes.c_size_t), ("parena", ctypes.c_size_t),
+                    ("threadpool", ctypes.c_size_t), ("threadlock", ctypes.c_bool),
+                    ("maxuse_stack", ctypes.c_int64), ("maxuse_arena", ctypes.c_int64),
+                    ("maxuse_con", ctypes.c_int), ("maxuse_efc", ctypes.c_int),
+                    ("solver", _Solver * (n_island * n_solver)),
+                    ("solver_niter", ctypes.c_int * n_island),
+                    ("solver_nnz", ctypes.c_int * n_island),
+                    ("solver_fwdinv", ctypes.c_double * 2),
+                    ("warning", ctypes.c_int)]
+
+    return _Head.warning.offset
+
+
+def _warning_view(d: mujoco.MjData) -> np.ndarray | None:
+    """An int32 view (mjNWARNING, 2: lastinfo, number) of ``d``'s warning counters
+    (``_warning_offset``), checked once a process by writing through the bindings and
+    reading through the view; None where that does not check out (another layout)."""
+    import ctypes
+
+    n = len(d.warning)
+    if "warning_offset" not in _LIB:
+        _LIB["warning_offset"] = _warning_offset()
+        _LIB["warning_ok"] = None
+    try:
+        view = np.ctypeslib.as_array((ctypes.c_int32 * (2 * n)).from_address(
+            d._address + _LIB["warning_offset"])).reshape(n, 2)
+    except (AttributeError, ValueError, TypeError):
+        return None
+    if _LIB["warning_ok"] is None:
+        kept = [(w.lastinfo, w.number) for w in d.warning]
+        ok = True
+        for trial in (1, 2):
+            for i, w in enumerate(d.warning):
+                w.lastinfo, w.number = 7919 * trial + i, 104729 * trial + i
+            ok = ok and all(int(view[i, 0]) == 7919 * trial + i
+                            and int(view[i, 1]) == 104729 * trial + i for i in range(n))
+        for w, (a, b) in zip(d.warning, kept, strict=True):
+            w.lastinfo, w.number = a, b
+        _LIB["warning_ok"] = ok
+    return view if _LIB["warning_ok"] else None
+
+
+def native_physics(m: mujoco.MjModel, d: mujoco.MjData) -> NativePhysics | None:
+    """``NativePhysics`` of ``m`` and ``d``, or None where a compiled loop cannot step
+    them as ``mujoco.rollout`` does (no MuJoCo library found, another ``mjData``
+    layout, or mocap bodies or equality constraints, which a rollout resets)."""
+    fns = _mujoco_functions()
+    if fns is None or m.nmocap or m.neq:
+        return None
+    warnings = _warning_view(d)
+    if warnings is None:
+        return None
+    addr = np.array([fns[0], fns[1], m._address, d._address, int(_STATE)], dtype=np.int64)
+    return NativePhysics(addr, d, warnings, mujoco.mj_stateSize(m, _STATE))
+
 
 @dataclass
 class Recording:
@@ -416,6 +569,8 @@ def run(ctx: Context, controller: Controller, duration_s: float,
             load_log.append(f)
         return stop(scratch.set(lay, row, t, f)) if stop is not None else ""
 
+    stop_block = getattr(stop, "block", None) if stop is not None else None
+
     def sample_block(states: np.ndarray, rows: np.ndarray, first: int, end: int) -> str:
         """``sample`` of every recorded instant among the steps after ``first`` up to
         ``end`` of a stepped block (its per-step states and rows), in bulk; the first
@@ -431,7 +586,12 @@ def run(ctx: Context, controller: Controller, duration_s: float,
         k0 = buf.k
         t = st[:n_ok, 0] - ctx.t0
         buf.extend(t, st[:n_ok], rw[:n_ok], controller.state())
-        if stop is not None:
+        if stop_block is not None:  # the rule's own loop over the samples
+            j, why = stop_block(lay, rw[:n_ok], t)
+            if why:
+                buf.truncate(k0 + j + 1)
+                return why
+        elif stop is not None:
             for j in range(n_ok):
                 why = stop(scratch.set(lay, rw[j], float(t[j])))
                 if why:
@@ -455,7 +615,49 @@ def run(ctx: Context, controller: Controller, duration_s: float,
     strength = ctx.strength
     strength_every = max(1, round(strength.period_s / dt)) if strength is not None else 0
     next_strength = 0
+    # several whole blocks in one compiled call (``Controller.run_blocks``) where nothing
+    # in them needs Python: no force, penalty or strength, a stop rule that only a fall
+    # can trigger until ``quiet_until_s`` (``FallGuard``)
+    run_blocks = getattr(controller, "run_blocks", None)
+    native = (native_physics(m, d) if run_blocks is not None and penalty is None
+              and strength is None and not uses_sensors else None)
+    guard = None
+    if native is not None and stop is not None:
+        fall_h = getattr(stop, "fall_height_m", None)
+        guard = (None if fall_h is None else
+                 FallGuard(np.asarray(lay.decode_index)[[4, 5, 6, 13]].astype(np.int64),
+                           float(fall_h)))
+        if guard is None:
+            native = None
     while not why and step < n_steps:
+        quiet_s = None
+        if native is not None and not forcing:
+            quiet_s = np.inf if stop is None else getattr(stop, "quiet_until_s", None)
+        if quiet_s is not None:
+            watch = getattr(stop, "watch_foot", None)
+            if watch is not None:  # (side 0 r / 1 l, its contact at the rule's last sample)
+                guard = FallGuard(guard.cols, guard.fall_height_m,
+                                  int(lay.decode_index[watch[0]]), bool(watch[1]))
+            # whole blocks whose every sample comes before the stop rule's quiet time
+            t_now = d.time - ctx.t0
+            fit = int((min(quiet_s, 1e9) - t_now) / (period * dt)) - 1
+            n_run = min((n_steps - step) // period, fit)
+            tic = time.perf_counter()
+            got = run_blocks(native, n_run, guard) if n_run >= 1 else None
+            if got is not None:
+                stepper.physics_s += time.perf_counter() - tic  # (the controller's too)
+                states, rows, ctrls, done = got
+                end = step + done * period
+                if controls is not None:
+                    gains = (m.actuator_gainprm[:, 0].copy(), m.actuator_biasprm[:, :3].copy(),
+                             m.actuator_forcerange.copy())
+                    controls += [(step + i * period, ctrls[i * period:(i + 1) * period].copy(),
+                                  gains) for i in range(done)]
+                why = sample_block(states, rows, step, end)
+                step = end
+                if not why and unstable():
+                    why = "diverged"
+                continue
         if uses_sensors:
             decode(lay, sensordata, d.time - ctx.t0, ctx.sensors, loads())
         plan = controller.update(ctx)

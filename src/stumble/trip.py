@@ -361,11 +361,16 @@ _SCRATCH_MAX = 8  # models whose scratch data are kept (a study's bodies and wal
 
 def posed(m: mujoco.MjModel, qpos: np.ndarray) -> mujoco.MjData:
     """Scratch data of ``m`` in pose ``qpos``, its kinematics computed (positions and
-    frames only). Kept per model and reused: an ``MjData`` costs about 0.4 ms to make in
-    MuJoCo 4.0's Python bindings, whatever the model; valid until the next call for ``m``."""
+    frames only). Kept per model's sizes and reused: an ``MjData`` costs about 0.4 ms to
+    make in MuJoCo 4.0's Python bindings, whatever the model, and serves any model of its
+    sizes (``build``'s copies); valid until the next call for a model of those sizes."""
     hit = _SCRATCH.get(id(m))
     if hit is None or hit[0] is not m:
-        hit = _SCRATCH[id(m)] = (m, mujoco.MjData(m))
+        # a copy of a kept model (``build`` hands out copies) shares its scratch data:
+        # an ``MjData`` serves any model of the same sizes
+        sizes = _sizes(m)
+        same = next((dd for mm, dd in _SCRATCH.values() if _sizes(mm) == sizes), None)
+        hit = _SCRATCH[id(m)] = (m, same if same is not None else mujoco.MjData(m))
         while len(_SCRATCH) > _SCRATCH_MAX:
             _SCRATCH.popitem(last=False)
     else:
@@ -374,6 +379,24 @@ def posed(m: mujoco.MjModel, qpos: np.ndarray) -> mujoco.MjData:
     d.qpos[:] = qpos
     mujoco.mj_kinematics(m, d)
     return d
+
+
+def _sizes(m: mujoco.MjModel) -> tuple[int, ...]:
+    """The sizes an ``MjData`` is made for (MuJoCo's ``mjMODEL_INTS``, which a model's
+    copy shares)."""
+    return tuple(int(getattr(m, f)) for f in _SIZE_FIELDS)
+
+
+_SIZE_FIELDS = tuple(f for f in ("nq", "nv", "nu", "na", "nbody", "nbvh", "nbvhstatic",
+                                 "nbvhdynamic", "njnt", "ngeom", "nsite", "ncam", "nlight",
+                                 "nflex", "nflexnode", "nflexvert", "nflexedge",
+                                 "nflexelem", "nmesh", "nskin", "nhfield", "ntex", "nmat",
+                                 "npair", "nexclude", "neq", "ntendon", "nwrap", "nsensor",
+                                 "nnumeric", "ntext", "ntuple", "nkey", "nmocap",
+                                 "nplugin", "nuserdata", "nsensordata", "nM", "nB", "nC",
+                                 "nD", "nJmom", "ntree", "ngravcomp", "nemax", "njmax",
+                                 "nconmax", "nuser_body", "nstack", "nbuffer", "narena")
+                    if hasattr(mujoco.MjModel, f))
 
 
 def toe_front(body: Body, qpos: np.ndarray, side: str) -> tuple[float, float, float]:

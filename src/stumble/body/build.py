@@ -415,10 +415,12 @@ def _Layout_spec(planar: bool, timestep_s: float) -> mujoco.MjSpec:
     s.compiler.degree = False
     tex = s.add_texture(name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D,
                         builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
-                        rgb1=[0.82, 0.82, 0.80], rgb2=[0.68, 0.68, 0.66], width=256, height=256)
+                        rgb1=[0.82, 0.82, 0.80], rgb2=[0.68, 0.68, 0.66], width=128, height=128)
+    # (small textures: every trip copies its model, textures and all; the sky is a smooth
+    # gradient, 32 pixels a side draw it as 256 did)
     s.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
                   builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, rgb1=[0.55, 0.7, 0.9],
-                  rgb2=[0.95, 0.95, 0.97], width=256, height=256)
+                  rgb2=[0.95, 0.95, 0.97], width=32, height=32)
     mat = s.add_material(name="floor", texrepeat=[1, 1], reflectance=0.0)
     mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = tex.name
     s.visual.headlight.ambient = [0.45, 0.45, 0.45]

@@ -41,7 +41,7 @@ from stumble.control.reflex.receptors import (
     gto_static,
 )
 from stumble.errors import InputError
-from stumble.sim import Context
+from stumble.sim import CONTACT_FORCE_MIN_N, NATIVE_BLOCKS_MAX, Context, native_scratch
 
 SIDES = ("r", "l")
 # the spindles' constants in the order the compiled receptors take them (``kernels``)
@@ -538,6 +538,9 @@ class ReflexController:
         self._no_place = np.zeros((0, 5))
         self._bal_par = None  # the balance's numbers for the compiled block (``start``)
         self._meta = np.zeros(16, dtype=np.int64)  # the NumPy loops' arguments
+        # ``run_blocks``' last block's excitations and controls
+        self._resp_args = None  # the touch response's numbers for ``run_blocks``
+        self._run_exc = (np.empty((self.block, 2, nm)), np.empty((self.block, 2 * nm)))
 
     # views made on each use, not kept: a deep copy (``pipeline.WalkInCache``) copies
     # arrays one by one, and a kept view would then no longer see its array
@@ -882,8 +885,15 @@ class ReflexController:
             ib = hist[:, :, self.ib_cols].reshape(len(hist), -1)  # (N, 2·nm): r, then l
             self.gto.z[:] = gto_state  # the walk's steady state (the filter is slow, 5 s)
             rates = hist.copy()
-            for k in range(len(hist)):  # the tendon organs' filter, tick by tick
-                rates[k][:, self.ib_cols] = self.gto.step(ib[k]).reshape(2, -1)
+            kern = kernels()
+            if kern is not None:  # the tendon organs' filter, tick by tick (compiled)
+                y = np.empty_like(ib)
+                kern["gto_steps"](self.gto.b, self.gto.a, self.gto.z,
+                                  np.ascontiguousarray(ib), y)
+                rates[:, :, self.ib_cols] = y.reshape(len(hist), 2, -1)
+            else:
+                for k in range(len(hist)):  # the tendon organs' filter, tick by tick
+                    rates[k][:, self.ib_cols] = self.gto.step(ib[k]).reshape(2, -1)
             # then the network, a block of ticks at a time (the numbers of ``_tick``
             # tick by tick: each tick's interneurons read inputs already pushed)
             for first in range(0, len(hist), self.block):
@@ -988,6 +998,79 @@ class ReflexController:
                               np.arctan2(d[0], d[1]) if self.place_buf is not None
                               else self._no_alpha, self._place_or_none, k0)
         self.k = k0 + n
+
+    def run_blocks(self, physics, n: int, guard) -> tuple | None:
+        """Up to ``n`` whole blocks, the physics included, in one compiled call
+        (``kernels.net_run``; ``sim.Controller``): the numbers of ``update``, the block's
+        rollout and ``observe``, block by block, bit for bit. None where the block is not
+        one compiled call (no kernels or NumPy's loops, a trace), the ticks are not yet
+        in step with the blocks (the first block after ``start``), or the touch response
+        has a recovery step (``cross_hold_s``; its onsets and drive are compiled too).
+        Returns (states, sensor rows, controls, blocks run): views of kept buffers, good
+        until the next call."""
+        kern = kernels()
+        if (kern is None or kern["loops"] is None or self.trace is not None
+                or not self._fused or not self._plan_in_kernel or n < 1):
+            return None
+        k, nb = self.k, self.block
+        if k - self.block_start != nb or k + self.a_min - self.h_done != nb:
+            return None
+        r = self.response
+        if r is not None and r.cross:
+            return None
+        resp_on = r is not None and self._touch_cols is not None
+        if self._resp_args is None or self._resp_args[0] is not r:
+            ints = (np.array([r.lag, r.hold, r.after, r.hold_ahead, r.after_ahead, r.span,
+                              int(r.by_foot)], dtype=np.int64) if r is not None
+                    else np.zeros(7, dtype=np.int64))
+            self._resp_args = (r, np.ascontiguousarray(r.w if r is not None
+                                                       else np.zeros((3, self.nm))), ints,
+                               np.ascontiguousarray(self.lay.foot_pos[:, 0], dtype=np.int64),
+                               np.empty((nb, 2, self.nm)))
+        _r, resp_w, resp_int, foot_x, resp_out = self._resp_args
+        ps = self.period_steps
+        n = min(n, NATIVE_BLOCKS_MAX)
+        states, rows, plans = native_scratch(physics, NATIVE_BLOCKS_MAX * ps)
+        ctr = np.array([k, self.block_start, self.h_done], dtype=np.int64)
+        bal = self.balance
+        x, h = self._in_scratch(nb)
+        hid, t = self._out_bufs
+        bal_rows, sensed, bal_drive = self._bal_scratch
+        exc, ctrl = self._run_exc
+        n_tick = ps * self.per_step if self.per_step > 1 else -(-ps // self.every)
+        has_bal = bal is not None
+        done = kern["net_run"](
+            physics.addr, physics.warnings, physics.ctrl, physics.sensordata, n, ps,
+            n_tick, states, rows, plans, guard.cols if guard is not None else self._no_cols,
+            guard.fall_height_m if guard is not None else -np.inf,
+            guard.foot_col if guard is not None else -1,
+            guard is not None and guard.foot_on, CONTACT_FORCE_MIN_N, ctr,
+            self.a_min, bal.lag if has_bal else 0,
+            resp_on, resp_w, resp_int, self._onsets, self._ahead, self._was_touched, foot_x,
+            resp_out,
+            kern["loops"], self._meta, self.sensed, self.k_mm, self.l_ref, IB_FORCE_N,
+            self._scratch, IA_VELOCITY_EXPONENT, IB_GAIN, self.gto.b, self.gto.a,
+            self.gto.z, self.loads, self.body_weight_n, self.contact, self.net.mean,
+            self.inv_std, self._sig2d, _RATE_GAINS, self.touches, self._touch_q,
+            self.sig_buf, self.in_lag, self.in_off, self.sig_row, self.n_buf, x, h, self.w,
+            self.b, self._hid2d, self.hid_buf, self.c_lag, self.hid_off, self.hid_row, hid,
+            self.mv, t, self.c, has_bal, self.bal_buf if has_bal else self._no_rows,
+            self._bal_par_or_none, self._place_or_none, bal_rows, sensed, bal_drive,
+            self._bal_cols, exc, ctrl, self._plan_rows, self._act_first, self._no_balance,
+            self.per_step, self.every, self._obs_cols, self._n_mus3,
+            self._bal_sense_cols if has_bal else self._no_cols, self._bal_g,
+            self._touch_cols if self._touch_cols is not None else self._no_cols,
+            self._place_cols, self._place_d, self._lean_buf, self._alpha_buf,
+            self._no_alpha)
+        self.k, self.block_start, self.h_done = (int(v) for v in ctr)
+        self.exc_block, self.ctrl_block = exc.copy(), ctrl.copy()
+        self.excitation = self.exc_block[-1]
+        last = slice((done - 1) * ps, done * ps)
+        self.plan[:] = plans[last]
+        self._held = physics.ctrl
+        self._plan_done = True
+        self._resp_end = None  # (onsets may have changed)
+        return states[:done * ps], rows[:done * ps], plans[:done * ps], done
 
     def _touch_response_sense(self, touched: bool, rows: np.ndarray, k0: int,
                               n: int) -> None:

@@ -776,6 +776,8 @@ class GH2010Controller:
         self._sense_at: dict[int, tuple] = {}  # ``observe``'s scratch per block length
         self._angles: dict[int, tuple] = {}  # ``_angles_at``'s
         self._upd_at: dict[int, tuple] = {}  # ``_update_fused``'s scratch per block length
+        self._tap_idx = None  # ``run_blocks``' delayed taps' indices
+        self._no_cols = np.zeros(0, dtype=np.int64)
         self._touch_taps = (sl["touch"].start, sl["x_touch"].start, sl["vest_load"].start,
                             sl["vest_x"].start)
         self._meta = np.zeros(16, dtype=np.int64)  # NumPy's loops' arguments (``kernels``)
@@ -972,14 +974,8 @@ class GH2010Controller:
         laws with NumPy's own matrix-product loop, the touch's reflexes, the plan)."""
         p, n, d = self.p, self.period_steps, self.delay
         idx = d.read_index(n)
-        got = self._upd_at.get(n)
-        if got is None:
-            nm = self.nm
-            got = self._upd_at[n] = (
-                np.empty((n, idx.shape[1])), np.empty((n, 2, self._n_feat)),
-                np.empty((n, 2, nm), dtype=np.bool_), np.empty((n, 2, nm)),
-                np.empty((n, 2, nm)), np.empty((n, 2, nm)))
-        x, v, stance, a, b, u = got
+        self._update_fused_scratch(n)
+        x, v, stance, a, b, u = self._upd_at[n]
         phi0, knee_v0, ds_load, ds_x, gate0 = self._feat_taps
         touch0, xt0, load0, xf0 = self._touch_taps
         by_foot = self._scr_by_foot
@@ -1013,12 +1009,7 @@ class GH2010Controller:
             return self.delay.push(self._channels(rows))
         # ``_channels`` then ``push``, compiled around NumPy's arctan2 (the same numbers)
         n = len(rows)
-        got = self._sense_at.get(n)
-        if got is None:
-            got = self._sense_at[n] = (np.empty((n, len(self._gather))),
-                                       np.empty((n, 2)), np.empty((n, 2)),
-                                       np.empty((n, 3)))
-        v, a, b, extra = got
+        v, a, b, extra = self._sense_scratch(n)
         d = self.delay
         if kern["loops"] is not None:  # one call, NumPy's arctan2 loop in it
             lean, alpha = self._angles_at(n)
@@ -1031,6 +1022,81 @@ class GH2010Controller:
             kern["gh_push"](v, np.arctan2(v[:, -2], v[:, -1]), self._place,
                             np.arctan2(a, b) if self._place else a, extra, d.buf, d.k)
         d.k += n
+
+    def run_blocks(self, physics, n: int, guard) -> tuple | None:
+        """Up to ``n`` whole blocks, the physics included, in one compiled call
+        (``kernels.gh_run``; ``sim.Controller``): the numbers of ``update``, the block's
+        rollout and ``observe``, block by block, bit for bit. None where those are not
+        one compiled call each (no kernels or NumPy's loops, the lean-free laws asked
+        for, loads sensed otherwise, muscles not one slice of the controls). Returns
+        (states, sensor rows, controls, blocks run): views of kept buffers, good until
+        the next call."""
+        kern = kernels()
+        if (kern is None or kern["loops"] is None or not self._fused or n < 1
+                or self.lean_free is not None or self._ob_load is not None
+                or self._act_first is None):
+            return None
+        from stumble.sim import CONTACT_FORCE_MIN_N, NATIVE_BLOCKS_MAX, native_scratch
+
+        p, ps, d = self.p, self.period_steps, self.delay
+        n = min(n, NATIVE_BLOCKS_MAX)
+        states, rows, plans = native_scratch(physics, NATIVE_BLOCKS_MAX * ps)
+        kk = np.array([d.k], dtype=np.int64)
+        if self._tap_idx is None or len(self._tap_idx) != ps:
+            self._tap_idx = np.empty((ps, len(d.lags)), dtype=np.int64)
+        idx = self._tap_idx
+        self._update_fused_scratch(ps)
+        x, v, stance, a, b, u = self._upd_at[ps]
+        phi0, knee_v0, ds_load, ds_x, gate0 = self._feat_taps
+        touch0, xt0, load0, xf0 = self._touch_taps
+        by_foot = self._scr_by_foot
+        if self._scr:
+            self._mark_box[0] = self._mark
+        sv, pa, pb, extra = self._sense_scratch(ps)
+        lean, alpha = self._angles_at(ps)
+        done = kern["gh_run"](
+            physics.addr, physics.warnings, physics.ctrl, physics.sensordata, n, ps, states,
+            rows, plans, guard.cols if guard is not None else self._no_cols,
+            guard.fall_height_m if guard is not None else -np.inf,
+            guard.foot_col if guard is not None else -1,
+            guard is not None and guard.foot_on, CONTACT_FORCE_MIN_N, kk, d.size, d.lags,
+            d.cols, idx,
+            kern["loops"], self._meta, d.buf, x, phi0, self._phi_sign, self._phi_off,
+            self._phi_low, knee_v0, self._has_ds, ds_load, ds_x, p.stance_load, gate0,
+            self._ungated_b, v, stance, self._w_st, a, self._b_st, self._w_sw, b,
+            self._b_sw, self._law_ip, self._law_fp, u, self._scr, touch0, xt0, load0, xf0,
+            self._scr_hold, self._scr_vas_after, by_foot, p.scr_ahead_m,
+            self._w_scr if by_foot else self._no_sets,
+            self._no_any if by_foot else self._w_scr, self._w_scr_vas, self._cross,
+            self._cross_hold, p.cross_ahead_m, self._w_cross, self._scr_since,
+            self._touched, self._ahead, self._armed, self._cross_since, self._was_on,
+            self._mark_box, PRE_ACTIVATION, self._act_first,
+            self._gather, self._scale, self._offset, sv, self._place, self._place_cols, pa,
+            pb, extra, lean, alpha)
+        if self._scr:
+            self._mark = float(self._mark_box[0])
+        d.k = int(kk[0])
+        self.plan[:] = plans[(done - 1) * ps:done * ps]
+        self._held = physics.ctrl
+        return states[:done * ps], rows[:done * ps], plans[:done * ps], done
+
+    def _update_fused_scratch(self, n: int) -> None:
+        """``_update_fused``'s kept buffers for blocks of ``n`` ticks (made once)."""
+        if n not in self._upd_at:
+            nm = self.nm
+            self._upd_at[n] = (
+                np.empty((n, self.delay.read_index(n).shape[1])),
+                np.empty((n, 2, self._n_feat)), np.empty((n, 2, nm), dtype=np.bool_),
+                np.empty((n, 2, nm)), np.empty((n, 2, nm)), np.empty((n, 2, nm)))
+
+    def _sense_scratch(self, n: int) -> tuple:
+        """``observe``'s kept buffers for blocks of ``n`` rows (made once)."""
+        got = self._sense_at.get(n)
+        if got is None:
+            got = self._sense_at[n] = (np.empty((n, len(self._gather))),
+                                       np.empty((n, 2)), np.empty((n, 2)),
+                                       np.empty((n, 3)))
+        return got
 
     def _angles_at(self, n: int) -> tuple[np.ndarray, np.ndarray]:
         """Kept buffers of ``n`` ticks' lean (n,) and legs' angles (n, 2)."""

@@ -161,9 +161,13 @@ def _compiled(numba) -> dict:
     global store_take, bal_out, observe_all, observe_store, gh_channels, gh_place_in
     global place_offsets, net_update, net_sense, gh_update, gh_observe, gh_sense, gh_push
     global gh_laws, gh_features, gh_select, gh_lean, gh_place, gh_touch, clip_plan
+    global call_step, call_get_state, net_run, resp_drive, resp_add, resp_onsets
+    global gto_steps, rollout_block, block_ends_run, gh_run
+    from stumble.control.reflex._loop_call import call_get_state as _get
     from stumble.control.reflex._loop_call import call_loop as _call
+    from stumble.control.reflex._loop_call import call_step as _step
 
-    call_loop = _call
+    call_loop, call_step, call_get_state = _call, _step, _get
 
     @jit
     def loop1(loops, i, meta, x, out):
@@ -967,6 +971,242 @@ def _compiled(numba) -> dict:
                 for q in range(u.shape[1]):
                     plan[i, first + q] = u[i, q]
 
+    @jit
+    def gto_steps(b, a, z, x, y):
+        """``GTOFilter.step`` over the rows of ``x`` (n, channels) into ``y``, ``z``
+        carried (the same operations, tick by tick)."""
+        for k in range(x.shape[0]):
+            for c in range(x.shape[1]):
+                xi = x[k, c]
+                yi = b[0] * xi + z[0, c]
+                z[0, c] = b[1] * xi - a[1] * yi + z[1, c]
+                z[1, c] = b[2] * xi - a[2] * yi
+                y[k, c] = yi
+
+    @jit
+    def resp_drive(first, n, w, ints, onsets, ahead, out):
+        """``TouchResponse.drive`` (its sets ``w``; ``ints``: lag, hold, after,
+        hold_ahead, after_ahead, span, by_foot; no recovery step) into ``out`` (n, 2,
+        muscles), zeroed first; whether it adds anything (``drive`` not None)."""
+        lag, span, by_foot = ints[0], ints[5], ints[6]
+        n_sets = 3
+        added = False
+        for side in range(2):
+            o = onsets[side]
+            if not (o - o == 0.0) or first >= o + lag + span:
+                continue
+            ahead_sets = by_foot != 0 and ahead[side]
+            hold = ints[3] if ahead_sets else ints[1]
+            after = ints[4] if ahead_sets else ints[2]
+            o0 = int(o) + lag
+            any_ab = False
+            for i in range(n):
+                tt = first + i - o0
+                if tt >= 0 and tt < hold + after:
+                    any_ab = True
+            if not any_ab:
+                continue
+            if not added:
+                for i in range(n):
+                    for s in range(2):
+                        for q in range(out.shape[2]):
+                            out[i, s, q] = 0.0
+                added = True
+            r0 = n_sets if ahead_sets else 0
+            for i in range(n):
+                tt = first + i - o0
+                if tt >= 0 and tt < hold:
+                    for q in range(out.shape[2]):
+                        out[i, side, q] += w[r0, q]
+            for i in range(n):
+                tt = first + i - o0
+                if tt >= hold and tt < hold + after:
+                    for q in range(out.shape[2]):
+                        out[i, side, q] += w[r0 + 1, q]
+            for i in range(n):
+                tt = first + i - o0
+                if tt >= 0 and tt < hold + after:
+                    for q in range(out.shape[2]):
+                        out[i, 1 - side, q] += w[r0 + 2, q]
+        return added
+
+    @jit
+    def resp_add(exc, ctrl, out, plan, plan_rows, act_first, held):
+        """``ReflexController._add_response`` and ``update``'s plan after it: ``exc`` +=
+        ``out``, ``ctrl`` its clip to 0.01-1, each plan row ``held`` with the muscles'
+        columns from ``ctrl`` at ``plan_rows``."""
+        nb, nm = exc.shape[0], exc.shape[2]
+        for i in range(nb):
+            for s in range(2):
+                for q in range(nm):
+                    e = exc[i, s, q] + out[i, s, q]
+                    exc[i, s, q] = e
+                    u = e if (e >= 0.01 or e != e) else 0.01
+                    ctrl[i, s * nm + q] = u if (u <= 1.0 or u != u) else 1.0
+        for i in range(plan.shape[0]):
+            for q in range(plan.shape[1]):
+                plan[i, q] = held[q]
+            for q in range(ctrl.shape[1]):
+                plan[i, act_first + q] = ctrl[plan_rows[i], q]
+
+    @jit
+    def resp_onsets(k0, n, per_step, every, touches, rows, foot_x, ints, onsets, ahead,
+                    was):
+        """``ReflexController._touch_onsets`` of a block's ``n`` ticks from ``k0`` (tick
+        ``i`` reading row ``i // per_step`` or ``i·every``; ``foot_x``: the ankles' x
+        columns)."""
+        lag, span = ints[0], ints[5]
+        for side in range(2):
+            w = was[side]
+            for i in range(n):
+                now = touches[i, side] > 0.0
+                o = onsets[side]
+                running = (o - o == 0.0) and k0 + i < o + lag + span
+                if now and not w and not running:
+                    onsets[side] = k0 + i
+                    r = i // per_step if per_step > 1 else i * every
+                    ahead[side] = rows[r, foot_x[side]] > rows[r, foot_x[1 - side]]
+                w = now
+            was[side] = w
+
+    @jit
+    def net_run(phys, warn, held, sens, n_blocks, ps, n_tick, states, rows, plans,
+                guard_cols, fall_h, foot_col, foot_on, on_n, ctr, a_min, bal_lag,
+                resp_on, resp_w, resp_int, onsets, ahead, was, foot_x, resp_out,
+                loops, meta, sensed, k_mm, l_ref, ib_force, sc, ia_exp, ib_gain, gb, ga,
+                gz, loads, weight_n, contact, mean, inv_std, sig2d, gains, touches,
+                touch_q, sig_buf, in_lag, in_off, sig_row, n_buf, x, h, w, b, hid2d,
+                hid_buf, c_lag, hid_off, hid_row, hid, mv, t, c, bal_on, bal_buf,
+                bal_par, place_buf, bal_rows, bal_sensed, bal, bal_cols, exc, ctrl,
+                plan_rows, act_first, no_bal,
+                per_step, every, obs_cols, n_mus3, bal_sense_cols, bal_g, touch_cols,
+                place_cols, place_d, lean, alpha, no_alpha):
+        """Up to ``n_blocks`` blocks of the network with the physics between them, each
+        ``net_update`` (and, ``resp_on``, ``resp_drive``), then its ``ps`` steps as
+        ``mujoco.rollout`` takes them (warnings cleared, ``mj_step`` until one is raised,
+        the state and sensors after each step), then ``net_sense`` (and ``resp_onsets``);
+        ``ctr`` (tick, block start, interneurons done) kept up to date. Stops after a
+        block with a warning, a state not finite, or at any step a fall by ``fall_h`` and
+        ``guard_cols`` or (``foot_col`` ≥ 0) that foot's contact, its load beyond
+        ``on_n``, other than ``foot_on`` (``sim.FallGuard``); returns the blocks run."""
+        for blk in range(n_blocks):
+            k, first, h_first = ctr[0], ctr[1], ctr[2]
+            n_r = k - first
+            upto = k + a_min
+            n_h = upto - h_first
+            r0 = blk * ps
+            plan = plans[r0:r0 + ps]
+            net_update(loops, meta, n_r > 0, first, n_r, sensed, k_mm, l_ref, ib_force,
+                       sc, ia_exp, ib_gain, gb, ga, gz, loads, weight_n, contact, mean,
+                       inv_std, sig2d, gains, touches, touch_q, n_h, h_first, sig_buf,
+                       in_lag, in_off, sig_row, n_buf, x, h, w, b, hid2d, hid_buf, k,
+                       c_lag, hid_off, hid_row, hid, mv, t, c, bal_on, k - bal_lag,
+                       bal_buf, bal_par, place_buf, bal_rows, bal_sensed, bal, bal_cols,
+                       exc, ctrl, plan, plan_rows, act_first, held, no_bal)
+            if resp_on and resp_drive(k, exc.shape[0], resp_w, resp_int, onsets, ahead,
+                                      resp_out):
+                resp_add(exc, ctrl, resp_out, plan, plan_rows, act_first, held)
+            if n_h > 0:
+                ctr[2] = upto
+            ctr[1] = k
+            rollout_block(phys, warn, held, sens, plan, states, rows, r0, ps)
+            blk_rows = rows[r0:r0 + ps]
+            net_sense(loops, meta, blk_rows, per_step, every, n_tick, obs_cols, n_mus3,
+                      contact, sensed, loads, bal_sense_cols, bal_g, touch_cols, touches,
+                      place_cols, place_d, place_buf, k, lean, alpha, bal_buf, no_alpha)
+            if resp_on:
+                resp_onsets(k, n_tick, per_step, every, touches, blk_rows, foot_x,
+                            resp_int, onsets, ahead, was)
+            ctr[0] = k + n_tick
+            if block_ends_run(warn, states, rows, r0, ps, guard_cols, fall_h, foot_col,
+                              foot_on, on_n):
+                return blk + 1
+        return n_blocks
+
+    @jit
+    def rollout_block(phys, warn, held, sens, plan, states, rows, r0, ps):
+        """One block's ``ps`` steps as ``mujoco.rollout`` takes them: the warnings
+        cleared, then each step's controls (``plan``) into ``held`` (the data's), its
+        ``mj_step`` (none once a warning is raised: the state and sensors repeated), its
+        full-physics state into ``states`` and sensors into ``rows`` from row ``r0``
+        (``phys``: ``sim.NativePhysics.addr``)."""
+        step_fn, get_fn, m, d, spec = phys[0], phys[1], phys[2], phys[3], phys[4]
+        for i in range(warn.shape[0]):
+            warn[i, 1] = 0
+        warned = False
+        for j in range(ps):
+            if not warned:
+                for i in range(warn.shape[0]):
+                    if warn[i, 1] != 0:
+                        warned = True
+            if not warned:
+                for q in range(held.shape[0]):
+                    held[q] = plan[j, q]
+                call_step(step_fn, m, d)
+            call_get_state(get_fn, m, d, states[r0 + j].ctypes.data, spec)
+            for q in range(sens.shape[0]):
+                rows[r0 + j, q] = sens[q]
+
+    @jit
+    def block_ends_run(warn, states, rows, r0, ps, guard_cols, fall_h, foot_col, foot_on,
+                       on_n):
+        """Whether a native loop stops after the block at row ``r0``: a warning, a state
+        not finite, or at any step a fall (``guard_cols``, ``fall_h``) or (``foot_col``
+        ≥ 0) that foot's contact, its load beyond ``on_n``, other than ``foot_on``
+        (``sim.FallGuard``)."""
+        for i in range(warn.shape[0]):
+            if warn[i, 1] != 0:
+                return True
+        for j in range(ps):
+            for q in range(states.shape[1]):
+                v = states[r0 + j, q]
+                if not (v - v == 0.0):
+                    return True
+            row = rows[r0 + j]
+            if guard_cols.shape[0] and (
+                    row[guard_cols[0]] - row[guard_cols[1]] - row[guard_cols[2]] > 0.5
+                    or row[guard_cols[3]] < fall_h):
+                return True
+            if foot_col >= 0 and ((-row[foot_col] > on_n) != foot_on):
+                return True
+        return False
+
+    @jit
+    def gh_run(phys, warn, held, sens, n_blocks, ps, states, rows, plans, guard_cols, fall_h,
+               foot_col, foot_on, on_n, kk, size, lags, tap_cols, idx,
+               loops, meta, buf, x, phi0, sign, off, low, knee_v0, has_ds, ds_load, ds_x,
+               stance_load, gate0, ungated, v, stance, w_st, a, b_st, w_sw, bb, b_sw, ip, fp,
+               u, scr, touch0, xt0, load0, xf0, hold, vas_after, by_foot, ahead_m, w_sets,
+               w_any, w_vas, cross, cross_hold, cross_ahead, w_cross, scr_since,
+               touched_was, ahead_was, armed, cross_since, was_on, mark, lo, act_first,
+               gather, scale, offset, sv, place, place_cols, pa, pb, extra, lean, alpha):
+        """Up to ``n_blocks`` blocks of Geyer & Herr's reflexes with the physics between
+        them, as ``net_run``: each the delayed taps' indices (``DelayTaps.read_index`` at
+        tick ``kk[0]``), ``gh_update``, ``rollout_block`` and ``gh_observe``; returns the
+        blocks run."""
+        nch = buf.shape[1]
+        for blk in range(n_blocks):
+            k = kk[0]
+            for i in range(ps):
+                for j in range(lags.shape[0]):
+                    idx[i, j] = ((k + i - lags[j]) % size) * nch + tap_cols[j]
+            r0 = blk * ps
+            plan = plans[r0:r0 + ps]
+            gh_update(loops, meta, buf, idx, x, phi0, sign, off, low, knee_v0, has_ds,
+                      ds_load, ds_x, stance_load, gate0, ungated, v, stance, w_st, a, b_st,
+                      w_sw, bb, b_sw, ip, fp, u, scr, touch0, xt0, load0, xf0, hold,
+                      vas_after, by_foot, ahead_m, w_sets, w_any, w_vas, cross, cross_hold,
+                      cross_ahead, w_cross, scr_since, touched_was, ahead_was, armed,
+                      cross_since, was_on, mark, lo, plan, act_first, held)
+            rollout_block(phys, warn, held, sens, plan, states, rows, r0, ps)
+            gh_observe(loops, meta, rows[r0:r0 + ps], gather, scale, offset, sv, place,
+                       place_cols, pa, pb, extra, lean, alpha, buf, k)
+            kk[0] = k + ps
+            if block_ends_run(warn, states, rows, r0, ps, guard_cols, fall_h, foot_col,
+                              foot_on, on_n):
+                return blk + 1
+        return n_blocks
+
     kern = {"iir2": iir2, "balance_cols": balance_cols, "net_pre": net_pre,
             "net_push": net_push, "net_drive": net_drive, "net_out": net_out,
             "net_observe": net_observe, "bal_store": bal_store, "store_rows": store_rows,
@@ -981,7 +1221,8 @@ def _compiled(numba) -> dict:
             "loop1": loop1, "loop2": loop2, "loop_pow": loop_pow,
             "loop_atan2_cols": loop_atan2_cols, "loop_matmul": loop_matmul,
             "net_update": net_update, "net_sense": net_sense, "gh_update": gh_update,
-            "gh_observe": gh_observe}
+            "gh_observe": gh_observe, "net_run": net_run, "gto_steps": gto_steps,
+            "gh_run": gh_run}
     kern["loops"] = numpy_loops(kern)  # None: NumPy's loops not found as expected
     return kern
 

@@ -33,6 +33,7 @@ Delays are whole samples of the network's rate (1 kHz by default, so within 0.5 
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import zipfile
@@ -99,6 +100,9 @@ class Topology:
     @property
     def segments(self) -> tuple[str, ...]:
         """The spinal segments bound to these muscles, cranial first."""
+        return _derived(self)[0]
+
+    def _segments(self) -> tuple[str, ...]:
         return tuple(seg for seg in ALL_SEGMENTS
                      if any(seg in NERVE_LENGTH_M[mus] for mus in self.muscles))
 
@@ -120,8 +124,11 @@ class Topology:
 
     def inputs(self) -> list[tuple[int, int, int]]:
         """(segment index, signal index, afferent delay in samples) of every input."""
+        return list(_derived(self)[1])
+
+    def _inputs(self) -> list[tuple[int, int, int]]:
         out = []
-        for s, seg in enumerate(self.segments):
+        for s, seg in enumerate(self._segments()):
             for j, mus in enumerate(self.muscles):
                 if seg in NERVE_LENGTH_M[mus]:
                     lag = self._samples(NERVE_LENGTH_M[mus][seg] / self.afferent_m_per_s)
@@ -146,8 +153,11 @@ class Topology:
 
     def connections(self) -> list[tuple[int, int, int]]:
         """(segment index, muscle index, efferent delay in samples) of every motor path."""
+        return list(_derived(self)[2])
+
+    def _connections(self) -> list[tuple[int, int, int]]:
         out = []
-        segs = self.segments
+        segs = self._segments()
         for j, mus in enumerate(self.muscles):
             for seg, length in NERVE_LENGTH_M[mus].items():
                 out.append((segs.index(seg), j, self._samples(length / self.efferent_m_per_s)))
@@ -171,8 +181,16 @@ class Topology:
     @property
     def max_lag(self) -> int:
         """Longest afferent plus efferent delay, in samples."""
-        return (max(lag for *_x, lag in self.inputs())
-                + max(lag for *_x, lag in self.connections()))
+        return _derived(self)[3]
+
+
+@functools.lru_cache(maxsize=64)
+def _derived(t: Topology) -> tuple:
+    """A topology's segments, inputs, connections and longest delay, worked out once
+    (a topology is frozen, and every controller and fit reads them)."""
+    ins, conns = tuple(t._inputs()), tuple(t._connections())
+    return (t._segments(), ins, conns,
+            max(lag for *_x, lag in ins) + max(lag for *_x, lag in conns))
 
 
 def tick_ratio(timestep_s: float, rate_hz: float = RATE_HZ) -> tuple[int, int]:

@@ -127,11 +127,11 @@ class GTOFilter:
         y, _z = signal.lfilter(self.b, self.a, x, axis=0, zi=self.steady_state(x))
         return y
 
-    def state_at(self, x: np.ndarray, index: int) -> np.ndarray:
+    def state_at(self, x: np.ndarray, index: int, z0: np.ndarray | None = None) -> np.ndarray:
         """Steady-state filter state (2, channels) just before sample ``index`` of a
-        periodic series ``x`` (T, channels)."""
+        periodic series ``x`` (T, channels); ``z0``: its ``steady_state``, if known."""
         x = np.asarray(x, dtype=float)
-        z = self.steady_state(x)
+        z = self.steady_state(x) if z0 is None else z0
         index %= len(x)
         if index == 0:
             return z
