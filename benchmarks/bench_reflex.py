@@ -122,17 +122,16 @@ def parts() -> None:
     for cls in (ReflexController, GH2010Controller):
         timed(cls, "update", "update")
         timed(cls, "observe", "observe")
-    run_blocks = ReflexController.run_blocks
-
-    def natively(self, *a):  # several blocks, the physics included, in one call
-        t0 = time.perf_counter()
-        got = run_blocks(self, *a)
-        if got is not None:
-            took["blocks run natively (run_blocks)"] += time.perf_counter() - t0
-            calls["native"] += got[3]
-        return got
-    ReflexController.run_blocks = natively
-    undo.append((ReflexController, "run_blocks", run_blocks, setattr))
+    for cls in (ReflexController, GH2010Controller):
+        def natively(self, *a, _f=cls.run_blocks):  # blocks and their physics in one call
+            t0 = time.perf_counter()
+            got = _f(self, *a)
+            if got is not None:
+                took["blocks run natively (run_blocks)"] += time.perf_counter() - t0
+                calls["native"] += got[3]
+            return got
+        undo.append((cls, "run_blocks", cls.run_blocks, setattr))
+        cls.run_blocks = natively
     for name in ("net_update", "gh_update"):
         if name in kern:
             timed(kern, name, "one compiled call (in update)", dict.__setitem__,

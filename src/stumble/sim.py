@@ -13,6 +13,19 @@ force of a ``force`` scenario while it lasts, and the explicit ``penalty`` conta
 The run stops at the first outcome the ``stop`` rule reports (it sees every sample), at
 the end of the time budget, or when the physics diverges (NaN, or MuJoCo's
 bad-acceleration warning).
+
+One exception to "controllers never step", made for speed: a controller whose blocks
+are compiled (the reflex controllers' ``run_blocks``) may run several whole blocks in one
+compiled call, stepping MuJoCo itself through this module's ``NativePhysics`` handle
+exactly as ``mujoco.rollout`` steps a block (the same states and sensor rows, bit for
+bit). ``run`` decides how many: only while nothing in them needs Python (no force,
+penalty contact or strength model) and only before the stop rule's ``quiet_until_s``,
+the time before which only a fall can end the run; the controller stops after any block
+with a fall, a MuJoCo warning, a state not finite or a change of the foot the rule
+watches (``FallGuard``). ``run`` then records and judges every sample of those blocks as
+it does block by block. Why not a loop here that calls the controller's compiled block:
+Numba cannot call a controller's compiled code from a generic, cached loop, and the
+per-block Python it replaces was a third of a reflex walk's time (README, "Speed").
 """
 
 from __future__ import annotations

@@ -20,6 +20,12 @@ that a whole block of the network is one compiled call. They are used only after
 at load that each gives NumPy's bits on test arrays of the shapes the controllers use;
 where the check fails (another NumPy's layout), the calls above stay NumPy's.
 
+The same holds across blocks: ``net_run`` and ``gh_run`` run several whole blocks, each
+the block's update, its steps (``rollout_block``: ``mj_step`` and ``mj_getState`` called
+by address on the model and data, as ``mujoco.rollout`` takes them) and its sensing, in
+one call, for ``ReflexController.run_blocks`` and ``GH2010Controller.run_blocks`` when
+``sim.run`` hands them ``sim.NativePhysics``.
+
 Numba is the optional extra ``fast`` (``pip install -e ".[fast]"``, in ``dev`` too).
 Without it, or with ``STUMBLE_KERNELS=numpy`` in the environment, the NumPy code runs;
 the numbers are the same either way, only the time differs (``benchmarks/bench_reflex.py``).
