@@ -496,6 +496,23 @@ class _Stepper:
         return rows, states
 
 
+def _quiet_blocks(stop, guard: FallGuard | None, lay: SensorLayout, t_now: float,
+                  blocks_left: int, block_s: float) -> tuple[int, FallGuard | None]:
+    """How many whole blocks a compiled loop may run from ``t_now`` (s since the trip):
+    every sample of them before the stop rule's ``quiet_until_s`` (0 when the rule has
+    none), at most ``blocks_left``; and the guard it checks, with the foot the rule
+    watches (``watch_foot``: side 0 right / 1 left, its contact at the last sample)."""
+    quiet_s = np.inf if stop is None else getattr(stop, "quiet_until_s", None)
+    if quiet_s is None:
+        return 0, guard
+    watch = getattr(stop, "watch_foot", None)
+    if watch is not None and guard is not None:
+        guard = FallGuard(guard.cols, guard.fall_height_m,
+                          int(lay.decode_index[watch[0]]), bool(watch[1]))
+    fit = int((min(quiet_s, 1e9) - t_now) / block_s) - 1
+    return min(blocks_left, fit), guard
+
+
 def run(ctx: Context, controller: Controller, duration_s: float,
         trip_force: Callable[[float], np.ndarray] | None = None, force_body: int = -1,
         force_point: Callable[[mujoco.MjData], np.ndarray] | None = None,
@@ -643,18 +660,9 @@ def run(ctx: Context, controller: Controller, duration_s: float,
         if guard is None:
             native = None
     while not why and step < n_steps:
-        quiet_s = None
         if native is not None and not forcing:
-            quiet_s = np.inf if stop is None else getattr(stop, "quiet_until_s", None)
-        if quiet_s is not None:
-            watch = getattr(stop, "watch_foot", None)
-            if watch is not None:  # (side 0 r / 1 l, its contact at the rule's last sample)
-                guard = FallGuard(guard.cols, guard.fall_height_m,
-                                  int(lay.decode_index[watch[0]]), bool(watch[1]))
-            # whole blocks whose every sample comes before the stop rule's quiet time
-            t_now = d.time - ctx.t0
-            fit = int((min(quiet_s, 1e9) - t_now) / (period * dt)) - 1
-            n_run = min((n_steps - step) // period, fit)
+            n_run, guard = _quiet_blocks(stop, guard, lay, d.time - ctx.t0,
+                                         (n_steps - step) // period, period * dt)
             tic = time.perf_counter()
             got = run_blocks(native, n_run, guard) if n_run >= 1 else None
             if got is not None:
