@@ -30,6 +30,7 @@ per-block Python it replaces was a third of a reflex walk's time (README, "Speed
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -213,18 +214,21 @@ class NativePhysics:
 _LIB: dict = {}  # mj_step's and mj_getState's addresses, once per process
 
 NATIVE_BLOCKS_MAX = 256  # blocks a compiled loop runs at most per call (its buffers' size)
-_SCRATCH: dict = {}  # ``native_scratch``'s buffers, per shape
+_SCRATCH = threading.local()  # ``native_scratch``'s buffers, per thread and shape
 
 
 def native_scratch(physics: NativePhysics, steps: int) -> tuple[np.ndarray, ...]:
     """Buffers for a compiled block loop of up to ``steps`` steps (states, sensor rows,
-    controls), kept per process and shape, not per controller (a controller's deep copy
+    controls), kept per thread and shape, not per controller (a controller's deep copy
     need not copy them): what a ``run_blocks`` returns is good until the next call."""
+    kept = getattr(_SCRATCH, "bufs", None)
+    if kept is None:
+        kept = _SCRATCH.bufs = {}
     key = (steps, physics.nstate, len(physics.sensordata), len(physics.ctrl))
-    got = _SCRATCH.get(key)
+    got = kept.get(key)
     if got is None:
-        got = _SCRATCH[key] = (np.empty((steps, key[1])), np.empty((steps, key[2])),
-                               np.empty((steps, key[3])))
+        got = kept[key] = (np.empty((steps, key[1])), np.empty((steps, key[2])),
+                           np.empty((steps, key[3])))
     return got
 
 

@@ -22,6 +22,7 @@ and where the walk before the trip comes from (``start``):
 
 from __future__ import annotations
 
+import threading
 from collections import OrderedDict
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
@@ -355,7 +356,8 @@ def trip_time(events, side: str, swing_fraction: float, after_s: float = 0.0) ->
 
 
 # ---- where the obstacle stands ------------------------------------------------------
-_SCRATCH: OrderedDict[int, tuple[mujoco.MjModel, mujoco.MjData]] = OrderedDict()
+# per thread (studies may run trips in threads): model id -> (model, scratch MjData)
+_SCRATCH = threading.local()
 _SCRATCH_MAX = 8  # models whose scratch data are kept (a study's bodies and walks)
 
 
@@ -364,17 +366,20 @@ def posed(m: mujoco.MjModel, qpos: np.ndarray) -> mujoco.MjData:
     frames only). Kept per model's sizes and reused: an ``MjData`` costs about 0.4 ms to
     make in MuJoCo 4.0's Python bindings, whatever the model, and serves any model of its
     sizes (``build``'s copies); valid until the next call for a model of those sizes."""
-    hit = _SCRATCH.get(id(m))
+    kept = getattr(_SCRATCH, "kept", None)
+    if kept is None:
+        kept = _SCRATCH.kept = OrderedDict()
+    hit = kept.get(id(m))
     if hit is None or hit[0] is not m:
         # a copy of a kept model (``build`` hands out copies) shares its scratch data:
         # an ``MjData`` serves any model of the same sizes
         sizes = _sizes(m)
-        same = next((dd for mm, dd in _SCRATCH.values() if _sizes(mm) == sizes), None)
-        hit = _SCRATCH[id(m)] = (m, same if same is not None else mujoco.MjData(m))
-        while len(_SCRATCH) > _SCRATCH_MAX:
-            _SCRATCH.popitem(last=False)
+        same = next((dd for mm, dd in kept.values() if _sizes(mm) == sizes), None)
+        hit = kept[id(m)] = (m, same if same is not None else mujoco.MjData(m))
+        while len(kept) > _SCRATCH_MAX:
+            kept.popitem(last=False)
     else:
-        _SCRATCH.move_to_end(id(m))
+        kept.move_to_end(id(m))
     d = hit[1]
     d.qpos[:] = qpos
     mujoco.mj_kinematics(m, d)
