@@ -398,3 +398,30 @@ def test_native_physics_reads_mujocos_warnings_and_refuses_what_a_rollout_resets
         "<mujoco><worldbody><body mocap='true'><geom size='.1'/></body></worldbody>"
         "</mujoco>")
     assert sim.native_physics(mocap, mujoco.MjData(mocap)) is None
+
+
+def test_native_blocks_in_threads_give_each_runs_own_numbers():
+    """Two walks and two trips at once in threads (a Dask worker may run trips so; the
+    compiled loops release the GIL): each the numbers it has alone."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from stumble.pipeline import simulate_trip, simulate_walk
+    from stumble.trip import Scenario
+
+    K.use_numpy(False)
+    if K.kernels() is None:
+        pytest.skip(f"{K.ENV}=numpy in the environment")
+    jobs = [lambda: simulate_walk("network", 2.0, speed_m_per_s=1.0).recording,
+            lambda: simulate_walk("gh2010", 2.0, speed_m_per_s=1.2).recording,
+            lambda: simulate_trip(Scenario(controller="reflex", mechanism="obstacle",
+                                           swing_fraction=0.13, speed_m_per_s=1.2,
+                                           duration_after_trip_s=1.0)).recording,
+            lambda: simulate_trip(Scenario(controller="gh2010", mechanism="obstacle",
+                                           swing_fraction=0.3, speed_m_per_s=1.0,
+                                           duration_after_trip_s=1.0)).recording]
+    alone = [job() for job in jobs]
+    with ThreadPoolExecutor(4) as ex:
+        together = list(ex.map(lambda job: job(), jobs))
+    for a, b in zip(alone, together, strict=True):
+        assert len(a.time_s) > 100
+        assert np.array_equal(a.qpos, b.qpos) and np.array_equal(a.sensordata, b.sensordata)
