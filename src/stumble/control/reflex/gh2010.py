@@ -972,28 +972,16 @@ class GH2010Controller:
     def _update_fused(self, kern: dict, ctx: Context) -> np.ndarray:
         """``update`` as one compiled call (``kernels.gh_update``: the delayed taps, the
         laws with NumPy's own matrix-product loop, the touch's reflexes, the plan)."""
-        p, n, d = self.p, self.period_steps, self.delay
+        n, d = self.period_steps, self.delay
         idx = d.read_index(n)
         self._update_fused_scratch(n)
-        x, v, stance, a, b, u = self._upd_at[n]
-        phi0, knee_v0, ds_load, ds_x, gate0 = self._feat_taps
-        touch0, xt0, load0, xf0 = self._touch_taps
-        by_foot = self._scr_by_foot
+        x, u = self._upd_at[n][0], self._upd_at[n][5]
         if self._scr:
             self._mark_box[0] = self._mark
         in_kernel = self._act_first is not None
-        kern["gh_update"](
-            kern["loops"], self._meta, d.buf, idx, x, phi0, self._phi_sign, self._phi_off,
-            self._phi_low, knee_v0, self._has_ds, ds_load, ds_x, p.stance_load, gate0,
-            self._ungated_b, v, stance, self._w_st, a, self._b_st, self._w_sw, b,
-            self._b_sw, self._law_ip, self._law_fp, u, self._scr, touch0, xt0, load0, xf0,
-            self._scr_hold, self._scr_vas_after, by_foot, p.scr_ahead_m,
-            self._w_scr if by_foot else self._no_sets,
-            self._no_any if by_foot else self._w_scr, self._w_scr_vas, self._cross,
-            self._cross_hold, p.cross_ahead_m, self._w_cross, self._scr_since,
-            self._touched, self._ahead, self._armed, self._cross_since, self._was_on,
-            self._mark_box, PRE_ACTIVATION, self.plan if in_kernel else self._no_plan,
-            self._act_first or 0, self._held)
+        kern["gh_update"](kern["loops"], self._meta, d.buf, idx, x, *self._law_args(n),
+                          self.plan if in_kernel else self._no_plan, self._act_first or 0,
+                          self._held)
         if self._scr:
             self._mark = float(self._mark_box[0])
         if in_kernel:
@@ -1038,7 +1026,7 @@ class GH2010Controller:
             return None
         from stumble.sim import CONTACT_FORCE_MIN_N, NATIVE_BLOCKS_MAX, native_scratch
 
-        p, ps, d = self.p, self.period_steps, self.delay
+        ps, d = self.period_steps, self.delay
         n = min(n, NATIVE_BLOCKS_MAX)
         states, rows, plans = native_scratch(physics, NATIVE_BLOCKS_MAX * ps)
         kk = np.array([d.k], dtype=np.int64)
@@ -1046,10 +1034,6 @@ class GH2010Controller:
             self._tap_idx = np.empty((ps, len(d.lags)), dtype=np.int64)
         idx = self._tap_idx
         self._update_fused_scratch(ps)
-        x, v, stance, a, b, u = self._upd_at[ps]
-        phi0, knee_v0, ds_load, ds_x, gate0 = self._feat_taps
-        touch0, xt0, load0, xf0 = self._touch_taps
-        by_foot = self._scr_by_foot
         if self._scr:
             self._mark_box[0] = self._mark
         sv, pa, pb, extra = self._sense_scratch(ps)
@@ -1061,16 +1045,8 @@ class GH2010Controller:
             guard.foot_col if guard is not None else -1,
             guard is not None and guard.foot_on, CONTACT_FORCE_MIN_N, kk, d.size, d.lags,
             d.cols, idx,
-            kern["loops"], self._meta, d.buf, x, phi0, self._phi_sign, self._phi_off,
-            self._phi_low, knee_v0, self._has_ds, ds_load, ds_x, p.stance_load, gate0,
-            self._ungated_b, v, stance, self._w_st, a, self._b_st, self._w_sw, b,
-            self._b_sw, self._law_ip, self._law_fp, u, self._scr, touch0, xt0, load0, xf0,
-            self._scr_hold, self._scr_vas_after, by_foot, p.scr_ahead_m,
-            self._w_scr if by_foot else self._no_sets,
-            self._no_any if by_foot else self._w_scr, self._w_scr_vas, self._cross,
-            self._cross_hold, p.cross_ahead_m, self._w_cross, self._scr_since,
-            self._touched, self._ahead, self._armed, self._cross_since, self._was_on,
-            self._mark_box, PRE_ACTIVATION, self._act_first,
+            kern["loops"], self._meta, d.buf, self._upd_at[ps][0], *self._law_args(ps),
+            self._act_first,
             self._gather, self._scale, self._offset, sv, self._place, self._place_cols, pa,
             pb, extra, lean, alpha)
         if self._scr:
@@ -1079,6 +1055,25 @@ class GH2010Controller:
         self.plan[:] = plans[(done - 1) * ps:done * ps]
         self._held = physics.ctrl
         return states[:done * ps], rows[:done * ps], plans[:done * ps], done
+
+    def _law_args(self, n: int) -> tuple:
+        """``kernels.gh_update``'s arguments from the features' taps to the excitations'
+        floor, for blocks of ``n`` ticks (its scratch made by ``_update_fused_scratch``;
+        ``gh_run`` takes the same)."""
+        p = self.p
+        _x, v, stance, a, b, u = self._upd_at[n]
+        phi0, knee_v0, ds_load, ds_x, gate0 = self._feat_taps
+        touch0, xt0, load0, xf0 = self._touch_taps
+        by_foot = self._scr_by_foot
+        return (phi0, self._phi_sign, self._phi_off, self._phi_low, knee_v0, self._has_ds,
+                ds_load, ds_x, p.stance_load, gate0, self._ungated_b, v, stance, self._w_st,
+                a, self._b_st, self._w_sw, b, self._b_sw, self._law_ip, self._law_fp, u,
+                self._scr, touch0, xt0, load0, xf0, self._scr_hold, self._scr_vas_after,
+                by_foot, p.scr_ahead_m, self._w_scr if by_foot else self._no_sets,
+                self._no_any if by_foot else self._w_scr, self._w_scr_vas, self._cross,
+                self._cross_hold, p.cross_ahead_m, self._w_cross, self._scr_since,
+                self._touched, self._ahead, self._armed, self._cross_since, self._was_on,
+                self._mark_box, PRE_ACTIVATION)
 
     def _update_fused_scratch(self, n: int) -> None:
         """``_update_fused``'s kept buffers for blocks of ``n`` ticks (made once)."""
