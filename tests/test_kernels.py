@@ -318,21 +318,24 @@ def _native_runs(monkeypatch, run):
 
 
 @pytest.mark.parametrize("controller", ["reflex", "gh2010"])
-@pytest.mark.parametrize("case", ["walk", "case1", "own-lowering", "own-elevating", "force"])
+@pytest.mark.parametrize("case", ["walk", "pushed walk", "case1", "own-lowering",
+                                  "own-elevating", "force"])
 def test_blocks_run_natively_equal_block_by_block(monkeypatch, controller, case):
-    """Each reflex controller's walk, its CASE 1 trip from the recording (the network's
-    touch response, Geyer & Herr's stumbling reflexes; a fall), own-gait trips (the walk
-    to the trip stopped by ``TripTimer``) and a force trip (blocks under the force stay
-    Python): whole blocks in one compiled call, the physics included, give the recording
-    and the summary of block-by-block stepping, bit for bit, and most blocks do run
-    natively."""
+    """Each reflex controller's walk, with two pelvis pushes (blocks under a push stay
+    Python), its CASE 1 trip from the recording (the network's touch response, Geyer &
+    Herr's stumbling reflexes; a fall), own-gait trips (the walk to the trip stopped by
+    ``TripTimer``) and a force trip: whole blocks in one compiled call, the physics
+    included, give the recording and the summary of block-by-block stepping, bit for bit,
+    and most blocks do run natively."""
     from stumble.pipeline import simulate_trip, simulate_walk
     from stumble.trip import Scenario
 
-    if case == "walk":
+    if case in ("walk", "pushed walk"):
+        pushes = ((1.0, 0.2, -150.0), (2.2, 0.2, 150.0)) if case == "pushed walk" else ()
+
         def run():
             return simulate_walk("network" if controller == "reflex" else "gh2010", 3.0,
-                                 speed_m_per_s=1.0)
+                                 speed_m_per_s=1.0, pushes=pushes)
     else:
         sc = {"case1": Scenario(controller="reflex", mechanism="obstacle",
                                 swing_fraction=0.13, speed_m_per_s=1.2,
@@ -356,7 +359,7 @@ def test_blocks_run_natively_equal_block_by_block(monkeypatch, controller, case)
     assert fast.recording.stop_reason == ref.recording.stop_reason
     assert ({k: v for k, v in fast.summary.items() if k != "wall_time_s"}
             == {k: v for k, v in ref.summary.items() if k != "wall_time_s"})
-    steps = ref.recording.steps if case == "walk" else len(b["time_s"]) * 2
+    steps = ref.recording.steps if "walk" in case else len(b["time_s"]) * 2
     per_block = 4 if controller == "reflex" else 2  # steps a block at 2 ms
     assert n_native * per_block > 0.5 * steps
 

@@ -663,12 +663,20 @@ def run(ctx: Context, controller: Controller, duration_s: float,
                            float(fall_h)))
         if guard is None:
             native = None
+    next_on = getattr(trip_force, "next_on_s", None)  # a force on in windows (pushes)
     while not why and step < n_steps:
-        if native is not None and not forcing:
-            n_run, guard = _quiet_blocks(stop, guard, lay, d.time - ctx.t0,
-                                         (n_steps - step) // period, period * dt)
-            tic = time.perf_counter()
-            got = run_blocks(native, n_run, guard) if n_run >= 1 else None
+        if native is not None and (not forcing or next_on is not None):
+            t_now = d.time - ctx.t0
+            n_run, guard = _quiet_blocks(stop, guard, lay, t_now, (n_steps - step) // period,
+                                         period * dt)
+            if forcing:  # whole blocks before the force's next window
+                n_run = min(n_run, int((min(next_on(t_now), 1e9) - t_now) / (period * dt)) - 1)
+            got = None
+            if n_run >= 1:
+                tic = time.perf_counter()
+                d.xfrc_applied[:] = 0.0  # (as a rollout of the blocks does)
+                d.qfrc_applied[:] = 0.0
+                got = run_blocks(native, n_run, guard)
             if got is not None:
                 stepper.physics_s += time.perf_counter() - tic  # (the controller's too)
                 states, rows, ctrls, done = got

@@ -201,6 +201,11 @@ class PelvisPushes:
         """Whether any push is on within [t0, t1] (s): outside, the loop steps natively."""
         return any(a <= t1 and t0 < a + b for a, b, _f in self.pushes)
 
+    def next_on_s(self, t: float) -> float:
+        """The first time from ``t`` (s) at which a push is on (inf: none left): before
+        it, whole blocks may run in one compiled call (``sim.run``)."""
+        return min((max(a, t) for a, b, _f in self.pushes if t < a + b), default=np.inf)
+
 
 @dataclass(frozen=True)
 class Scenario:
