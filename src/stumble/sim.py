@@ -18,8 +18,9 @@ One exception to "controllers never step", made for speed: a controller whose bl
 are compiled (the reflex controllers' ``run_blocks``) may run several whole blocks in one
 compiled call, stepping MuJoCo itself through this module's ``NativePhysics`` handle
 exactly as ``mujoco.rollout`` steps a block (the same states and sensor rows, bit for
-bit). ``run`` decides how many: only while nothing in them needs Python (no force,
-penalty contact or strength model) and only before the stop rule's ``quiet_until_s``,
+bit). ``run`` decides how many: only while nothing in them needs Python (no force, but
+for one on in windows, ``next_on_s``, before its next window; no penalty contact or
+strength model) and only before the stop rule's ``quiet_until_s``,
 the time before which only a fall can end the run; the controller stops after any block
 with a fall, a MuJoCo warning, a state not finite or a change of the foot the rule
 watches (``FallGuard``). ``run`` then records and judges every sample of those blocks as
