@@ -665,3 +665,46 @@ def test_a_response_by_foot_answers_a_late_swing_touch_with_its_ahead_sets():
         plain = simulate_trip(sc, network=net).recording.qpos
         resp = simulate_trip(sc, network=ahead_only).recording.qpos
         assert (plain.shape == resp.shape and np.array_equal(plain, resp)) == same, swing
+
+
+def test_the_networks_batch_pass_is_np_roll_s_bit_for_bit():
+    """``Network.forward`` and ``gradient_z`` shift each path's units in place (for
+    speed in DAgger's training): the numbers of the np.roll formulation, bit for bit,
+    so that the shipped fits re-run to their files."""
+    import numpy as np
+
+    from stumble.control.reflex.identify import default_network
+
+    net = default_network("placement-both")
+    rng = np.random.default_rng(3)
+    T = 1500
+    xd = rng.standard_normal((T, net.w.shape[0]))
+    dz = rng.standard_normal((T, net.c.shape[0]))
+    u, cache = net.forward(xd)
+    grad = net.gradient_z(xd, dz, cache)
+    # the formulation before (np.roll of each path's units)
+    h = np.tanh(xd @ net.w + net.b)
+    units = net.units_of()
+    conns = net.topology.connections()
+    hd = np.stack([np.roll(h[:, units[k]], lag, axis=0)
+                   for k, (_s, _j, lag) in enumerate(conns)], axis=1)
+    assert np.array_equal(cache["hd"], hd)
+    z = np.zeros((T, net.topology.n_muscles))
+    contrib = np.einsum("tch,ch->tc", hd, net.v)
+    for k, (_s, j, _lag) in enumerate(conns):
+        z[:, j] += contrib[:, k]
+    z += net.c
+    assert np.array_equal(u, 1.0 / (1.0 + np.exp(-z)))
+    js = np.array([j for _s, j, _lag in conns])
+    dcontrib = dz[:, js]
+    dv = np.einsum("tc,tch->ch", dcontrib, hd)
+    dhd = dcontrib[:, :, None] * net.v[None]
+    dh = np.zeros_like(h)
+    for k, (_s, _j, lag) in enumerate(conns):
+        dh[:, units[k]] += np.roll(dhd[:, k], -lag, axis=0)
+    dpre = dh * (1.0 - h ** 2)
+    mask = net._mask(net.topology)
+    ref = np.concatenate([((xd.T @ dpre) * mask)[mask.astype(bool)], dpre.sum(axis=0),
+                          dv.ravel(), dz.sum(axis=0)])
+    assert np.array_equal(grad, ref)
+    assert len({lag for *_x, lag in conns}) > 3  # (paths of several delays)

@@ -406,10 +406,19 @@ class Network:
     def forward(self, xd: np.ndarray) -> tuple[np.ndarray, dict]:
         """Excitation (T, 7) from delayed inputs (T, n_inputs) of periodic data."""
         h = np.tanh(xd @ self.w + self.b)  # (T, S·H)
-        units = self.units_of()
+        T, H = len(h), self.topology.hidden
         conns = self.topology.connections()
-        hd = np.stack([np.roll(h[:, units[k]], lag, axis=0)
-                       for k, (_s, _j, lag) in enumerate(conns)], axis=1)  # (T, C, H)
+        # (T, C, H): each path's units, ``lag`` later; laid out unit by unit, then tick by
+        # tick, path fastest, as the np.stack of np.roll'd fancy-indexed columns it replaces
+        # was (einsum's sums follow the layout: the shipped fits re-run bit for bit)
+        paths = np.empty((len(conns), T, H))
+        for k, (seg, _j, lag) in enumerate(conns):  # (np.roll's copies, into place)
+            lag %= T
+            paths[k, lag:] = h[:T - lag, seg * H:(seg + 1) * H]
+            paths[k, :lag] = h[T - lag:, seg * H:(seg + 1) * H]
+        hd = np.empty((H, T, len(conns)))
+        hd[...] = paths.transpose(2, 1, 0)
+        hd = hd.transpose(1, 2, 0)
         z = np.zeros((len(h), self.topology.n_muscles))
         contrib = np.einsum("tch,ch->tc", hd, self.v)
         for k, (_s, j, _lag) in enumerate(conns):
@@ -428,14 +437,17 @@ class Network:
         (u = σ(z)), in ``pack`` layout."""
         h, hd = cache["h"], cache["hd"]
         conns = self.topology.connections()
-        units = self.units_of()
+        T, H = len(h), self.topology.hidden
         js = np.array([j for _s, j, _lag in conns])
         dcontrib = dz[:, js]  # (T, C)
         dv = np.einsum("tc,tch->ch", dcontrib, hd)
         dhd = dcontrib[:, :, None] * self.v[None]  # (T, C, H)
         dh = np.zeros_like(h)
-        for k, (_s, _j, lag) in enumerate(conns):
-            dh[:, units[k]] += np.roll(dhd[:, k], -lag, axis=0)
+        for k, (seg, _j, lag) in enumerate(conns):  # each path's units, ``lag`` earlier
+            lag %= T  # (np.roll by −lag, added in place: the same sums in the same order)
+            units = slice(seg * H, (seg + 1) * H)
+            dh[:T - lag, units] += dhd[lag:, k]
+            dh[T - lag:, units] += dhd[:lag, k]
         dpre = dh * (1.0 - h ** 2)
         dw = (xd.T @ dpre) * self._mask(self.topology)
         m = self._mask(self.topology).astype(bool)
