@@ -48,6 +48,34 @@ def test_a_brush_of_the_swinging_foot_is_not_a_landing(brush_at):
     assert timer.toe_off_s == pytest.approx(2 * 1.2 + 0.6)  # the first after 2 s
 
 
+@pytest.mark.parametrize("brush_at", [None, 54])
+def test_the_trip_timer_says_truly_until_when_nothing_but_a_fall_can_stop_the_walk(
+        brush_at):
+    """``TripTimer.quiet_until_s`` and ``watch_foot`` (what lets ``sim.run`` hand whole
+    blocks to a compiled loop): at every sample, the trip comes no earlier than the time
+    it gave at the sample before while the watched foot kept its contact; in a counted
+    swing that time is the trip instant itself, and before the first sample nothing is
+    promised."""
+    timer = TripTimer("l", 0.75, after_s=2.0, fall_height_m=0.5)
+    assert timer.quiet_until_s == 0.0 and timer.watch_foot is None
+    promised = []
+    tripped = None
+    for i, on in enumerate(_strides(4, brush_at=brush_at)):
+        q, w = timer.quiet_until_s, timer.watch_foot
+        s = SimpleNamespace(t=i * DT, segment_on_floor=False, pelvis_height=0.9,
+                            foot_on_floor={"l": bool(on), "r": True})
+        why = timer(s)
+        if w is not None and bool(on) == w[1]:  # the watched contact held: promise kept
+            assert why == "" or s.t >= q - 1e-12
+            promised.append(q)
+        if why:
+            tripped = s.t
+            break
+    assert tripped == pytest.approx(3.0 + 0.45)  # the first counted swing after 2 s
+    assert min(q for q in promised if np.isfinite(q)) == pytest.approx(tripped)
+    assert promised.count(np.inf) > 100  # in stance, and swings that do not count
+
+
 def test_a_touch_lasting_three_samples_is_a_landing():
     """Three samples (15 ms, ``TOUCHDOWN_SAMPLES``) on the floor end the swing, dated
     from the first: 0.27 s swings of a foot that lands there and lifts again."""
