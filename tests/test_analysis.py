@@ -138,3 +138,21 @@ def test_walk_on_steps_counts_both_feet_striking_at_one_sample_as_one_step():
     steps = walk_on_steps(rec, 0.5)
     assert [round(d, 3) for d, _v in steps] == [0.5, 0.6]
     assert all(abs(v - 1.2) < 1e-9 for _d, v in steps)
+
+
+def test_fallen_rows_read_as_sensors_do():
+    """``sim.fallen`` over a falling trip's sensor rows: per row what ``Sensors`` reads
+    (a segment on the floor, or the pelvis below the height), and true at its end."""
+    from stumble.pipeline import simulate_trip
+    from stumble.sim import Sensors, fallen
+    from stumble.trip import Scenario
+
+    r = simulate_trip(Scenario(controller="reflex", mechanism="obstacle",
+                               swing_fraction=0.13, speed_m_per_s=1.2))
+    rec, lay = r.recording, r.body.sensors
+    h = 0.8 * float(np.median(rec.sensordata[:20, lay.decode_index[13]]))
+    got = fallen(lay, rec.sensordata, h)
+    want = [Sensors(lay, row).segment_on_floor or Sensors(lay, row).pelvis_height < h
+            for row in rec.sensordata]
+    assert got.tolist() == want
+    assert r.summary["fell"] and got[-1] and not got[0]

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from stumble.sim import Recording, Sensors
+from stumble.sim import Recording, Sensors, fallen
 
 FALL_PELVIS_FRACTION = 0.55  # pelvis below 55 % of standing hip height: sitting, kneeling
 RECOVERED_AFTER_S = 1.0  # the issue: no fall for 1 s after the recovery step lands
@@ -113,10 +113,10 @@ class StopRule:
                 quiet = t[j:] < self.walk_on_s - 1e-9
                 m = len(quiet) if quiet.all() else int(quiet.argmin())
                 if m:
-                    v = rows[j:j + m][:, lay.decode_index]
-                    fall = (v[:, 4] - v[:, 5] - v[:, 6] > 0.5) | (v[:, 13] < self.fall_height_m)
+                    fall = fallen(lay, rows[j:j + m], self.fall_height_m)
                     f = int(fall.argmax()) if fall.any() else m
-                    self._com_x += zip(t[j:j + f].tolist(), v[:f, 7].tolist(), strict=True)
+                    com_x = rows[j:j + f, lay.decode_index[7]]  # (``Sensors.com``'s x)
+                    self._com_x += zip(t[j:j + f].tolist(), com_x.tolist(), strict=True)
                     if f < m:
                         self.fell_s = float(t[j + f])
                         return j + f, "fell"
@@ -318,8 +318,7 @@ class WalkStop:
                 if self(s.set(lay, rows[j], float(t[j]))):
                     return j, "fell"
             return len(t), ""
-        v = rows[:, lay.decode_index]
-        fall = (v[:, 4] - v[:, 5] - v[:, 6] > 0.5) | (v[:, 13] < self.fall_height_m)
+        fall = fallen(lay, rows, self.fall_height_m)
         if not fall.any():
             return len(t), ""
         f = int(fall.argmax())

@@ -120,6 +120,18 @@ class Sensors:
                     doc="Sole corners (2, 4, 3), r and l (m).")
 
 
+# ``Sensors``' values a fall reads: the segments' floor contacts less the feet's (4, 5, 6)
+# and the pelvis height (13)
+FALL_VALUES = np.array([4, 5, 6, 13])
+
+
+def fallen(lay: SensorLayout, rows: np.ndarray, fall_height_m: float) -> np.ndarray:
+    """Per sensor row (n, nsensordata): a segment on the floor or the pelvis below
+    ``fall_height_m`` (``Sensors.segment_on_floor``, ``pelvis_height``), vectorised."""
+    v = rows[:, lay.decode_index[FALL_VALUES]]
+    return (v[:, 0] - v[:, 1] - v[:, 2] > 0.5) | (v[:, 3] < fall_height_m)
+
+
 # a person standing: both feet loaded, upright (what ``Sensors()`` reads without a row)
 _STANDING = np.zeros(50)
 _STANDING[[0, 1]] = -100.0
@@ -660,7 +672,7 @@ def run(ctx: Context, controller: Controller, duration_s: float,
     if native is not None and stop is not None:
         fall_h = getattr(stop, "fall_height_m", None)
         guard = (None if fall_h is None else
-                 FallGuard(np.asarray(lay.decode_index)[[4, 5, 6, 13]].astype(np.int64),
+                 FallGuard(np.asarray(lay.decode_index)[FALL_VALUES].astype(np.int64),
                            float(fall_h)))
         if guard is None:
             native = None

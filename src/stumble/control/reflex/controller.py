@@ -538,8 +538,8 @@ class ReflexController:
         self._no_place = np.zeros((0, 5))
         self._bal_par = None  # the balance's numbers for the compiled block (``start``)
         self._meta = np.zeros(16, dtype=np.int64)  # the NumPy loops' arguments
-        # ``run_blocks``' last block's excitations and controls
         self._resp_args = None  # the touch response's numbers for ``run_blocks``
+        # ``run_blocks``' last block's excitations and controls
         self._run_exc = (np.empty((self.block, 2, nm)), np.empty((self.block, 2 * nm)))
 
     # views made on each use, not kept: a deep copy (``pipeline.WalkInCache``) copies
