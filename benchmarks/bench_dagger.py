@@ -1,7 +1,7 @@
 """DAgger's training step on one process and on several: seconds, speed-up, the same numbers.
 
 Run:  python benchmarks/bench_dagger.py [--network NAME] [--episodes N] [--iterations K]
-      [--processes 1,2] [--repeats R]
+      [--processes 1,2] [--code compiled,numpy] [--repeats R]
 
 What ``stumble reflex fit --closed-loop`` spends most of its time on: L-BFGS
 (``dagger.train_on``) over the identification's data and every pass's labelled episodes.
@@ -12,7 +12,10 @@ weights. With P > 1 the sets are spread over P processes (``dagger.SetPool``). P
 per process count, the best of ``--repeats`` wall times, the speed-up over one process,
 and whether the trained weights are the one-process weights bit for bit (they must be).
 There is no MuJoCo in this step, so no bare-loop ratio: the figure is against one
-process. The load average is printed too: other work on the machine lowers the figures.
+process. ``--code``: the batch pass compiled (``kernels.batch_z`` and ``batch_dh``, with
+Numba) or NumPy's (``STUMBLE_KERNELS=numpy``); each row says whether its weights are the
+first row's bit for bit. The load average is printed too: other work on the machine
+lowers the figures.
 ``--spin`` leaves OpenBLAS's idle threads spinning (its default), as in a process that
 imported NumPy before stumble: then two processes train no faster than one.
 """
@@ -32,6 +35,7 @@ else:
 
 import numpy as np
 
+from stumble.control.reflex import kernels
 from stumble.control.reflex.dagger import EPISODE_S, SetPool, train_on
 from stumble.control.reflex.identify import default_network
 
@@ -42,6 +46,8 @@ def main() -> None:
     ap.add_argument("--episodes", type=int, default=32)
     ap.add_argument("--iterations", type=int, default=20)
     ap.add_argument("--processes", default="1,2", help="comma-separated process counts")
+    ap.add_argument("--code", default="compiled,numpy",
+                    help="comma-separated: compiled (Numba's batch pass), numpy")
     ap.add_argument("--repeats", type=int, default=2, help="best of this many (default 2)")
     ap.add_argument("--spin", action="store_true",
                     help="leave OpenBLAS's idle threads spinning (its own default)")
@@ -60,23 +66,29 @@ def main() -> None:
           f"OPENBLAS_THREAD_TIMEOUT {TIMEOUT}, "
           f"load average {os.getloadavg()[0]:.2f}")
     ref = None
-    for p in (int(v) for v in args.processes.split(",")):
-        pool = SetPool(p) if p > 1 else None
-        try:
-            best = np.inf
-            for _ in range(args.repeats):
-                tic = time.perf_counter()
-                trained, _loss = train_on(net, data, args.iterations, pool=pool)
-                best = min(best, time.perf_counter() - tic)
-        finally:
-            if pool is not None:
-                pool.close()
-        if ref is None:
-            ref = (best, trained.pack())
-        same = np.array_equal(trained.pack(), ref[1])
-        print(f"{p} process(es): {best:.2f} s, {ref[0] / best:.2f}x one process, "
-              f"weights {'the same bit for bit' if same else 'DIFFERENT'}")
-
+    for code in args.code.split(","):
+        if code not in ("compiled", "numpy"):
+            sys.exit(f"bench_dagger: --code {code!r}: compiled or numpy")
+        kernels.use_numpy(code == "numpy")  # (the pool's forked workers inherit it)
+        if code == "compiled" and kernels.kernels() is None:
+            print("compiled: Numba is not installed; skipped")
+            continue
+        for p in (int(v) for v in args.processes.split(",")):
+            pool = SetPool(p) if p > 1 else None
+            try:
+                best = np.inf
+                for _ in range(args.repeats):
+                    tic = time.perf_counter()
+                    trained, _loss = train_on(net, data, args.iterations, pool=pool)
+                    best = min(best, time.perf_counter() - tic)
+            finally:
+                if pool is not None:
+                    pool.close()
+            if ref is None:
+                ref = (best, trained.pack())
+            same = np.array_equal(trained.pack(), ref[1])
+            print(f"{code}, {p} process(es): {best:.2f} s, {ref[0] / best:.2f}x the first "
+                  f"row, weights {'the same bit for bit' if same else 'DIFFERENT'}")
 
 if __name__ == "__main__":
     main()

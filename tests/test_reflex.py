@@ -667,28 +667,39 @@ def test_a_response_by_foot_answers_a_late_swing_touch_with_its_ahead_sets():
         assert (plain.shape == resp.shape and np.array_equal(plain, resp)) == same, swing
 
 
-def test_the_networks_batch_pass_is_np_roll_s_bit_for_bit():
-    """``Network.forward`` and ``gradient_z`` shift each path's units in place (for
-    speed in DAgger's training): the numbers of the np.roll formulation, bit for bit,
-    so that the shipped fits re-run to their files."""
+@pytest.mark.parametrize("code", ["numpy", "compiled"])
+@pytest.mark.parametrize("T", [1500, 7])
+def test_the_networks_batch_pass_is_np_roll_s_bit_for_bit(code, T):
+    """``Network.forward`` and ``gradient_z`` shift each path's units in place, in NumPy
+    or in the compiled ``batch_z`` and ``batch_dh`` (for speed in DAgger's training and
+    the identification): the numbers of the np.roll formulation, bit for bit, so that
+    the shipped fits re-run to their files. (T = 7: lags longer than the data wrap.)"""
     import numpy as np
 
+    from stumble.control.reflex import kernels
     from stumble.control.reflex.identify import default_network
 
+    if code == "compiled" and kernels.kernels() is None:
+        pytest.skip("Numba is not installed")
     net = default_network("placement-both")
     rng = np.random.default_rng(3)
-    T = 1500
     xd = rng.standard_normal((T, net.w.shape[0]))
     dz = rng.standard_normal((T, net.c.shape[0]))
-    u, cache = net.forward(xd)
-    grad = net.gradient_z(xd, dz, cache)
+    kernels.use_numpy(code == "numpy")
+    try:
+        u, cache = net.forward(xd)
+        grad = net.gradient_z(xd, dz, cache)
+    finally:
+        kernels.use_numpy(False)
+    assert ("hd" in cache) == (code == "numpy")
     # the formulation before (np.roll of each path's units)
     h = np.tanh(xd @ net.w + net.b)
     units = net.units_of()
     conns = net.topology.connections()
     hd = np.stack([np.roll(h[:, units[k]], lag, axis=0)
                    for k, (_s, _j, lag) in enumerate(conns)], axis=1)
-    assert np.array_equal(cache["hd"], hd)
+    if code == "numpy":
+        assert np.array_equal(cache["hd"], hd)
     z = np.zeros((T, net.topology.n_muscles))
     contrib = np.einsum("tch,ch->tc", hd, net.v)
     for k, (_s, j, _lag) in enumerate(conns):
@@ -708,3 +719,4 @@ def test_the_networks_batch_pass_is_np_roll_s_bit_for_bit():
                           dv.ravel(), dz.sum(axis=0)])
     assert np.array_equal(grad, ref)
     assert len({lag for *_x, lag in conns}) > 3  # (paths of several delays)
+    assert T > 100 or max(lag for *_x, lag in conns) > T

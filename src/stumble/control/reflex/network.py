@@ -43,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from stumble.body.muscles import MUSCLE_NAMES, MUSCLE_SETS
+from stumble.control.reflex.kernels import kernels
 from stumble.control.reflex.receptors import SIGNALS
 from stumble.errors import InputError
 
@@ -406,6 +407,13 @@ class Network:
     def forward(self, xd: np.ndarray) -> tuple[np.ndarray, dict]:
         """Excitation (T, 7) from delayed inputs (T, n_inputs) of periodic data."""
         h = np.tanh(xd @ self.w + self.b)  # (T, S·H)
+        kern = kernels()
+        if kern is not None:  # the same sums in the same order, without the copies
+            segs, js, lags = self._path_arrays()
+            z = np.empty((len(h), self.topology.n_muscles))
+            kern["batch_z"](h, self.v, segs, js, lags, self.c, z)
+            u = 1.0 / (1.0 + np.exp(-z))
+            return u, {"h": h, "u": u, "z": z}
         T, H = len(h), self.topology.hidden
         conns = self.topology.connections()
         # (T, C, H): each path's units, ``lag`` later; laid out unit by unit, then tick by
@@ -435,7 +443,27 @@ class Network:
     def gradient_z(self, xd: np.ndarray, dz: np.ndarray, cache: dict) -> np.ndarray:
         """Gradient of a loss with ∂L/∂z = ``dz`` (T, 7), z the motor neurons' input
         (u = σ(z)), in ``pack`` layout."""
-        h, hd = cache["h"], cache["hd"]
+        h = cache["h"]
+        if "hd" not in cache:  # ``forward`` ran compiled: so does this
+            segs, js, lags = self._path_arrays()
+            dv, dpre = np.empty_like(self.v), np.empty_like(h)
+            kernels()["batch_dh"](h, np.ascontiguousarray(dz), self.v, segs, js, lags,
+                                  dv, dpre)
+        else:
+            dv, dpre = self._path_gradient(h, cache["hd"], dz)
+        dw = (xd.T @ dpre) * self._mask(self.topology)
+        m = self._mask(self.topology).astype(bool)
+        return np.concatenate([dw[m], dpre.sum(axis=0), dv.ravel(), dz.sum(axis=0)])
+
+    def _path_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Each motor path's segment, muscle and lag (ticks), as arrays."""
+        conns = self.topology.connections()
+        return tuple(np.array([c[i] for c in conns], dtype=np.int64) for i in range(3))
+
+    def _path_gradient(self, h: np.ndarray, hd: np.ndarray,
+                       dz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``gradient_z``'s path weights' gradient (C, H) and interneurons' input gradient
+        (T, S·H), in NumPy (``kernels``' ``batch_dh`` does the same sums)."""
         conns = self.topology.connections()
         T, H = len(h), self.topology.hidden
         js = np.array([j for _s, j, _lag in conns])
@@ -448,10 +476,7 @@ class Network:
             units = slice(seg * H, (seg + 1) * H)
             dh[:T - lag, units] += dhd[lag:, k]
             dh[T - lag:, units] += dhd[:lag, k]
-        dpre = dh * (1.0 - h ** 2)
-        dw = (xd.T @ dpre) * self._mask(self.topology)
-        m = self._mask(self.topology).astype(bool)
-        return np.concatenate([dw[m], dpre.sum(axis=0), dv.ravel(), dz.sum(axis=0)])
+        return dv, dh * (1.0 - h ** 2)
 
     def excitation(self, signals: np.ndarray) -> np.ndarray:
         """Excitation (T, 7) of one leg over periodic receptor signals (T, n_signals)."""
