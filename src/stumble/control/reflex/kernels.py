@@ -168,7 +168,7 @@ def _compiled(numba) -> dict:
     global place_offsets, net_update, net_sense, gh_update, gh_observe, gh_sense, gh_push
     global gh_laws, gh_features, gh_select, gh_lean, gh_place, gh_touch, clip_plan
     global call_step, call_get_state, net_run, resp_drive, resp_add, resp_onsets
-    global gto_steps, rollout_block, block_ends_run, gh_run, batch_z, batch_dh
+    global gto_steps, rollout_block, block_ends_run, gh_run, batch_z, batch_dh, path_index
     from stumble.control.reflex._loop_call import call_get_state as _get
     from stumble.control.reflex._loop_call import call_loop as _call
     from stumble.control.reflex._loop_call import call_step as _step
@@ -978,26 +978,36 @@ def _compiled(numba) -> dict:
                     plan[i, first + q] = u[i, q]
 
     @jit
-    def batch_z(h, v, segs, js, lags, c, z):
-        """``Network.forward``'s motor-neuron inputs ``z`` (T, muscles), zeroed first,
-        from the interneurons ``h`` (T, segments·H) of periodic data: each path k's
-        units ``lags[k]`` ticks later (np.roll), weighted by ``v[k]`` and summed unit by
-        unit (einsum's order), added to its muscle in the paths' order, then ``c``."""
-        T, H = h.shape[0], v.shape[1]
-        z[:] = 0.0
-        s = np.empty(T)  # one path's sums, built unit by unit for all ticks at once
+    def path_index(segs, lags, T, H):
+        """Each motor path's lag modulo ``T`` and its segment's first unit."""
+        lag, u0 = np.empty(len(segs), np.int64), np.empty(len(segs), np.int64)
         for k in range(len(segs)):
-            u0, j, lag = segs[k] * H, js[k], lags[k] % T
-            s[:] = 0.0
-            for q in range(H):
-                w = v[k, q]
-                for t in range(lag):
-                    s[t] += h[t - lag + T, u0 + q] * w
-                for t in range(lag, T):
-                    s[t] += h[t - lag, u0 + q] * w
-            for t in range(T):
-                z[t, j] += s[t]
+            lag[k] = lags[k] % T
+            u0[k] = segs[k] * H
+        return lag, u0
+
+    @jit
+    def batch_z(h, v, segs, js, lags, c, z):
+        """``Network.forward``'s motor-neuron inputs ``z`` (T, muscles) from the
+        interneurons ``h`` (T, segments·H) of periodic data: each path k's units
+        ``lags[k]`` ticks later (np.roll), weighted by ``v[k]`` and summed unit by unit
+        (einsum's order), added to its muscle from 0 in the paths' order, then ``c``."""
+        T, H = h.shape[0], v.shape[1]
+        lag, u0 = path_index(segs, lags, T, H)
+        s = np.empty(len(segs))  # the tick's path sums (independent: side by side)
         for t in range(T):
+            for k in range(len(segs)):
+                r = t - lag[k]
+                if r < 0:
+                    r += T
+                a = 0.0
+                for q in range(H):
+                    a += h[r, u0[k] + q] * v[k, q]
+                s[k] = a
+            for j in range(z.shape[1]):
+                z[t, j] = 0.0
+            for k in range(len(segs)):
+                z[t, js[k]] += s[k]
             for j in range(z.shape[1]):
                 z[t, j] += c[j]
 
@@ -1005,27 +1015,31 @@ def _compiled(numba) -> dict:
     def batch_dh(h, dz, v, segs, js, lags, dv, dpre):
         """``Network.gradient_z``'s path weights' gradient ``dv`` (paths, H; summed
         tick by tick, einsum's order) and the interneurons' input gradient ``dpre``
-        (T, segments·H): each path's dz·v added ``lags[k]`` ticks earlier, in the paths'
-        order, times 1 − h²."""
-        T, H = h.shape[0], v.shape[1]
-        dpre[:] = 0.0
-        acc = np.empty(H)  # the H sums run side by side, each in tick order
-        for k in range(len(segs)):
-            u0, j, lag = segs[k] * H, js[k], lags[k] % T
-            acc[:] = 0.0
-            for t in range(T):
-                r = t - lag
+        (T, segments·H): each path's dz·v added ``lags[k]`` ticks earlier, from 0 in the
+        paths' order, times 1 − h²."""
+        T, H, W = h.shape[0], v.shape[1], h.shape[1]
+        lag, u0 = path_index(segs, lags, T, H)
+        dv[:] = 0.0
+        for t in range(T):
+            for k in range(len(segs)):
+                r = t - lag[k]
                 if r < 0:
                     r += T
-                d = dz[t, j]
+                d = dz[t, js[k]]
                 for q in range(H):
-                    acc[q] += d * h[r, u0 + q]
-                    dpre[r, u0 + q] += d * v[k, q]
-            for q in range(H):
-                dv[k, q] = acc[q]
-        for t in range(T):
-            for q in range(h.shape[1]):
-                dpre[t, q] = dpre[t, q] * (1.0 - h[t, q] * h[t, q])
+                    dv[k, q] += d * h[r, u0[k] + q]
+        for r in range(T):
+            for q in range(W):
+                dpre[r, q] = 0.0
+            for k in range(len(segs)):
+                t = r + lag[k]
+                if t >= T:
+                    t -= T
+                d = dz[t, js[k]]
+                for q in range(H):
+                    dpre[r, u0[k] + q] += d * v[k, q]
+            for q in range(W):
+                dpre[r, q] = dpre[r, q] * (1.0 - h[r, q] * h[r, q])
 
     @jit
     def gto_steps(b, a, z, x, y):
