@@ -69,9 +69,15 @@ def main() -> None:
     for code in args.code.split(","):
         if code not in ("compiled", "numpy"):
             sys.exit(f"bench_dagger: --code {code!r}: compiled or numpy")
-        kernels.use_numpy(code == "numpy")  # (the pool's forked workers inherit it)
+        # the pool's workers inherit either: forked, the switch; spawned, the environment
+        if code == "numpy":
+            os.environ[kernels.ENV] = "numpy"
+        else:
+            os.environ.pop(kernels.ENV, None)
+        kernels.use_numpy(code == "numpy")
         if code == "compiled" and kernels.kernels() is None:
-            print("compiled: Numba is not installed; skipped")
+            print("compiled: the kernels are off (no Numba, or they failed to compile); "
+                  "skipped")
             continue
         for p in (int(v) for v in args.processes.split(",")):
             pool = SetPool(p) if p > 1 else None

@@ -667,27 +667,44 @@ def test_a_response_by_foot_answers_a_late_swing_touch_with_its_ahead_sets():
         assert (plain.shape == resp.shape and np.array_equal(plain, resp)) == same, swing
 
 
-@pytest.mark.parametrize("code", ["numpy", "compiled"])
+def _batch_net(hidden: int):
+    """The default network, or a random one of its topology with ``hidden`` units."""
+    from dataclasses import replace
+
+    from stumble.control.reflex.identify import default_network
+    from stumble.control.reflex.network import Network
+
+    net = default_network("placement-both")
+    if hidden == net.topology.hidden:
+        return net
+    top = replace(net.topology, hidden=hidden)
+    out = Network.initial(top, net.mean, net.std, seed=hidden)
+    out.b = np.random.default_rng(1).normal(0.0, 0.5, out.b.shape)
+    out.c = np.random.default_rng(2).normal(0.0, 0.5, out.c.shape)
+    return out
+
+
+@pytest.mark.parametrize("code", ["numpy", "compiled", "compiled-then-numpy"])
 @pytest.mark.parametrize("T", [1500, 7])
-def test_the_networks_batch_pass_is_np_roll_s_bit_for_bit(code, T):
+@pytest.mark.parametrize("hidden", [6, 3])
+def test_the_networks_batch_pass_is_np_roll_s_bit_for_bit(code, T, hidden):
     """``Network.forward`` and ``gradient_z`` shift each path's units in place, in NumPy
     or in the compiled ``batch_z`` and ``batch_dh`` (for speed in DAgger's training and
     the identification): the numbers of the np.roll formulation, bit for bit, so that
-    the shipped fits re-run to their files. (T = 7: lags longer than the data wrap.)"""
-    import numpy as np
-
+    the shipped fits re-run to their files; a compiled forward's cache also serves the
+    NumPy gradient. (T = 7: lags longer than twice the data wrap more than once.)"""
     from stumble.control.reflex import kernels
-    from stumble.control.reflex.identify import default_network
 
-    if code == "compiled" and kernels.kernels() is None:
+    if code != "numpy" and kernels.kernels() is None:
         pytest.skip("Numba is not installed")
-    net = default_network("placement-both")
+    net = _batch_net(hidden)
     rng = np.random.default_rng(3)
     xd = rng.standard_normal((T, net.w.shape[0]))
     dz = rng.standard_normal((T, net.c.shape[0]))
     kernels.use_numpy(code == "numpy")
     try:
         u, cache = net.forward(xd)
+        kernels.use_numpy(code != "compiled")
         grad = net.gradient_z(xd, dz, cache)
     finally:
         kernels.use_numpy(False)
@@ -719,4 +736,4 @@ def test_the_networks_batch_pass_is_np_roll_s_bit_for_bit(code, T):
                           dv.ravel(), dz.sum(axis=0)])
     assert np.array_equal(grad, ref)
     assert len({lag for *_x, lag in conns}) > 3  # (paths of several delays)
-    assert T > 100 or max(lag for *_x, lag in conns) > T
+    assert T > 100 or max(lag for *_x, lag in conns) > 2 * T

@@ -26,6 +26,12 @@ by address on the model and data, as ``mujoco.rollout`` takes them) and its sens
 one call, for ``ReflexController.run_blocks`` and ``GH2010Controller.run_blocks`` when
 ``sim.run`` hands them ``sim.NativePhysics``.
 
+Two kernels serve the fits rather than a controller: ``batch_z`` and ``batch_dh``, the
+motor paths of ``Network.forward`` and ``Network.gradient_z`` over a whole training set
+(DAgger's training, the identification), each sum in einsum's order and each path's
+share added in the paths' order, so that the fits give the NumPy code's numbers
+(``tests/test_reflex.py``).
+
 Numba is the optional extra ``fast`` (``pip install -e ".[fast]"``, in ``dev`` too).
 Without it, or with ``STUMBLE_KERNELS=numpy`` in the environment, the NumPy code runs;
 the numbers are the same either way, only the time differs (``benchmarks/bench_reflex.py``).

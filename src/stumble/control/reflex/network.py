@@ -414,19 +414,8 @@ class Network:
             kern["batch_z"](h, self.v, segs, js, lags, self.c, z)
             u = 1.0 / (1.0 + np.exp(-z))
             return u, {"h": h, "u": u, "z": z}
-        T, H = len(h), self.topology.hidden
+        hd = self._path_units(h)
         conns = self.topology.connections()
-        # (T, C, H): each path's units, ``lag`` later; laid out unit by unit, then tick by
-        # tick, path fastest, as the np.stack of np.roll'd fancy-indexed columns it replaces
-        # was (einsum's sums follow the layout: the shipped fits re-run bit for bit)
-        paths = np.empty((len(conns), T, H))
-        for k, (seg, _j, lag) in enumerate(conns):  # (np.roll's copies, into place)
-            lag %= T
-            paths[k, lag:] = h[:T - lag, seg * H:(seg + 1) * H]
-            paths[k, :lag] = h[T - lag:, seg * H:(seg + 1) * H]
-        hd = np.empty((H, T, len(conns)))
-        hd[...] = paths.transpose(2, 1, 0)
-        hd = hd.transpose(1, 2, 0)
         z = np.zeros((len(h), self.topology.n_muscles))
         contrib = np.einsum("tch,ch->tc", hd, self.v)
         for k, (_s, j, _lag) in enumerate(conns):
@@ -434,6 +423,22 @@ class Network:
         z += self.c
         u = 1.0 / (1.0 + np.exp(-z))
         return u, {"h": h, "hd": hd, "u": u, "z": z}
+
+    def _path_units(self, h: np.ndarray) -> np.ndarray:
+        """(T, C, H): each motor path's units, ``lag`` ticks later (periodic data)."""
+        T, H = len(h), self.topology.hidden
+        conns = self.topology.connections()
+        # laid out unit by unit, then tick by tick, path fastest, as the np.stack of
+        # np.roll'd fancy-indexed columns it replaces was (einsum's sums follow the
+        # layout: the shipped fits re-run bit for bit)
+        paths = np.empty((len(conns), T, H))
+        for k, (seg, _j, lag) in enumerate(conns):  # (np.roll's copies, into place)
+            lag %= T
+            paths[k, lag:] = h[:T - lag, seg * H:(seg + 1) * H]
+            paths[k, :lag] = h[T - lag:, seg * H:(seg + 1) * H]
+        hd = np.empty((H, T, len(conns)))
+        hd[...] = paths.transpose(2, 1, 0)
+        return hd.transpose(1, 2, 0)
 
     def gradient(self, xd: np.ndarray, du: np.ndarray, cache: dict) -> np.ndarray:
         """Gradient of a loss with ∂L/∂u = ``du`` (T, 7), in ``pack`` layout."""
@@ -444,13 +449,15 @@ class Network:
         """Gradient of a loss with ∂L/∂z = ``dz`` (T, 7), z the motor neurons' input
         (u = σ(z)), in ``pack`` layout."""
         h = cache["h"]
-        if "hd" not in cache:  # ``forward`` ran compiled: so does this
-            segs, js, lags = self._path_arrays()
-            dv, dpre = np.empty_like(self.v), np.empty_like(h)
-            kernels()["batch_dh"](h, np.ascontiguousarray(dz), self.v, segs, js, lags,
-                                  dv, dpre)
+        kern = kernels()
+        if "hd" in cache or kern is None:  # (a compiled forward's cache: its paths now)
+            hd = cache["hd"] if "hd" in cache else self._path_units(h)
+            dv, dpre = self._path_gradient(h, hd, dz)
         else:
-            dv, dpre = self._path_gradient(h, cache["hd"], dz)
+            segs, js, lags = self._path_arrays()
+            dv, dpre = np.empty(self.v.shape), np.empty(h.shape)
+            kern["batch_dh"](h, np.ascontiguousarray(dz, dtype=float), self.v, segs, js,
+                             lags, dv, dpre)
         dw = (xd.T @ dpre) * self._mask(self.topology)
         m = self._mask(self.topology).astype(bool)
         return np.concatenate([dw[m], dpre.sum(axis=0), dv.ravel(), dz.sum(axis=0)])
