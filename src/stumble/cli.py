@@ -493,9 +493,10 @@ def _parser() -> argparse.ArgumentParser:
                          "keeps the stages already done.")
     rp.add_argument("name", metavar="NAME",
                     help="a shipped set (e.g. knee-2ms-dense-wide-s3, the Geyer & Herr "
-                    "default: five fits from the paper's gains, about 32 min on 2 "
+                    "default: five fits from the paper's gains, about 16-32 min on 2 "
                     "workers) or network (e.g. placement-both, the default: fourteen fits "
-                    "from the paper's gains through its expert and DAgger, about 2 h)")
+                    "from the paper's gains through its expert and DAgger, about "
+                    "72-120 min)")
     rp.add_argument("--out", required=True, type=out_dir_arg, metavar="DIR",
                     help="output directory")
     rp.add_argument("--from", dest="start_after", metavar="NAME",

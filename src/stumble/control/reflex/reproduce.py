@@ -60,7 +60,8 @@ class Stage:
 # network in closed loop"), where the CMA-ES chains of the network start (re-run
 # 2026-12-05, fourth session: the shipped weights and trunk balance bit for bit, 50.6
 # min on 2 workers with other work on the machine; fifth session, its training shared
-# by the workers (``dagger.SetPool``): bit for bit again, 20.5 min on 2 workers, idle).
+# by the workers (``dagger.SetPool``): bit for bit again, 20.5 min on 2 workers, idle;
+# 2026-12-06, thirteenth session, its batch pass compiled: 10.4 min on the Intel Xeon).
 # A chain that starts from one runs it first, its expert's chain before it.
 ROOTS = {"placement": Stage("stumble reflex fit --closed-loop --seed 0 --expert "
                             "expert-placement --no-video --out DIR", None, 20.5,
