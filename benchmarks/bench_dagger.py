@@ -96,5 +96,6 @@ def main() -> None:
             print(f"{code}, {p} process(es): {best:.2f} s, {ref[0] / best:.2f}x the first "
                   f"row, weights {'the same bit for bit' if same else 'DIFFERENT'}")
 
+
 if __name__ == "__main__":
     main()

@@ -408,21 +408,21 @@ class Network:
         """Excitation (T, 7) from delayed inputs (T, n_inputs) of periodic data."""
         h = np.tanh(xd @ self.w + self.b)  # (T, S·H)
         kern = kernels()
+        cache = {"h": h}
         if kern is not None:  # the same sums in the same order, without the copies
             segs, js, lags = self._path_arrays()
             z = np.empty((len(h), self.topology.n_muscles))
             kern["batch_z"](h, self.v, segs, js, lags, self.c, z)
-            u = 1.0 / (1.0 + np.exp(-z))
-            return u, {"h": h, "u": u, "z": z}
-        hd = self._path_units(h)
-        conns = self.topology.connections()
-        z = np.zeros((len(h), self.topology.n_muscles))
-        contrib = np.einsum("tch,ch->tc", hd, self.v)
-        for k, (_s, j, _lag) in enumerate(conns):
-            z[:, j] += contrib[:, k]
-        z += self.c
+        else:
+            cache["hd"] = hd = self._path_units(h)
+            z = np.zeros((len(h), self.topology.n_muscles))
+            contrib = np.einsum("tch,ch->tc", hd, self.v)
+            for k, (_s, j, _lag) in enumerate(self.topology.connections()):
+                z[:, j] += contrib[:, k]
+            z += self.c
         u = 1.0 / (1.0 + np.exp(-z))
-        return u, {"h": h, "hd": hd, "u": u, "z": z}
+        cache.update(u=u, z=z)
+        return u, cache
 
     def _path_units(self, h: np.ndarray) -> np.ndarray:
         """(T, C, H): each motor path's units, ``lag`` ticks later (periodic data)."""
@@ -458,9 +458,10 @@ class Network:
             dv, dpre = np.empty(self.v.shape), np.empty(h.shape)
             kern["batch_dh"](h, np.ascontiguousarray(dz, dtype=float), self.v, segs, js,
                              lags, dv, dpre)
-        dw = (xd.T @ dpre) * self._mask(self.topology)
-        m = self._mask(self.topology).astype(bool)
-        return np.concatenate([dw[m], dpre.sum(axis=0), dv.ravel(), dz.sum(axis=0)])
+        mask = self._mask(self.topology)
+        dw = (xd.T @ dpre) * mask
+        return np.concatenate([dw[mask.astype(bool)], dpre.sum(axis=0), dv.ravel(),
+                               dz.sum(axis=0)])
 
     def _path_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Each motor path's segment, muscle and lag (ticks), as arrays."""
