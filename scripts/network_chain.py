@@ -8,7 +8,7 @@ stage starts from, with the recorded minutes; a start that is a shipped network 
 as such (its own chain: run this script on that name), and so is a response taken from
 another network (``--ahead-from``); ``stumble reflex reproduce NAME`` runs them as one
 job (``stumble.control.reflex.reproduce``). The network ``placement``, where the CMA-ES chains
-start, was trained by DAgger from the placing expert (README "The seed's network in
+start, was trained by DAgger from the placing expert (docs/reflex-network.md "The seed's network in
 closed loop").
 
 Run:  python scripts/network_chain.py NAME|FILE
@@ -67,7 +67,7 @@ def main() -> int:
     fit = (net.info or {}).get("fit")
     if not fit or "command" not in fit:
         print(f"network_chain: {args.network} records no CMA-ES stage (an identification "
-              "or a DAgger fit: see the README)", file=sys.stderr)
+              "or a DAgger fit: see docs/reflex.md)", file=sys.stderr)
         return 2
     print("\n".join(commands(fit, set(NETWORK_NAMES))))
     return 0

@@ -71,7 +71,7 @@ WALK_ON_NAMES = (*WALK_ON, "reach_thigh_deg", "reach_sup_knee")
 LOWERING_GRID = [(f, v, mech) for mech in ("force", "obstacle") for f in (0.55, 0.65, 0.75)
                  for v in (1.0, 1.2, 1.4)]
 # the six bodies (height m, mass kg, sex) at 1.2 m/s, swing 0.05-0.75, both
-# mechanisms (README "Any body"); --grid full+bodies adds them to the full grid
+# mechanisms (docs/trips.md "Any body"); --grid full+bodies adds them to the full grid
 BODIES = ((1.50, 45.0, "female"), (1.65, 60.0, "female"), (1.70, 85.0, "female"),
           (1.70, 80.0, "male"), (1.90, 90.0, "male"), (1.95, 110.0, "male"))
 BODY_GRID = [(f, 1.2, mech, *body) for body in BODIES for mech in ("force", "obstacle")

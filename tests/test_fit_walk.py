@@ -475,7 +475,7 @@ def test_shipped_gh2010_fits_score_today_what_they_scored_in_their_fit(name):
     machine to the last bit; 1e-6 allowed for other CPUs' rounding, where the planar
     solver tolerance's change from 1e-8 to 1e-6 moved a walk's cost by 1e-3). The
     walking fit, ``gh2010_walk.json``, was made at the earlier tolerance and is not held
-    to it: README "Reproducing the shipped fits"."""
+    to it: docs/gh2010.md "Reproducing the shipped fits"."""
     import json
     from importlib import resources
 

@@ -64,7 +64,7 @@ def test_gh2010_walks_on_untripped_in_its_own_gait_and_from_the_recording():
 @pytest.mark.parametrize(("swing", "speed"), [(0.05, 1.0), (0.25, 1.2)])
 def test_gh2010_recovers_from_early_swing_trips_in_its_own_gait(swing, speed):
     """The default set, a 10 cm obstacle: elevating, still walking 3 s after the trip
-    (README "The strategies emerge": 26 of the 45 trips recover)."""
+    (docs/reflex-network.md "The strategies emerge": 26 of the 45 trips recover)."""
     s = simulate_trip(Scenario(controller="gh2010", mechanism="obstacle",
                                swing_fraction=swing, speed_m_per_s=speed)).summary
     assert s["strategy"] == "elevating" and s["recovered"] and not s["fell"]
@@ -89,7 +89,7 @@ def test_the_foot_phase_set_recovers_a_late_swing_trip_by_lowering():
 def test_the_2ms_set_runs_at_2ms_and_recovers_an_early_trip_knee_falls_from():
     """``--params knee-2ms`` (``knee``'s touch stage refitted at a 2 ms step) runs at its
     own step, and at 0.10 of swing, 1.2 m/s, it walks on where ``knee`` (the default until
-    2026-12-05, at its 1 ms) falls (README "Speed": 30 of the 45 against 26)."""
+    2026-12-05, at its 1 ms) falls (docs/speed.md "Speed": 30 of the 45 against 26)."""
     from stumble.control.reflex.gh2010 import load_params
 
     p = load_params("knee-2ms")
@@ -114,7 +114,7 @@ def test_each_later_2ms_touch_stage_recovers_a_trip_its_start_does_not(name, bef
     at 1.1 and 1.3 m/s) and ``knee-2ms-dense-wide`` (a third, on the wide twelve; and
     by another seed, ``-s3``, the default) run at
     2 ms, walk as the set they started from (the touch's reflexes alone were fitted), and
-    walk on from a trip where that set does not (README "Geyer & Herr 2010")."""
+    walk on from a trip where that set does not (docs/gh2010.md "Geyer & Herr 2010")."""
     from stumble.control.reflex.gh2010 import TOUCH_FIELDS, load_params
 
     p, q = load_params(name), load_params(before)
@@ -177,7 +177,7 @@ def test_the_closed_loop_network_takes_the_seeds_strategies(swing, strategy, nam
 
 def test_the_closed_loop_network_recovers_an_early_trip_in_its_own_gait():
     """0.05 of its own swing, 1.2 m/s start: elevating, still walking 3 s after the trip
-    (README "The strategies emerge": 10 of the 45 own-gait trips recover)."""
+    (docs/reflex-network.md "The strategies emerge": 10 of the 45 own-gait trips recover)."""
     from stumble.control.reflex.identify import default_network
 
     s = simulate_trip(Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.05,
@@ -246,8 +246,8 @@ def test_the_default_network_is_placement_both_and_walks(tmp_path):
 @pytest.mark.parametrize("speed", [1.0, 1.4])
 def test_the_placing_expert_walks_from_slow_and_fast_starts(speed):
     """``expert-placement`` (seed003-wired, fitted with ``--starts 1.0,1.4``): 5 s from
-    the 1.0 and 1.4 m/s walks, no fall, the knees straight at most (README "The seed's
-    network in closed loop": 20 s from each of 1.0-1.4 m/s, RMSE 7.1/11.1/7.5°)."""
+    the 1.0 and 1.4 m/s walks, no fall, the knees straight at most (docs/reflex-network.md: 20 s
+    from each of 1.0-1.4 m/s, RMSE 7.1/11.1/7.5°)."""
     from stumble.control.reflex.gh2010 import load_params
 
     p = load_params("expert-placement")

@@ -170,7 +170,7 @@ def _parser() -> argparse.ArgumentParser:
                    "identification alone)")
     t.add_argument("--no-trunk-balance", action="store_true",
                    help="reflex controller: without the stance hips' trunk-lean reflex "
-                   "(our addition to seed 003; see the README)")
+                   "(our addition to seed 003; see docs/reflex.md)")
     t.add_argument("--strategy", choices=("auto", "elevating", "lowering"), default="auto",
                    help="auto: elevating up to 0.5 of swing, lowering above (default auto)")
     t.add_argument("--swing", type=float, default=0.2, metavar="F",

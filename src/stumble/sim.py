@@ -26,7 +26,7 @@ with a fall, a MuJoCo warning, a state not finite or a change of the foot the ru
 watches (``FallGuard``). ``run`` then records and judges every sample of those blocks as
 it does block by block. Why not a loop here that calls the controller's compiled block:
 Numba cannot call a controller's compiled code from a generic, cached loop, and the
-per-block Python it replaces was a third of a reflex walk's time (README, "Speed").
+per-block Python it replaces was a third of a reflex walk's time (docs/speed.md, "Speed").
 """
 
 from __future__ import annotations

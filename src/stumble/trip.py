@@ -17,7 +17,7 @@ and where the walk before the trip comes from (``start``):
   own next swing of the tripped leg (the fraction of the mean of its last two swings).
   A walker's response to a trip then starts from its own gait, as a person's does; a
   reflex walker that takes over at an arbitrary instant of someone else's stride falls
-  without any trip (GH2010, 14 of 15 instants, README "Reflex trips").
+  without any trip (GH2010, 14 of 15 instants, docs/reflex-network.md "Reflex trips").
 """
 
 from __future__ import annotations
@@ -61,10 +61,10 @@ MUSCLE_CONTROLLERS = ("reflex", "gh2010")  # on the planar musculoskeletal body
 MAX_SEED = 2**63 - 1  # seeds are stored as 64-bit integers (study results)
 # Physics step (s) when a scenario names none. The state machines: 2 ms gives the 1 ms
 # outcome (recovered or fell) in all 48 trips of the grid and the same strategy, variant
-# and outcome in 45 (README "Trips"). The seed's network: 2 ms (its 1 ms ticks two to a
+# and outcome in 45 (docs/trips.md "Trips"). The seed's network: 2 ms (its 1 ms ticks two to a
 # step, ``network.tick_ratio``) gives the 1 ms strategy and outcome in all 45 trips of
 # the strategy map from the recording and in 42 of the 45 in its own gait (0.5 ms: 43),
-# and its walks within 0.3 deg RMSE (README "Speed"); its fits keep 1 ms
+# and its walks within 0.3 deg RMSE (docs/speed.md "Speed"); its fits keep 1 ms
 # (``fit_walk.FIT_TIMESTEP_S``). GH2010: the step its set was fitted at
 # (``GH2010Params.timestep_s``), 2 ms for the shipped default (``knee-2ms-dense-wide-s3``;
 # a test holds the two equal).
@@ -141,7 +141,7 @@ def check_gh2010_timestep(timestep_s: float, fitted_s: float = GH2010_MAX_STEP_S
     """InputError unless the time step divides the step the GH2010 set was fitted at
     (``GH2010Params.timestep_s``; 1 ms for every shipped set but the ``knee-2ms`` ones,
     and the default for a set that names none): a set's trip outcomes are
-    those of the step it was fitted at (README "Speed": at 2 ms the 1 ms sets walk alike
+    those of the step it was fitted at (docs/speed.md "Speed": at 2 ms the 1 ms sets walk alike
     but recover 22 of the 45 trips instead of 26, 29 of the 45 the same)."""
     n = round(fitted_s / timestep_s)
     if timestep_s > fitted_s + 1e-12 or abs(n * timestep_s - fitted_s) > 1e-9:
@@ -238,7 +238,7 @@ class Scenario:
     strength_scale: float = 1.0  # multiplies every servo torque limit and muscle F_max
     # servo torque limits: fixed (build.TORQUE_LIMIT_NM × build.body_scale, the default
     # until the state machines are retuned on human strength) or anderson2007 (hip, knee
-    # and ankle by angle and velocity, stumble.body.strength; README "Human strength")
+    # and ankle by angle and velocity, stumble.body.strength; docs/trips.md "Human strength")
     strength_model: str = "fixed"
     population: str = "young"  # POPULATIONS: young or older
     # what "recovered" means for the state machines: walk_on (the default since

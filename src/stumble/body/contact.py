@@ -12,7 +12,7 @@ the 96-point law); on the 3D model 3 x 2 per foot segment (hind foot, toes), wei
 that each segment keeps its total stiffness, centroid and second moments (pitch and roll
 stiffness). Resolved as ``points`` below, with each sphere's ``solref`` scaled by its
 weight. 12 contacts a foot instead of 96: a 3D trip steps about 4x faster
-(README "Foot contact"); trip outcomes agree with ``points`` (README "Trips").
+(docs/models.md "Foot contact"); trip outcomes agree with ``points`` (docs/trips.md "Trips").
 
 ``points`` (the reference): a small sphere at each point, resolved by MuJoCo in C through
 one contact pair per sphere and floor, with *calibrated* direct ``solref``. MuJoCo's
@@ -63,7 +63,7 @@ IMPEDANCE = 0.02  # solimp d of the point contacts: small, so MuJoCo acts as a p
 IMPRATIO = 1000.0  # friction rows 1000x less compliant than the normal: near-hard stick
 # Newton solver tolerance (ours; MuJoCo's default 1e-8). 3D: on the 48-trip grid 1e-6
 # gives the same strategy, variant and outcome in all 48 trips, and trips run about 15 %
-# faster (README "Trips"); 1e-5 too; 20 solver iterations instead of 100 changed 11.
+# faster (docs/trips.md "Trips"); 1e-5 too; 20 solver iterations instead of 100 changed 11.
 # Planar: the shipped GH2010 walker (fitted at 1e-8) still walks 20 s, its speed
 # 0.9989 -> 0.9997 m/s, stance 0.6092 -> 0.6086, knee RMSE 13.900 -> 13.906 deg, and both
 # 45-trip strategy maps are unchanged.

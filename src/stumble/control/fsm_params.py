@@ -389,7 +389,7 @@ class FSMParams:
     # the body passes over the foot, and that damping leaves the pelvis 10-16° forward of
     # its reference in the walk after a recovery), or "pelvis": the pelvis's pitch and roll
     # rates in the world, as SIMBICON's torso PD (Yin et al. 2007), through the servo's
-    # target (an experiment: not tuned, README "Trips")
+    # target (an experiment: not tuned, docs/trips.md "Trips")
     attitude_damping: str = "joint"  # ATTITUDE_DAMPING
     # Issue 11, people's support hip pushes off with a peak extension moment of ~52 N·m
     # in the first 300 ms (Pijnappels et al. 2005), ours ~280 N·m: in Clearance the
@@ -398,7 +398,7 @@ class FSMParams:
     # push_off_hip_limit_nm caps that hip's servo moment (N·m, reference body, scaled as
     # the gains) while it holds the attitude in the push-off (fsm.PUSH_OFF_STATES), to
     # let the trunk rotate as people do; None: the servo's own limit. An experiment:
-    # measured, it loses recoveries and tilts the trunk further (README "Trips").
+    # measured, it loses recoveries and tilts the trunk further (docs/trips.md "Trips").
     push_off_hip_limit_nm: float | None = None
     # trunk_attitude k: until the recovery foot lands (fsm.PRE_LANDING_STATES) the lumbar
     # extends against k times the torso's forward pitch in the world since the trip
@@ -407,7 +407,7 @@ class FSMParams:
     # and people's recoveries keep it within about 23-26° (van den Bogert et al. 2002),
     # while the torso ours pitches with the pelvis; SIMBICON (Yin et al. 2007) controls
     # the torso in the world frame. Ours, not tuned: 0.3 keeps the 48-trip grid's
-    # recoveries and brings the largest tilt from 32.4° to 25.8° (README "Trips").
+    # recoveries and brings the largest tilt from 32.4° to 25.8° (docs/trips.md "Trips").
     trunk_attitude: float = 0.0
     # SCA 2009 §5 uses 50 and 300 for slow and fast walking; on our body 300 lifts the
     # support foot off and stalls the recovery; tuned (TUNED_WITH above; 39.5 and 66.7
@@ -444,8 +444,9 @@ class FSMParams:
     # Walking on at the speed before the trip by feedforward (ours): SIMBICON's speed
     # term c_v·v becomes c_v·(v − f·(v_trip − v_ref)), so the walk on's own steady speed
     # v_ref (where it settles whatever the speed before: 1.15-1.19 m/s for the upright
-    # set before it had this, README "Walking on") moves toward v_trip by the fraction f
-    # without a larger feedback gain (in SIMBICON's steady gait c_v·v is what holds the
+    # set before it had this, docs/trips.md "Walking on, upright") moves toward v_trip by
+    # the fraction f without a larger feedback gain (in SIMBICON's steady gait c_v·v is what holds
+    # the
     # thigh's angle, so f = 1 moves the steady speed all the way); phased in as k_s is.
     # f = 0: off.
     walk_on_speed_feedforward: float = 0.0

@@ -773,7 +773,7 @@ TRIP_STAGES = ((60, 10.0, ((0.1, 1.2), (0.3, 1.0), (0.6, 1.4), (0.72, 1.2))),)
 # ``dense``: thirty, swing 0.05-0.75 in steps of 0.05 at 1.1 and 1.3 m/s, none of them
 # among the 45 of the strategy map (1.0, 1.2, 1.4 m/s) or the held-out 28
 # (``scripts/measure_gh2010_trips.py --grid held-out``): twelve trips were too few, a fit
-# overfits them (README "Fitting the touch's reflexes alone"); thirty cost 2.5 times
+# overfits them (docs/gh2010.md "Fitting the touch's reflexes alone"); thirty cost 2.5 times
 # twelve, affordable in a ``touch_only`` stage, whose walks to the trips are cached
 TRIP_SETS = {"four": TRIP_STAGES[0][2],
              "wide": ((0.1, 1.0), (0.2, 1.4), (0.3, 1.2), (0.35, 1.0), (0.4, 1.4),

@@ -124,7 +124,7 @@ SHIPPED = {"gh2010": "gh2010_knee_2ms_dense_wide_s3.json", "seed003": "gh2010_se
 SHIPPED_WALKING: dict[str, str] = {"gh2010": "gh2010_knee_walk.json"}
 # the walking fit the network's expert (seed003 wiring) was fitted from: the first walking
 # fit, pinned so that the expert's fit starts where it did whatever the default is (its
-# recorded command does not reproduce the shipped expert: README "Reproducing the
+# recorded command does not reproduce the shipped expert: docs/gh2010.md "Reproducing the
 # shipped fits")
 SEED003_START = "gh2010_walk.json"
 # every shipped GH2010 parameter set by the name ``--params`` takes: the first walking fit
@@ -140,10 +140,10 @@ NAMED = {"walk": SEED003_START, "trip": "gh2010_trip.json",
          "knee-walk": SHIPPED_WALKING["gh2010"], "knee": "gh2010_knee.json",
          "knee-foot": "gh2010_knee_foot.json",
          # the touch stage of ``knee`` refitted at a 2 ms step (``--timestep 0.002``): runs
-         # at 2 ms, twice as fast (README "Speed"; since 2026-12-04, later that day)
+         # at 2 ms, twice as fast (docs/speed.md "Speed"; since 2026-12-04, later that day)
          "knee-2ms": "gh2010_knee_2ms.json",
          # a second touch stage on ``knee-2ms``, on the dense thirty (1.1 and 1.3 m/s):
-         # as many of the 45 recover, more held-out trips (README "Geyer & Herr 2010";
+         # as many of the 45 recover, more held-out trips (docs/gh2010.md "Geyer & Herr 2010";
          # since 2026-12-05)
          "knee-2ms-dense": "gh2010_knee_2ms_dense.json",
          # and a third, on ``knee-2ms-dense``, on the wide twelve: 31 of the 45, the
@@ -155,7 +155,7 @@ NAMED = {"walk": SEED003_START, "trip": "gh2010_trip.json",
          # 2026-12-05, third session)
          "knee-2ms-dense-wide-s3": SHIPPED["gh2010"],
          # seed003-wired: the placing expert of the ``placement`` network, reproducible
-         # (README "The seed's network in closed loop"; since 2026-12-04, later that day)
+         # (docs/reflex-network.md; since 2026-12-04, later that day)
          "expert-placement": "gh2010_seed003_placement.json",
          # a touch stage on it (``reflex fit --wiring seed003 --trips --params
          # expert-placement``): the first seed003-wired set that recovers trips, 25 of the

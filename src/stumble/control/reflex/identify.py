@@ -60,12 +60,12 @@ SHIPPED = "network.npz"  # fitted network shipped in stumble/control/reflex/data
 # (the seed's identification with the iliopsoas and contact afferents, then 8 DAgger
 # passes with the shipped seed003-wired GH2010 expert, episodes from and judging at the
 # 1.0-1.3 m/s walks; 24 min on the 2-core machine of 2026-12-02). It walks 20 s from
-# every played-back walk of 1.0-1.4 m/s (README "The seed's network in closed loop").
+# every played-back walk of 1.0-1.4 m/s (docs/reflex-network.md).
 SHIPPED_CLOSED_LOOP = "network_closed_loop.npz"
 # DAgger from a reproducible expert that places its swing leg, the placement carried by
 # the network's addition (``controller.TrunkBalance``; since 2026-12-04, later that day):
-# `stumble reflex fit --closed-loop --seed 0 --expert expert-placement` (README "The
-# seed's network in closed loop"); it walks closer to the recording than
+# `stumble reflex fit --closed-loop --seed 0 --expert expert-placement` (docs/reflex-network.md);
+# it walks closer to the recording than
 # ``closed-loop`` and recovers fewer trips, so it is not the default
 SHIPPED_PLACEMENT = "network_placement.npz"
 # ``placement`` refined by two CMA-ES stages on the documented subset of its weights
@@ -90,15 +90,14 @@ SHIPPED_PLACEMENT_WALK = "network_placement_walk.npz"
 # --recovery-cost 10 --sigma 1 --generations 70 --seed 0 --out tr3/`, then `--walk-es
 # tr3/network.npz --touch-only --touch-response --trip-set wide --strategy-cost 10
 # --recovery-cost 10 --sigma 0.3 --generations 40 --seed 1` (26 and 7 min, 1 worker,
-# 2026-12-04): 17 of the 45 own-gait trips recover, 9 of the held-out 28 (README "The
-# seed's network in closed loop")
+# 2026-12-04): 17 of the 45 own-gait trips recover, 9 of the held-out 28 (docs/reflex-network.md)
 SHIPPED_PLACEMENT_TOUCH = "network_placement_touch.npz"
 # the same two touch stages with the response by the foot's place (``--scr-phase foot``:
 # a touch of the foot ahead of the other triggers its own sets): `... --walk-es
 # placement-walk ... --scr-phase foot ... --seed 0 --out tr4/`, then `--walk-es
 # tr4/network.npz ... --scr-phase foot --trip-set wide --sigma 0.3 --generations 40 --seed
 # 1` (each command in the file): 12 of the 45 recover, 3 of them by lowering, the human
-# strategy in every window trip (README "The seed's network in closed loop")
+# strategy in every window trip (docs/reflex-network.md)
 SHIPPED_PLACEMENT_FOOT = "network_placement_foot.npz"
 # the two responses combined by the foot's place, nothing fitted: ``placement-touch``'s
 # for a touch of the foot behind the other (early swing), ``placement-foot``'s (its sets
@@ -107,7 +106,7 @@ SHIPPED_PLACEMENT_FOOT = "network_placement_foot.npz"
 # placement-foot --touch-only --touch-response --scr-phase foot --generations 0 --trip-set
 # wide --strategy-cost 10 --recovery-cost 10 --seed 0` (its objective on the wide twelve
 # on record): 21 of the 45 own-gait trips recover, 4 of them by lowering, 11 of the
-# held-out 28 (README "The seed's network in closed loop"). Two further touch stages from
+# held-out 28 (docs/reflex-network.md). Two further touch stages from
 # it did worse on the 45 and the held-out 28 (docs/reflex-fits.md)
 SHIPPED_PLACEMENT_BOTH = "network_placement_both.npz"
 # DAgger from the placing expert trained by the cross-entropy (``dagger.LOSSES``) through
@@ -116,7 +115,7 @@ SHIPPED_PLACEMENT_BOTH = "network_placement_both.npz"
 # on 2 workers, ``reproduce.ROOTS``). Its hamstrings fire in late swing as its expert's
 # (the squared error's ``placement`` holds them off); it walks 10 s from every start at
 # 1.25-1.27 m/s, RMSE 10.1/12.1/7.3 deg from the 1.0 m/s walk, and through the first
-# push (README "The seed's network in closed loop", docs/reflex-fits.md)
+# push (docs/reflex-network.md, docs/reflex-fits.md)
 SHIPPED_CROSS_ENTROPY = "network_cross_entropy.npz"
 # ``cross-entropy`` with a touch response by the foot's place, two touch stages
 # (``placement-foot``'s recipe, its commands in the file's record): 20 of the 45 own-gait
@@ -125,7 +124,7 @@ SHIPPED_CROSS_ENTROPY_FOOT = "network_cross_entropy_foot.npz"
 # the same DAgger by its seed 1 (`... --loss cross-entropy --pushes --seed 1`, 2026-12-05,
 # ninth session; ``reproduce.ROOTS``): its best pass (4 of 8; the file is that pass's
 # network, as the command writes it) walks 10 s through both pushes from the 1.0, 1.2 and
-# 1.4 m/s walks (README "The seed's network in closed loop")
+# 1.4 m/s walks (docs/reflex-network.md)
 SHIPPED_CROSS_ENTROPY_S1 = "network_cross_entropy_s1.npz"
 # ``cross-entropy-s1`` with ``cross-entropy-foot``'s two touch stages (its commands in the
 # file's record): 21 of the 45 own-gait trips, 13 of the 28 held out (ninth session)

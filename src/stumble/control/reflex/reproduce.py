@@ -56,8 +56,8 @@ class Stage:
 
 
 # Shipped networks that record no fit command but whose command is known and re-runs
-# them bit for bit: ``placement``, DAgger from the placing expert (README "The seed's
-# network in closed loop"), where the CMA-ES chains of the network start (re-run
+# them bit for bit: ``placement``, DAgger from the placing expert (docs/reflex-network.md), where
+# the CMA-ES chains of the network start (re-run
 # 2026-12-05, fourth session: the shipped weights and trunk balance bit for bit, 50.6
 # min on 2 workers with other work on the machine; fifth session, its training shared
 # by the workers (``dagger.SetPool``): bit for bit again, 20.5 min on 2 workers, idle;
@@ -137,7 +137,7 @@ def plan(name: str, root: Path) -> tuple[str, list[Stage]]:
         chain.insert(0, replace(ROOTS[chain[0].start]))
     if not chain:
         raise InputError(f"{name!r} records no fit command to re-run (an identification "
-                         "or a DAgger network: see the README)")
+                         "or a DAgger network: see docs/reflex.md)")
     out_file = _out_file(kind)
     for i, st in enumerate(chain):
         st.kind = kind
