@@ -120,7 +120,7 @@ def test_a_gh2010_trip_in_its_own_gait_from_the_command_line(tmp_path, capsys):
 def test_a_2ms_gh2010_set_trips_at_its_own_step_from_the_command_line(tmp_path):
     """``stumble trip --controller gh2010 --params knee-2ms`` runs at the 2 ms the set was
     fitted at, as ``simulate_trip`` does (until 2026-12-05 the command line resolved the
-    step before loading the set, and ran it at 1 ms), and recovers as the README says."""
+    step before loading the set, and ran it at 1 ms), and recovers as docs/gh2010.md says."""
     out = tmp_path / "t"
     assert main(["trip", "--controller", "gh2010", "--params", "knee-2ms", "--swing", "0.1",
                  "--speed", "1.2", "--no-video", "--out", str(out)]) == 0

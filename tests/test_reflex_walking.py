@@ -190,7 +190,8 @@ def test_the_es_refined_network_walks_closest_to_the_recording():
     """``--network placement-es`` (``placement`` refined by two CMA-ES stages at the 2 ms
     step): 20 s from the recording at 0.9-1.4 m/s, stance 0.55-0.70, its stance knee off
     the stop, the knee within 10 deg of the recorded stride, hip within 8 and ankle at
-    10.0 (README: 7.3/9.2/10.0 deg; ``placement`` 8.6/19.4/8.9); in its own gait its toe
+    10.0 (docs/reflex-fits.md: 7.3/9.2/10.0 deg; ``placement`` 8.6/19.4/8.9); in its own gait its
+    toe
     is low in late swing, so a trip at 0.60 of swing is set, and it lowers."""
     from stumble.control.reflex.identify import default_network
 
@@ -283,7 +284,8 @@ def test_the_placement_network_walks_closer_to_the_recording(tmp_path):
 def test_the_walk_held_network_walks_within_ten_degrees_at_every_joint():
     """``--network placement-walk`` (``placement-es`` with each joint's RMSE beyond 9.7 deg
     charged, ``--track-limit``): 20 s from the recording at 0.9-1.4 m/s, stance
-    0.55-0.70, hip, knee and ankle each within 10 deg of the recorded stride (README:
+    0.55-0.70, hip, knee and ankle each within 10 deg of the recorded stride
+    (docs/reflex-network.md:
     6.8/9.7/9.9 deg), the issue's walking target; its record names its start by name."""
     from stumble.control.reflex.identify import default_network
 
@@ -301,7 +303,7 @@ def test_the_touch_network_walks_as_its_start_and_recovers_an_early_trip_it_coul
     """``--network placement-touch``: ``placement-walk`` with a touch response fitted in
     two touch stages (``--touch-only``), so its walk is ``placement-walk``'s bit for bit;
     tripped in its own gait at 0.10 of swing (1.2 m/s) it elevates and walks on 3 s,
-    where ``placement-walk`` falls (README: 17 of the 45 against 0)."""
+    where ``placement-walk`` falls (docs/reflex-network.md: 17 of the 45 against 0)."""
     from stumble.control.reflex.controller import TouchResponse
     from stumble.control.reflex.identify import default_network
 
@@ -322,7 +324,7 @@ def test_the_touch_network_walks_as_its_start_and_recovers_an_early_trip_it_coul
 def test_the_network_with_a_response_by_the_foots_place_recovers_a_late_trip_by_lowering():
     """``--network placement-foot`` (the touch response by the foot's place, two touch
     stages on ``placement-walk``): tripped in its own gait at 0.70 of swing (1.2 m/s) it
-    lowers and walks on 3 s (README: 3 of the 45 by lowering), its walk
+    lowers and walks on 3 s (docs/reflex-network.md: 3 of the 45 by lowering), its walk
     ``placement-walk``'s."""
     from stumble.control.reflex.controller import TouchResponse
     from stumble.control.reflex.identify import default_network
@@ -342,7 +344,7 @@ def test_the_default_network_recovers_early_and_late_trips_with_both_strategies(
     touch of the foot behind, ``placement-foot``'s sets and durations for the foot ahead,
     nothing fitted (``--generations 0``), its walk ``placement-walk``'s bit for bit.
     Tripped in its own gait (1.2 m/s) at 0.10 of swing it elevates and at 0.70 it lowers,
-    each time walking on 3 s (README: 21 of the 45, 4 by lowering)."""
+    each time walking on 3 s (docs/reflex-network.md: 21 of the 45, 4 by lowering)."""
     from stumble.control.reflex.controller import TouchResponse
     from stumble.control.reflex.identify import default_network
 

@@ -35,7 +35,7 @@ def test_the_gh2010_default_is_five_fits_from_the_papers_gains(tmp_path):
         assert _arg(st.argv, "--out") == str(tmp_path / st.tag)
         assert st.argv[:2] == ["reflex", "fit"]
     assert _arg(stages[-1].argv, "--seed") == "3"
-    assert 25 < sum(s.minutes for s in stages) < 40  # the README's 32 min
+    assert 25 < sum(s.minutes for s in stages) < 40  # docs/reflex.md: 32 min
 
 
 def test_the_default_network_runs_from_the_papers_gains_both_branches_shared_once(tmp_path):

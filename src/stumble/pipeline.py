@@ -360,7 +360,7 @@ def _standing_pelvis(body: Body) -> float:
 def _summary(sc: Scenario, strategy: str, controller, rec: Recording, stop: StopRule,
              body: Body, t_trip: float, swing_before_s: float | None, stride_s: float,
              reference: dict | None) -> dict:
-    """The trip's figures (docs/trips.md "Outputs"); ``t_trip`` the trip instant on the walk's
+    """The trip's figures (docs/trips.md: summary.json); ``t_trip`` the trip instant on the walk's
     clock, ``swing_before_s`` how long the tripped foot had been off the floor then,
     ``stride_s`` the walk's stride."""
     m = body.model

@@ -17,7 +17,8 @@ and where the walk before the trip comes from (``start``):
   own next swing of the tripped leg (the fraction of the mean of its last two swings).
   A walker's response to a trip then starts from its own gait, as a person's does; a
   reflex walker that takes over at an arbitrary instant of someone else's stride falls
-  without any trip (GH2010, 14 of 15 instants, docs/reflex-network.md "Reflex trips").
+  without any trip (GH2010, 14 of 15 instants, docs/reflex.md "Where the walk before a
+  reflex trip comes from").
 """
 
 from __future__ import annotations

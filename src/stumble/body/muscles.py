@@ -43,7 +43,7 @@ import numpy as np
 MUSCLE_NAMES = ("HAMS", "GLU", "TA", "GAS", "RF", "VAS", "SOL")  # seed 003 §III item 2
 # Muscle sets of the planar body: seed 003's seven, or those seven and an iliopsoas (Geyer &
 # Herr 2010's hip flexor HFL), without which RF is the only hip flexor and it also extends
-# the knee (see the docs/reflex.md, "reflex walking", for the evidence).
+# the knee (see docs/reflex.md, "Why the iliopsoas", for the evidence).
 MUSCLE_SETS: dict[str, tuple[str, ...]] = {
     "seed": MUSCLE_NAMES,
     "hfl": (*MUSCLE_NAMES, "HFL"),

@@ -445,9 +445,9 @@ class FSMParams:
     # term c_v·v becomes c_v·(v − f·(v_trip − v_ref)), so the walk on's own steady speed
     # v_ref (where it settles whatever the speed before: 1.15-1.19 m/s for the upright
     # set before it had this, docs/trips.md "Walking on, upright") moves toward v_trip by
-    # the fraction f without a larger feedback gain (in SIMBICON's steady gait c_v·v is what holds
-    # the
-    # thigh's angle, so f = 1 moves the steady speed all the way); phased in as k_s is.
+    # the fraction f without a larger feedback gain (in SIMBICON's steady gait c_v·v is
+    # what holds the thigh's angle, so f = 1 moves the steady speed all the way); phased
+    # in as k_s is.
     # f = 0: off.
     walk_on_speed_feedforward: float = 0.0
     walk_on_speed_ref_m_per_s: float = 1.17

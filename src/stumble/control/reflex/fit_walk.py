@@ -23,14 +23,14 @@ at right heel strike (``stumble.pipeline.simulate_walk``):
 so that a walker first learns not to fall (nor to stand still: the first term counts
 the way covered at 1 m/s at least), then to walk like the recording (every joint
 within 8°, the hinge terms), with the least effort, at a human speed and stance
-fraction (bands inside the README's walking criteria, 0.9–1.4 m/s and 0.55–0.70, so
+fraction (bands inside the walking criteria of docs/reflex.md, 0.9–1.4 m/s and 0.55–0.70, so
 that a fitted walker meets them with a margin). The foot term (``foot_angle``, off in
 the shipped fits' objective) tracks each foot's angle in the sagittal plane
 (``analysis.foot_angles``) against the recorded stride's: joint angles within 8° can
 hold the swing foot 15–30° toe up where the recorded foot is about flat (at 0.6–0.75 of
 swing, from 14° toe down to 6° toe up), so that an obstacle ahead of the toe meets the
 heel, and the foot comes to rest on the box's edge instead of being lowered behind it
-(README). The trunk term (``trunk_weight``, off in the shipped fits' objective) tracks
+(docs/reflex-fits.md). The trunk term (``trunk_weight``, off in the shipped fits' objective) tracks
 the torso's lean from vertical (``analysis.trunk_lean``) against the recorded stride's:
 the hip, knee and ankle angles are relative to the pelvis and the segment above them,
 so a walker can track them within 10° with its trunk 10° further forward than the
@@ -67,7 +67,7 @@ W_STANCE = 1.0
 W_FOOT = 1.0  # the foot-angle term's weight by default (``--foot-angle``; a joint's)
 # the stride-time term (``stride_time``, ``--stride-time``; off in the shipped fits): the
 # played-back walk's strides at 1.0-1.3 m/s last 1.30-1.07 s (subject01, scaled with
-# speed); trip stages without it grew the strides to 1.5-1.6 s (README)
+# speed); trip stages without it grew the strides to 1.5-1.6 s (docs/reflex-fits.md)
 W_STRIDE = 1.0
 # the knee term (``knee_weight``, ``--knee-weight``; 0, off, but in ``knee-walk``, the
 # default's walk, fitted with 5): per
@@ -363,7 +363,7 @@ GAIN_RANGE = (0.2, 5.0)
 # ``paper`` holds them near Geyer & Herr 2010's (0.71 l_opt, 1.1): l_off_ta within 0.6-0.8
 # l_opt, g_ta within 0.5-1.5 times the paper's. The shipped trip fit's 0.37 l_opt and
 # 1.7 times the paper's gain hold its foot ~37 deg toe up late in swing, so that the heel
-# meets a late-swing obstacle and the foot lands on top of it (README); ``paper`` tests
+# meets a late-swing obstacle and the foot lands on top of it (docs/reflex-fits.md); ``paper`` tests
 # whether a fit kept near the paper's reflex recovers lowering trips
 TA_BOUNDS = {"wide": {}, "paper": {"l_off_ta": (0.6, 0.8), "g_ta": (0.5, 1.5)}}
 TA_BOUND_GAINS = ("g_ta",)  # of TA_BOUNDS: factors on the paper's value, not plain bounds
@@ -754,7 +754,7 @@ def trip_outcome(kind: str, swing: float, speed: float, params=None, network=Non
 # The shipped fit: stages of (generations, walk s, obstacle trips), each continuing from
 # the best of the one before; 16 candidates per generation. One stage of walking: a
 # second stage of walking and tripping (0.15 and 0.6 of swing at 1.2 m/s, 0.35 at 1.0,
-# 50 generations) recovered none of the three trips and lost tracking (README).
+# 50 generations) recovered none of the three trips and lost tracking (docs/reflex-fits.md).
 GH2010_STAGES = ((110, 15.0, ()),)
 GH2010_POPSIZE = 16
 GH2010_SPEED_M_PER_S = 1.2  # the walk played back before each candidate takes over
@@ -769,11 +769,11 @@ SEED003_STAGES = ((100, 10.0, ()),)  # the network's expert: walking, from SEED0
 TRIP_STAGES = ((60, 10.0, ((0.1, 1.2), (0.3, 1.0), (0.6, 1.4), (0.72, 1.2))),)
 # the trips of a trip stage by name (``--trip-set``): the four above, or twelve across
 # the strategy map (swing 0.1-0.75, the three start speeds in turn), so that a fit cannot
-# overfit four trips (a third four-trip stage recovered 8 of the 45: README)
+# overfit four trips (a third four-trip stage recovered 8 of the 45: docs/reflex-fits.md)
 # ``dense``: thirty, swing 0.05-0.75 in steps of 0.05 at 1.1 and 1.3 m/s, none of them
 # among the 45 of the strategy map (1.0, 1.2, 1.4 m/s) or the held-out 28
 # (``scripts/measure_gh2010_trips.py --grid held-out``): twelve trips were too few, a fit
-# overfits them (docs/gh2010.md "Fitting the touch's reflexes alone"); thirty cost 2.5 times
+# overfits them (docs/reflex-fits.md "Fitting the touch's reflexes alone"); thirty cost 2.5 times
 # twelve, affordable in a ``touch_only`` stage, whose walks to the trips are cached
 TRIP_SETS = {"four": TRIP_STAGES[0][2],
              "wide": ((0.1, 1.0), (0.2, 1.4), (0.3, 1.2), (0.35, 1.0), (0.4, 1.4),

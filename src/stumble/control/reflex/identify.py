@@ -76,13 +76,14 @@ SHIPPED_PLACEMENT = "network_placement.npz"
 # 0.1 --seed 0` (17 and 10 min, 1 and 2 workers; re-run: the same weights bit for bit).
 # It walks closest to the recording (the
 # knee within 10 deg) and takes the human strategy in every window trip, but recovers
-# none of the 45 (README), so it is not the default (since 2026-12-04, later that day)
+# none of the 45 (docs/reflex-network.md), so it is not the default (since 2026-12-04, later that
+# day)
 SHIPPED_PLACEMENT_ES = "network_placement_es.npz"
 # ``placement-es`` with each joint held within 9.7 deg (``--track-limit``), a third
 # CMA-ES stage: `stumble reflex fit --controller network --walk-es placement-es
 # --knee-weight 5 --track-weight 3 --starts 1,1.4 --timestep 0.002 --track-limit 9.7
 # --sigma 0.05 --generations 40 --seed 0` (13 min, 1 worker, 2026-12-04): from the
-# recording it walks within 10 deg at hip, knee and ankle (6.8/9.7/9.9; README)
+# recording it walks within 10 deg at hip, knee and ankle (6.8/9.7/9.9; docs/reflex-network.md)
 SHIPPED_PLACEMENT_WALK = "network_placement_walk.npz"
 # ``placement-walk`` with a touch response (``controller.TouchResponse``) fitted in two
 # touch stages, the walk as it was: `stumble reflex fit --controller network --walk-es
