@@ -146,10 +146,16 @@ def test_validate_prints_the_table_and_writes_json(tmp_path, fake, capsys, monke
     stance = by[("walking: stance fraction", "gh2010")]
     assert stance["stumble"] == 0.62 and stance["agreement"] == "yes"
     # the state machines beside people: push-off (Pijnappels et al. 2005), trunk, older
-    hip = by[("support limb: peak hip extension moment, 300 ms after the trip", "fsm")]
-    assert hip["published"] == 52.0 and hip["stumble"] == pytest.approx(64.5)
+    # after the grid's nine mid-swing obstacle trips (0.25-0.45 of swing, 1.0-1.4 m/s; the
+    # fake's hip 60 + 10 x swing): the median of 62.5, 63.5, 64.5 three times each
+    hip = by[("support limb: peak hip extension moment, 300 ms after a mid-swing trip",
+              "fsm")]
+    assert hip["published"] == 52.0 and hip["stumble"] == pytest.approx(63.5)
     assert hip["agreement"] == "yes"  # within x1.5 of 52 N·m
-    knee = by[("support limb: peak knee flexion moment, 300 ms after the trip", "fsm")]
+    assert "9 obstacle trips at 0.25-0.45 of swing" in hip["stumble_text"]
+    assert len(hip["runs"]) == 9
+    knee = by[("support limb: peak knee flexion moment, 300 ms after a mid-swing trip",
+               "fsm")]
     assert knee["stumble"] == 150.0 and knee["agreement"] == "no"  # over 1.5 x 54 N·m
     tilt = by[("trunk from vertical at recovery-foot contact, recoveries", "fsm")]
     assert tilt["stumble"] == pytest.approx(27.5) and tilt["agreement"] == "no"
