@@ -146,3 +146,24 @@ def test_older_population_is_weaker_and_slower():
     ratio = (ANDERSON_2007[("hip", "extension", "male", "older")][0]
              / ANDERSON_2007[("hip", "extension", "male", "young")][0])
     assert m.actuator_forcerange[hip, 0] == pytest.approx(-300.0 * ratio)
+
+
+def test_scale_strength_multiplies_servo_limits_and_muscle_fmax():
+    """A scenario's strength scale: every servo's torque limit and every muscle's F_max
+    (gainprm[2] and biasprm[2] of a MuJoCo muscle) times the scale, nothing else."""
+    from stumble.body.strength import scale_strength
+
+    servos = build().model
+    limits = servos.actuator_forcerange.copy()
+    scale_strength(servos, 0.5)
+    assert np.array_equal(servos.actuator_forcerange, 0.5 * limits)
+    assert np.abs(limits).max() == 300.0  # the fixed hip limit, N·m
+    muscles = build(planar=True, actuation="muscles").model
+    is_muscle = muscles.actuator_gaintype == mujoco.mjtGain.mjGAIN_MUSCLE
+    assert is_muscle.sum() == 14  # seed 003's seven a leg, build's default set
+    fmax, gain0 = muscles.actuator_gainprm[:, 2].copy(), muscles.actuator_gainprm[:, 0].copy()
+    scale_strength(muscles, 2.0)
+    assert np.array_equal(muscles.actuator_gainprm[is_muscle, 2], 2.0 * fmax[is_muscle])
+    assert np.array_equal(muscles.actuator_biasprm[is_muscle, 2],
+                          muscles.actuator_gainprm[is_muscle, 2])
+    assert np.array_equal(muscles.actuator_gainprm[:, 0], gain0)

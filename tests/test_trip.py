@@ -150,3 +150,31 @@ def test_posed_reuses_one_scratch_data_per_model_with_fresh_kinematics():
     assert np.array_equal(c.xpos, mine.xpos)
     servo = build(planar=False).model  # other sizes: its own data
     assert posed(servo, servo.qpos0) is not b
+
+
+def test_a_seed_perturbs_joints_alone_and_the_same_seed_the_same_way():
+    """Seed 0 leaves the played-back state as it is; any other seed adds Gaussian noise
+    (SD 0.5 deg, 0.05 rad/s) to the joints only, not to the free pelvis, the same for
+    the same seed."""
+    import mujoco
+
+    from stumble.body import build
+    from stumble.trip import SEED_ANGLE_SD_RAD, perturb_initial_state
+
+    body = build()
+    m = body.model
+
+    def state(seed):
+        d = mujoco.MjData(m)
+        perturb_initial_state(body, d, seed)
+        return d.qpos.copy(), d.qvel.copy()
+
+    q0, v0 = state(0)
+    assert np.array_equal(q0, m.qpos0) and not v0.any()  # seed 0: as played back
+    q1, v1 = state(7)
+    # the pelvis's free joint is untouched, every one of the 36 joints moved
+    assert np.array_equal(q1[:7], q0[:7]) and not v1[:6].any()
+    assert np.count_nonzero(q1[7:] - q0[7:]) == len(body.joints) == 36
+    assert np.count_nonzero(v1[6:]) == 36
+    assert np.array_equal(q1, state(7)[0]) and not np.array_equal(q1, state(8)[0])
+    assert np.std(q1[7:] - q0[7:]) == pytest.approx(SEED_ANGLE_SD_RAD, rel=0.35)

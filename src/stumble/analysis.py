@@ -24,6 +24,7 @@ import mujoco
 import numpy as np
 
 from stumble.sim import Recording, Sensors, fallen
+from stumble.trip import MUSCLE_CONTROLLERS, Scenario, posed
 
 FALL_PELVIS_FRACTION = 0.55  # pelvis below 55 % of standing hip height: sitting, kneeling
 RECOVERED_AFTER_S = 1.0  # the issue: no fall for 1 s after the recovery step lands
@@ -618,3 +619,102 @@ def support_peak_moments(m: mujoco.MjModel, rec: Recording, tripped_side: str,
         out[minus] = round(float(max(0.0, -tau.min())), 1)
         out[plus] = round(float(max(0.0, tau.max())), 1)
     return out
+
+
+WALK_ON_STEPS = 4  # recovery walk_on: steps after the recovery step (issue: at least 4)
+
+
+def walk_in_summary(rec: Recording, timer: TripTimer, side: str) -> dict:
+    """The controller's own walk before the trip (``side`` the leg to be tripped): how
+    long (s), how fast (m/s), its stride (s)."""
+    t = rec.time_s
+    ev = contact_events(t, rec.foot_on_floor)[side]["heel_strike_s"]
+    stride = float(np.mean(np.diff(ev[-3:]))) if len(ev) >= 2 else None
+    late = t >= t[-1] - 2.0 if len(t) else t
+    speed = (float((rec.com[late][-1, 0] - rec.com[late][0, 0])
+                   / max(t[late][-1] - t[late][0], 1e-9)) if late.sum() > 1 else None)
+    r4 = lambda v: None if v is None else round(v, 4)  # noqa: E731
+    return {"walked_s": r4(float(t[-1]) if len(t) else 0.0), "stride_s": r4(stride),
+            "swing_s": r4(timer.trip_swing_s), "toe_off_s": r4(timer.toe_off_s),
+            "speed_m_per_s": r4(speed), "fell": timer.fell_s is not None}
+
+
+def trip_summary(sc: Scenario, strategy: str, log: list, rec: Recording, stop: StopRule,
+                 m: mujoco.MjModel, t_trip: float, swing_before_s: float | None,
+                 stride_s: float, reference: dict | None) -> dict:
+    """The trip's figures, ``summary.json`` (docs/trips.md): ``log`` the controller's
+    (state, start s) list, ``t_trip`` the trip instant on the walk's clock (s),
+    ``swing_before_s`` how long the tripped foot had been off the floor then (s),
+    ``stride_s`` the walk's stride (s), ``reference`` a recorded trip's coordinates."""
+    landing = stop.landing_s
+    rec_side = sc.side if strategy == "elevating" else {"r": "l", "l": "r"}[sc.side]
+    durations = {"recovery_step": None, "trip_to_recovery_contact": None}
+    step_length = None
+    tilt = None
+    if landing is not None:
+        k = int(np.searchsorted(rec.time_s, landing))
+        k = min(k, len(rec.time_s) - 1)
+        d = posed(m, rec.qpos[k])  # (the trip set-up's scratch data)
+        tilt = round(trunk_tilt_deg(m, d.xmat), 2)
+        other = {"r": "l", "l": "r"}[rec_side]
+        step_length = round(float(d.xpos[m.body(f"foot_{rec_side}").id, 0]
+                                  - d.xpos[m.body(f"foot_{other}").id, 0]), 4)
+        if strategy == "elevating" and swing_before_s is not None:
+            durations["recovery_step"] = round(swing_before_s + landing, 4)
+        durations["trip_to_recovery_contact"] = round(landing, 4)
+    rmse = None
+    if reference is not None and strategy is not None:
+        sim = pitch_angles_deg(m, rec.qpos, sc.side, strategy)
+        ref = table2_from_coordinates(reference, sc.side, strategy)
+        rmse = {k: round(v, 3) for k, v in rmse_deg(
+            sim, rec.time_s, ref, np.asarray(reference["time_s"])).items()}
+    diverged = rec.diverged
+    fell = stop.fell_s is not None and not diverged
+    steps = walk_on_steps(rec, landing)  # one pass over the contacts for both figures
+    n_after = None if landing is None or not len(rec.time_s) else len(steps)
+    recovered = stop.recovered_s is not None and not diverged
+    if sc.recovery == "walk_on" and sc.controller not in MUSCLE_CONTROLLERS:
+        # the issue's walking on: at least WALK_ON_STEPS steps after the recovery step
+        recovered = recovered and n_after is not None and n_after >= WALK_ON_STEPS
+    return {
+        "controller": sc.controller,
+        "strategy": strategy,
+        "variant": variant(rec, landing),
+        "recovered": recovered,
+        "fell": fell,
+        "diverged": diverged,
+        "swing_fraction": sc.swing_fraction,
+        "speed_m_per_s": sc.speed_m_per_s,
+        "mechanism": sc.mechanism,
+        "leg": sc.leg,
+        "obstacle_height_m": sc.obstacle_height_m if sc.mechanism == "obstacle" else None,
+        "trip_time_s": round(t_trip, 4),
+        "states": [{"name": n, "start_s": t} for n, t in log],
+        "durations_s": durations,
+        "recovery_step_length_m": step_length,
+        "trunk_tilt_at_recovery_contact_deg": tilt,
+        "recovery_contact_s": None if landing is None else round(landing, 4),
+        "fall_time_s": None if stop.fell_s is None else round(stop.fell_s, 4),
+        "rmse_deg": rmse,
+        "sim_time_s": round(float(rec.time_s[-1]) if len(rec.time_s) else 0.0, 4),
+        "wall_time_s": round(rec.wall_time_s, 4),
+        "steps": rec.steps,
+        "stop_reason": rec.stop_reason,
+        "seed": sc.seed,
+        "contact": sc.contact,
+        "delay_scale": sc.delay_scale,
+        "delays": sc.delays,
+        "strength_scale": sc.strength_scale,
+        "strength_model": sc.strength_model,
+        "population": sc.population,
+        "support_peak_moments_nm": support_peak_moments(m, rec, sc.side),
+        "recovery": sc.recovery,
+        "steps_after_recovery_step": n_after,
+        "walking_stride_s": None if stride_s is None else round(stride_s, 4),
+        "walk_on_steps": [{"duration_s": round(d, 4), "speed_m_per_s": round(v, 4)}
+                          for d, v in steps],
+        "walk_on_step_s": (None if (w := walk_on_step_s(steps)) is None else round(w, 4)),
+        "walk_on_speed_m_per_s": (None if (u := walk_on_speed(steps)) is None
+                                  else round(u, 4)),
+        "steps_to_steady_gait": steps_to_steady(steps, sc.speed_m_per_s),
+    }

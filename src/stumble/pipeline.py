@@ -19,22 +19,14 @@ from stumble.analysis import (
     WALK_ON_S,
     StopRule,
     TripTimer,
-    pitch_angles_deg,
-    rmse_deg,
-    steps_to_steady,
-    support_peak_moments,
-    table2_from_coordinates,
-    trunk_tilt_deg,
-    variant,
-    walk_on_speed,
-    walk_on_step_s,
-    walk_on_steps,
+    trip_summary,
+    walk_in_summary,
 )
 from stumble.body import Body, build
 from stumble.body.contact import DEFAULT_MODE as DEFAULT_CONTACT
 from stumble.body.contact import PenaltyContact, rest_support_foot
 from stumble.body.muscles import DEFAULT_MUSCLE_SET
-from stumble.body.strength import Strength, age_fixed_limits
+from stumble.body.strength import scale_strength
 from stumble.control.fsm_params import FSMParams, default_params
 from stumble.control.make import (
     muscle_set_of,
@@ -54,13 +46,13 @@ from stumble.trip import (
     OBSTACLE_DEPTH_M,
     OBSTACLE_GAP_M,
     OBSTACLE_WIDTH_M,
-    POPULATIONS,
     PelvisPushes,
     Scenario,
     obstacle_at,
     park_obstacle,
+    perturb_initial_state,
     place_obstacle,
-    posed,
+    servo_strength,
     toe_front,
     trip_time,
 )
@@ -80,38 +72,6 @@ class TripResult:
     states: list[tuple[str, float]] = field(default_factory=list)
     network: object = None  # the reflex network that ran (reflex controller only)
     walk_recording: Recording | None = None  # start own: the controller's walk to the trip
-
-
-SEED_ANGLE_SD_RAD = np.radians(0.5)  # per joint angle, seed != 0 (our choice)
-SEED_VELOCITY_SD_RAD_S = 0.05  # per joint angular velocity, seed != 0 (our choice)
-
-
-def perturb_initial_state(body: Body, data: mujoco.MjData, seed: int) -> None:
-    """Seed 0: the playback state as it is. Any other seed adds independent Gaussian
-    noise to every joint angle (SD 0.5°) and angular velocity (SD 0.05 rad/s), so repeated
-    trips sample the variability of real steps; the same seed gives the same numbers."""
-    if seed == 0:
-        return
-    m = body.model
-    rng = np.random.default_rng(seed)
-    q = [m.jnt_qposadr[m.joint(n).id] for n in body.joints]
-    v = [m.jnt_dofadr[m.joint(n).id] for n in body.joints]
-    data.qpos[q] += rng.normal(0.0, SEED_ANGLE_SD_RAD, len(q))
-    data.qvel[v] += rng.normal(0.0, SEED_VELOCITY_SD_RAD_S, len(v))
-
-
-def _strength(m: mujoco.MjModel, sc: Scenario, reflex: bool) -> Strength | None:
-    """The servos' human strength (``stumble.body.strength``) for the scenario's body,
-    age group and strength scale; None for muscles and for the fixed limits (which an
-    older population scales by Anderson et al. 2007's older/young ratios)."""
-    age = POPULATIONS[sc.population].age
-    if reflex:
-        return None
-    if sc.strength_model != "anderson2007":
-        if age != "young":
-            age_fixed_limits(m, sc.sex, age)
-        return None
-    return Strength.for_model(m, sc.mass_kg, sc.height_m, sc.sex, age, sc.strength_scale)
 
 
 class WalkInCache:
@@ -209,8 +169,8 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     perturb_initial_state(body, d, sc.seed)
     if sc.contact in ("lumped", "points", "penalty"):
         rest_support_foot(m, d, reflex)
-    _scale_strength(m, sc.strength_scale)
-    strength = _strength(m, sc, reflex)
+    scale_strength(m, sc.strength_scale)
+    strength = servo_strength(m, sc, reflex)
     if strength is not None:
         strength.apply(m, d)
     ctx = Context(m, d, body, Sensors(), t0=0.0, strength=strength)
@@ -230,7 +190,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
         else:
             timer = TripTimer(sc.side, sc.swing_fraction, sc.walk_in_s, fall_height)
             walk_rec = run(ctx, controller, sc.walk_in_s + WALK_IN_MARGIN_S, stop=timer)
-            walk_in = _walk_in_summary(walk_rec, timer, sc)
+            walk_in = walk_in_summary(walk_rec, timer, sc.side)
             if key is not None:
                 walk_in_cache.put(key, (m, d, body, ctx, controller, walk_rec, walk_in))
         if walk_rec.stop_reason != "trip":
@@ -261,8 +221,8 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     else:
         offs = [t for t in pb.events.toe_off_s[sc.side] if t <= t_start]
         before, stride = (t_start - offs[-1] if offs else None), pb.stride_s
-    summary = _summary(sc, strategy, controller, rec, stop, body, ctx.t0 if own else t_start,
-                       before, stride, reference)
+    summary = trip_summary(sc, strategy, controller.log, rec, stop, body.model,
+                           ctx.t0 if own else t_start, before, stride, reference)
     summary["start"] = sc.start
     summary["toe_height_at_trip_m"] = round(low, 4)  # the tripped foot's lowest point
     if walk_in is not None:
@@ -298,22 +258,6 @@ def _walk_on_s(sc: Scenario, reflex: bool) -> float | None:
 WALK_IN_MARGIN_S = 3.0  # own start: the trip's swing must begin within this after walk_in_s
 
 
-def _walk_in_summary(rec: Recording, timer: TripTimer, sc: Scenario) -> dict:
-    """The controller's own walk before the trip: how long, how fast, its stride."""
-    from stumble.analysis import contact_events
-
-    t = rec.time_s
-    ev = contact_events(t, rec.foot_on_floor)[sc.side]["heel_strike_s"]
-    stride = float(np.mean(np.diff(ev[-3:]))) if len(ev) >= 2 else None
-    late = t >= t[-1] - 2.0 if len(t) else t
-    speed = (float((rec.com[late][-1, 0] - rec.com[late][0, 0])
-                   / max(t[late][-1] - t[late][0], 1e-9)) if late.sum() > 1 else None)
-    r4 = lambda v: None if v is None else round(v, 4)  # noqa: E731
-    return {"walked_s": r4(float(t[-1]) if len(t) else 0.0), "stride_s": r4(stride),
-            "swing_s": r4(timer.trip_swing_s), "toe_off_s": r4(timer.toe_off_s),
-            "speed_m_per_s": r4(speed), "fell": timer.fell_s is not None}
-
-
 def _no_trip(sc: Scenario, controller, rec: Recording, walk_in: dict, body: Body,
              pb: Playback) -> TripResult:
     """The result of an own-start walk that fell (or never swung) before the trip."""
@@ -332,14 +276,6 @@ def _no_trip(sc: Scenario, controller, rec: Recording, walk_in: dict, body: Body
                       controller.net if sc.controller == "reflex" else None)
 
 
-def _scale_strength(m: mujoco.MjModel, scale: float) -> None:
-    """Multiply every servo's torque limit and every muscle's F_max by ``scale``."""
-    m.actuator_forcerange[:] *= scale
-    muscle = m.actuator_gaintype == mujoco.mjtGain.mjGAIN_MUSCLE
-    m.actuator_gainprm[muscle, 2] *= scale
-    m.actuator_biasprm[muscle, 2] *= scale
-
-
 @lru_cache(maxsize=16)
 def _walk(height_m: float, mass_kg: float, sex: str, contact: str, speed_m_per_s: float,
           timestep_s: float, planar: bool = False, muscle_set: str = DEFAULT_MUSCLE_SET,
@@ -355,90 +291,6 @@ def _walk(height_m: float, mass_kg: float, sex: str, contact: str, speed_m_per_s
 def _standing_pelvis(body: Body) -> float:
     """Pelvis height (m) of the model standing at its zero pose."""
     return float(body.model.body("pelvis").pos[2])
-
-
-def _summary(sc: Scenario, strategy: str, controller, rec: Recording, stop: StopRule,
-             body: Body, t_trip: float, swing_before_s: float | None, stride_s: float,
-             reference: dict | None) -> dict:
-    """The trip's figures (docs/trips.md: summary.json); ``t_trip`` the trip instant on the walk's
-    clock, ``swing_before_s`` how long the tripped foot had been off the floor then,
-    ``stride_s`` the walk's stride."""
-    m = body.model
-    landing = stop.landing_s
-    rec_side = sc.side if strategy == "elevating" else {"r": "l", "l": "r"}[sc.side]
-    durations = {"recovery_step": None, "trip_to_recovery_contact": None}
-    step_length = None
-    tilt = None
-    if landing is not None:
-        k = int(np.searchsorted(rec.time_s, landing))
-        k = min(k, len(rec.time_s) - 1)
-        d = posed(m, rec.qpos[k])  # (the trip set-up's scratch data)
-        tilt = round(trunk_tilt_deg(m, d.xmat), 2)
-        other = {"r": "l", "l": "r"}[rec_side]
-        step_length = round(float(d.xpos[m.body(f"foot_{rec_side}").id, 0]
-                                  - d.xpos[m.body(f"foot_{other}").id, 0]), 4)
-        if strategy == "elevating" and swing_before_s is not None:
-            durations["recovery_step"] = round(swing_before_s + landing, 4)
-        durations["trip_to_recovery_contact"] = round(landing, 4)
-    rmse = None
-    if reference is not None and strategy is not None:
-        sim = pitch_angles_deg(m, rec.qpos, sc.side, strategy)
-        ref = table2_from_coordinates(reference, sc.side, strategy)
-        rmse = {k: round(v, 3) for k, v in rmse_deg(
-            sim, rec.time_s, ref, np.asarray(reference["time_s"])).items()}
-    diverged = rec.diverged
-    fell = stop.fell_s is not None and not diverged
-    steps = walk_on_steps(rec, landing)  # one pass over the contacts for both figures
-    n_after = None if landing is None or not len(rec.time_s) else len(steps)
-    recovered = stop.recovered_s is not None and not diverged
-    if sc.recovery == "walk_on" and sc.controller not in MUSCLE_CONTROLLERS:
-        # the issue's walking on: at least WALK_ON_STEPS steps after the recovery step
-        recovered = recovered and n_after is not None and n_after >= WALK_ON_STEPS
-    return {
-        "controller": sc.controller,
-        "strategy": strategy,
-        "variant": variant(rec, landing),
-        "recovered": recovered,
-        "fell": fell,
-        "diverged": diverged,
-        "swing_fraction": sc.swing_fraction,
-        "speed_m_per_s": sc.speed_m_per_s,
-        "mechanism": sc.mechanism,
-        "leg": sc.leg,
-        "obstacle_height_m": sc.obstacle_height_m if sc.mechanism == "obstacle" else None,
-        "trip_time_s": round(t_trip, 4),
-        "states": [{"name": n, "start_s": t} for n, t in controller.log],
-        "durations_s": durations,
-        "recovery_step_length_m": step_length,
-        "trunk_tilt_at_recovery_contact_deg": tilt,
-        "recovery_contact_s": None if landing is None else round(landing, 4),
-        "fall_time_s": None if stop.fell_s is None else round(stop.fell_s, 4),
-        "rmse_deg": rmse,
-        "sim_time_s": round(float(rec.time_s[-1]) if len(rec.time_s) else 0.0, 4),
-        "wall_time_s": round(rec.wall_time_s, 4),
-        "steps": rec.steps,
-        "stop_reason": rec.stop_reason,
-        "seed": sc.seed,
-        "contact": sc.contact,
-        "delay_scale": sc.delay_scale,
-        "delays": sc.delays,
-        "strength_scale": sc.strength_scale,
-        "strength_model": sc.strength_model,
-        "population": sc.population,
-        "support_peak_moments_nm": support_peak_moments(m, rec, sc.side),
-        "recovery": sc.recovery,
-        "steps_after_recovery_step": n_after,
-        "walking_stride_s": None if stride_s is None else round(stride_s, 4),
-        "walk_on_steps": [{"duration_s": round(d, 4), "speed_m_per_s": round(v, 4)}
-                          for d, v in steps],
-        "walk_on_step_s": (None if (w := walk_on_step_s(steps)) is None else round(w, 4)),
-        "walk_on_speed_m_per_s": (None if (u := walk_on_speed(steps)) is None
-                                  else round(u, 4)),
-        "steps_to_steady_gait": steps_to_steady(steps, sc.speed_m_per_s),
-    }
-
-
-WALK_ON_STEPS = 4  # recovery walk_on: steps after the recovery step (issue: at least 4)
 
 
 @dataclass

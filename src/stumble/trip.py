@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING
 import mujoco
 import numpy as np
 
+from stumble.body import strength
 from stumble.errors import InputError, TripNotSet
 from stumble.gait.reference import check_speed
 
@@ -470,3 +471,37 @@ def park_obstacle(m: mujoco.MjModel, lane_y: float) -> None:
     """Put the obstacle under the floor in the foot's lane (it touches only the feet),
     until ``place_obstacle``."""
     m.geom_pos[m.geom("obstacle").id] = [0.5 * OBSTACLE_DEPTH_M, lane_y, -1.0]
+
+
+# The scenario's seed and strength, set on the physics before the run
+SEED_ANGLE_SD_RAD = np.radians(0.5)  # per joint angle, seed != 0 (our choice)
+SEED_VELOCITY_SD_RAD_S = 0.05  # per joint angular velocity, seed != 0 (our choice)
+
+
+def perturb_initial_state(body: Body, data: mujoco.MjData, seed: int) -> None:
+    """Seed 0: the playback state as it is. Any other seed adds independent Gaussian
+    noise to every joint angle (SD 0.5°) and angular velocity (SD 0.05 rad/s), so repeated
+    trips sample the variability of real steps; the same seed gives the same numbers."""
+    if seed == 0:
+        return
+    m = body.model
+    rng = np.random.default_rng(seed)
+    q = [m.jnt_qposadr[m.joint(n).id] for n in body.joints]
+    v = [m.jnt_dofadr[m.joint(n).id] for n in body.joints]
+    data.qpos[q] += rng.normal(0.0, SEED_ANGLE_SD_RAD, len(q))
+    data.qvel[v] += rng.normal(0.0, SEED_VELOCITY_SD_RAD_S, len(v))
+
+
+def servo_strength(m: mujoco.MjModel, sc: Scenario, reflex: bool) -> strength.Strength | None:
+    """The servos' human strength (``stumble.body.strength``) for the scenario's body,
+    age group and strength scale; None for muscles and for the fixed limits (which an
+    older population scales by Anderson et al. 2007's older/young ratios)."""
+    age = POPULATIONS[sc.population].age
+    if reflex:
+        return None
+    if sc.strength_model != "anderson2007":
+        if age != "young":
+            strength.age_fixed_limits(m, sc.sex, age)
+        return None
+    return strength.Strength.for_model(m, sc.mass_kg, sc.height_m, sc.sex, age,
+                                       sc.strength_scale)

@@ -260,3 +260,11 @@ class Strength:
         lo, hi = self.limits(d.qpos, d.qvel)
         m.actuator_forcerange[self.ids, 0] = -lo
         m.actuator_forcerange[self.ids, 1] = hi
+
+
+def scale_strength(m: mujoco.MjModel, scale: float) -> None:
+    """Multiply every servo's torque limit and every muscle's F_max by ``scale``."""
+    m.actuator_forcerange[:] *= scale
+    muscle = m.actuator_gaintype == mujoco.mjtGain.mjGAIN_MUSCLE
+    m.actuator_gainprm[muscle, 2] *= scale
+    m.actuator_biasprm[muscle, 2] *= scale

@@ -8,7 +8,7 @@ Every axis names one ``Scenario`` field (in the units of that field) and takes:
   (TOML: ``"0.05:0.75:15"``).
 
 ``repeats = R`` runs every grid point with the seeds 1 … R (each seed perturbs the
-initial state; see ``stumble.pipeline.perturb_initial_state``). An axis that is not
+initial state; see ``stumble.trip.perturb_initial_state``). An axis that is not
 given takes the ``Scenario`` default. Every scenario of the grid is validated before
 anything runs, so a bad value is one line naming it, never a failure half-way through.
 """
