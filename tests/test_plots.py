@@ -181,3 +181,26 @@ def test_fall_rate_plots_a_scale_where_every_run_falls_and_one_where_none_does(t
     assert lines == {("delay_scale", "gh2010", "obstacle", "all", None),
                      ("delay_scale", "gh2010", "obstacle", "response", None)}
     plot_fall_rate(tmp_path / "both.png", both, ["delay_scale"])
+
+
+def test_fall_rate_over_obstacle_heights_and_not_over_a_force_trips_none(tmp_path):
+    """The obstacle height is a fall-rate axis when it takes two values; a force trip's
+    height (None) beside one obstacle height is not a second value."""
+    from stumble.viz.study_plots import Tally, write_study_plots
+
+    rows = [{"controller": "reflex", "mechanism": "obstacle", "swing_fraction": 0.1 * i,
+             "speed_m_per_s": 1.2, "obstacle_height_m": h, "delay_scale": 1.0,
+             "strength_scale": 1.0, "fell": h > 0.1 and i > 2, "recovered": not (
+                 h > 0.1 and i > 2), "strategy": "elevating"}
+            for h in (0.08, 0.10, 0.12) for i in range(1, 7)]
+    t = Tally.of(rows)
+    assert t.varying_scales() == ["obstacle_height_m"]
+    by_h = t.fall[("obstacle_height_m", "reflex", "obstacle", "all", 1.0, 1.0)]
+    assert {h: tuple(v) for h, v in by_h.items()} == {0.08: (0, 6), 0.10: (0, 6),
+                                                       0.12: (4, 6)}
+    assert write_study_plots(tmp_path, t) == ["strategy_map.png", "outcome_map.png",
+                                              "fall_rate.png"]
+    force = [{**r, "mechanism": "force", "obstacle_height_m": None} for r in rows
+             if r["obstacle_height_m"] == 0.10]
+    one = Tally.of(force + [r for r in rows if r["obstacle_height_m"] == 0.10])
+    assert one.varying_scales() == []

@@ -46,7 +46,9 @@ FACETS = ("controller", "mechanism")  # one panel per combination present
 POOLED = ("leg", "strategy_mode", "obstacle_height_m", "delay_scale", "delays",
           "strength_scale", "height_m", "mass_kg", "sex", "contact", "seed",
           "duration_after_trip_s", "timestep_s")
-SCALES = ("delay_scale", "strength_scale")
+# the axes a fall rate is drawn against when they vary (force trips have no obstacle
+# height: None, left out)
+SCALES = ("delay_scale", "strength_scale", "obstacle_height_m")
 PLOT_COLUMNS = ("swing_fraction", "speed_m_per_s", *FACETS, *POOLED, "strategy", "error",
                 "timed_out", "diverged", "recovered", "fell", "not_set")  # what they read
 
@@ -132,8 +134,9 @@ class Tally:
         return not self.panels
 
     def varying_scales(self) -> list[str]:
-        """The delay and strength scales that take more than one value."""
-        return [s for s in SCALES if len(self.scale_values[s]) > 1]
+        """The delay and strength scales and the obstacle height that take more than one
+        value (None, a force trip's height, is not a value)."""
+        return [s for s in SCALES if len(self.scale_values[s] - {None}) > 1]
 
     def facets(self) -> list[tuple]:
         return sorted(self.panels, key=lambda k: tuple(str(x) for x in k))
@@ -339,14 +342,15 @@ def plot_fall_rate(path, rows: Tally | Iterable[dict], scales: list[str],
     """Fall rate (falls / trips set and run without error, 95 % Wilson interval) against
     each scale.
 
-    ``scales``: ``delay_scale`` and/or ``strength_scale``. One line per controller and
-    mechanism (and per value of the other scale when both vary)."""
+    ``scales``: any of ``delay_scale``, ``strength_scale`` and ``obstacle_height_m`` (m).
+    One line per controller and mechanism (and per value of the other axes that vary)."""
     t = _tally(rows)
     fig = Figure(figsize=(5.2 * len(scales) + 0.6, 3.8), constrained_layout=True)
     FigureCanvasAgg(fig)
     axes = fig.subplots(1, len(scales), squeeze=False)[0]
     labels = {"delay_scale": "delay scale (× every latency)",
-              "strength_scale": "strength scale (× every torque limit)"}
+              "strength_scale": "strength scale (× every torque limit)",
+              "obstacle_height_m": "obstacle height (m)"}
     kinds = {k[3] for k in t.fall}  # what the delay scale multiplies (``delays``)
     if kinds == {"response"}:
         labels["delay_scale"] = "delay scale (× the response's latencies)"
@@ -375,9 +379,10 @@ def plot_fall_rate(path, rows: Tally | Iterable[dict], scales: list[str],
                             [hi - pi for pi, (_, hi) in zip(p, ci, strict=True)]])
             label = f"{g[0]}, {g[1]}" + (", the response's delays only"
                                          if g[2] == "response" else "") + "".join(
-                f", {o.split('_')[0]} ×{v:g}" for o, v in zip(shown, g[3:], strict=True))
+                _other_label(o, v) for o, v in zip(shown, g[3:], strict=True))
             ax.errorbar(xs, p, yerr=err, marker="o", capsize=3, label=label)
-        ax.axvline(1.0, color="0.6", ls=":", lw=1)
+        if scale != "obstacle_height_m":  # the scales' 1: as the person is
+            ax.axvline(1.0, color="0.6", ls=":", lw=1)
         ax.set_ylim(-0.03, 1.03)
         ax.set_xlabel(labels.get(scale, scale))
         ax.set_ylabel("fall rate (falls / runs)")
@@ -389,10 +394,18 @@ def plot_fall_rate(path, rows: Tally | Iterable[dict], scales: list[str],
     return Path(path)
 
 
+def _other_label(axis: str, value) -> str:
+    """A line's value of another axis, for its legend."""
+    if axis == "obstacle_height_m":
+        return "" if value is None else f", box {100 * value:g} cm"
+    return f", {axis.split('_')[0]} ×{value:g}"
+
+
 def write_study_plots(out: Path, rows: Tally | Iterable[dict], caption: str = "") -> list[str]:
     """strategy_map.png and outcome_map.png; fall_rate.png when a delay or strength scale
-    varies. ``rows``: a Tally, or rows (any iterable, read once); ``caption``: a line under
-    each title (the study's parameter file). Returns the names written."""
+    or the obstacle height varies. ``rows``: a Tally, or rows (any iterable, read once);
+    ``caption``: a line under each title (the study's parameter file). Returns the names
+    written."""
     out = Path(out)
     t = _tally(rows)
     if t.empty():
