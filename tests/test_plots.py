@@ -177,9 +177,9 @@ def test_fall_rate_plots_a_scale_where_every_run_falls_and_one_where_none_does(t
 
     both = rows + [{**r, "delays": "response", "fell": True, "recovered": False}
                    for r in rows]
-    lines = {k[:5] for k in Tally.of(both).fall}
-    assert lines == {("delay_scale", "gh2010", "obstacle", "all", None),
-                     ("delay_scale", "gh2010", "obstacle", "response", None)}
+    lines = set(Tally.of(both).fall)  # (axis, controller, mechanism, delays, the others)
+    assert lines == {("delay_scale", "gh2010", "obstacle", "all", None, None),
+                     ("delay_scale", "gh2010", "obstacle", "response", None, None)}
     plot_fall_rate(tmp_path / "both.png", both, ["delay_scale"])
 
 
@@ -204,3 +204,24 @@ def test_fall_rate_over_obstacle_heights_and_not_over_a_force_trips_none(tmp_pat
              if r["obstacle_height_m"] == 0.10]
     one = Tally.of(force + [r for r in rows if r["obstacle_height_m"] == 0.10])
     assert one.varying_scales() == []
+    # a height whose every trip was not set is no value of the axis
+    unset = [{**r, "obstacle_height_m": 0.14, "not_set": True, "fell": False,
+              "recovered": False} for r in rows if r["obstacle_height_m"] == 0.10]
+    assert Tally.of(unset + [r for r in rows if r["obstacle_height_m"] == 0.10]
+                    ).varying_scales() == []
+    # a delay scale and the height together, force trips beside: two panels, each line
+    # named by the other axis (the height in m, none for the force trips)
+    from stumble.viz.study_plots import _other_label, plot_fall_rate
+
+    mixed = [{**r, "delay_scale": k} for r in rows + force for k in (1.0, 1.5)]
+    t2 = Tally.of(mixed)
+    assert t2.varying_scales() == ["delay_scale", "obstacle_height_m"]
+    assert ("obstacle_height_m", "reflex", "force", "all", 1.0, 1.0) not in t2.fall
+    assert {k[1:3] + k[4:] for k in t2.fall if k[0] == "delay_scale"} == {
+        ("reflex", "obstacle", 1.0, h) for h in (0.08, 0.10, 0.12)} | {
+        ("reflex", "force", 1.0, None)}
+    assert _other_label("obstacle_height_m", 0.08) == ", box 0.08 m"
+    assert _other_label("obstacle_height_m", None) == ""
+    assert _other_label("delay_scale", 1.5) == ", delay ×1.5"
+    png = plot_fall_rate(tmp_path / "two.png", t2, t2.varying_scales())
+    assert png.read_bytes()[:4] == b"\x89PNG"

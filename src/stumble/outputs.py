@@ -17,7 +17,7 @@ WALK_SHOWN_S = 1.0  # walking shown in the video before the trip
 
 
 def write_summary(out: Path, result: TripResult) -> None:
-    """``summary.json``: the outcome and metrics (see ``stumble.pipeline``)."""
+    """``summary.json``: the outcome and metrics (``stumble.analysis.trip_summary``)."""
     write_json(out / "summary.json", result.summary)
 
 

@@ -19,6 +19,9 @@ and where the walk before the trip comes from (``start``):
   reflex walker that takes over at an arbitrary instant of someone else's stride falls
   without any trip (GH2010, 14 of 15 instants, docs/reflex.md "Where the walk before a
   reflex trip comes from").
+
+It also says what a scenario's seed does to the initial state (``perturb_initial_state``)
+and which servo strength its body, age group and scale get (``servo_strength``).
 """
 
 from __future__ import annotations
@@ -31,12 +34,12 @@ from typing import TYPE_CHECKING
 import mujoco
 import numpy as np
 
-from stumble.body import strength
 from stumble.errors import InputError, TripNotSet
 from stumble.gait.reference import check_speed
 
 if TYPE_CHECKING:
     from stumble.body import Body
+    from stumble.body.strength import Strength
 
 # SCA 2009 §4.3, after Pijnappels et al. 2004 (inverse dynamics and force plates).
 FX_MAX_N = 170.0  # SCA 2009 eq. 2: peak horizontal (backward) tripping force
@@ -492,10 +495,12 @@ def perturb_initial_state(body: Body, data: mujoco.MjData, seed: int) -> None:
     data.qvel[v] += rng.normal(0.0, SEED_VELOCITY_SD_RAD_S, len(v))
 
 
-def servo_strength(m: mujoco.MjModel, sc: Scenario, reflex: bool) -> strength.Strength | None:
+def servo_strength(m: mujoco.MjModel, sc: Scenario, reflex: bool) -> Strength | None:
     """The servos' human strength (``stumble.body.strength``) for the scenario's body,
     age group and strength scale; None for muscles and for the fixed limits (which an
     older population scales by Anderson et al. 2007's older/young ratios)."""
+    from stumble.body import strength  # (not at import: ``Scenario`` alone stays light)
+
     age = POPULATIONS[sc.population].age
     if reflex:
         return None

@@ -58,7 +58,8 @@ def add_study_parser(sub) -> None:
         description="Run a trip for every point of a grid, on local processes or a Dask "
         "cluster. Writes DIR/results.parquet (one row per run: every scenario parameter "
         "and every summary.json field), DIR/strategy_map.png, DIR/outcome_map.png and, "
-        "when a delay or strength scale or the obstacle height varies, DIR/fall_rate.png.",
+        "when a delay or strength scale or the obstacle trips' height varies, "
+        "DIR/fall_rate.png.",
         epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("file", nargs="?", type=Path, metavar="FILE", help="a TOML study file")
     p.add_argument("--out", required=True, type=out_dir_arg, metavar="DIR",

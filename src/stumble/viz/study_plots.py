@@ -1,4 +1,5 @@
-"""Plots of a study: strategy map, outcome map, fall rate against a delay or strength scale.
+"""Plots of a study: strategy map, outcome map, fall rate against a delay or strength scale
+or the obstacle height.
 
 The maps put the trip instant (fraction of swing) across and the walking speed up, one
 panel per controller and mechanism. Runs that share a cell (seeds, legs, scales, bodies)
@@ -92,7 +93,6 @@ class Tally:
     speeds: set = field(default_factory=set)
     pooled_values: dict = field(default_factory=lambda: defaultdict(set))
     outcomes: Counter = field(default_factory=Counter)
-    scale_values: dict = field(default_factory=lambda: defaultdict(set))
     # (scale, controller, mechanism, delays, other scales' values) → value → [falls, runs]
     fall: dict = field(default_factory=lambda: defaultdict(lambda: defaultdict(lambda: [0, 0])))
 
@@ -109,8 +109,6 @@ class Tally:
                 self.pooled_values[name].add(r.get(name))
         what = outcome(r)
         self.outcomes[what] += 1
-        for scale in SCALES:
-            self.scale_values[scale].add(r.get(scale))
         if what in ("error", "timeout", "not set"):  # no trip to count a fall of
             return
         for scale in SCALES:
@@ -135,8 +133,12 @@ class Tally:
 
     def varying_scales(self) -> list[str]:
         """The delay and strength scales and the obstacle height that take more than one
-        value (None, a force trip's height, is not a value)."""
-        return [s for s in SCALES if len(self.scale_values[s] - {None}) > 1]
+        value among the trips a fall rate counts (set and run: a force trip's height,
+        None, and a height whose every trip was not set are not values)."""
+        seen = defaultdict(set)
+        for (scale, *_rest), by_x in self.fall.items():
+            seen[scale].update(by_x)
+        return [s for s in SCALES if len(seen[s]) > 1]
 
     def facets(self) -> list[tuple]:
         return sorted(self.panels, key=lambda k: tuple(str(x) for x in k))
@@ -383,6 +385,8 @@ def plot_fall_rate(path, rows: Tally | Iterable[dict], scales: list[str],
             ax.errorbar(xs, p, yerr=err, marker="o", capsize=3, label=label)
         if scale != "obstacle_height_m":  # the scales' 1: as the person is
             ax.axvline(1.0, color="0.6", ls=":", lw=1)
+        else:  # ticks at the heights run
+            ax.set_xticks(sorted({x for by_x in lines.values() for x in by_x}))
         ax.set_ylim(-0.03, 1.03)
         ax.set_xlabel(labels.get(scale, scale))
         ax.set_ylabel("fall rate (falls / runs)")
@@ -397,7 +401,7 @@ def plot_fall_rate(path, rows: Tally | Iterable[dict], scales: list[str],
 def _other_label(axis: str, value) -> str:
     """A line's value of another axis, for its legend."""
     if axis == "obstacle_height_m":
-        return "" if value is None else f", box {100 * value:g} cm"
+        return "" if value is None else f", box {value:g} m"
     return f", {axis.split('_')[0]} ×{value:g}"
 
 
