@@ -271,13 +271,13 @@ def strength_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
     mid = [by_case[f"{ctrl}/grid/young/{m}/{s}/{v}"] for m, s, v in OLDER_GRID
            if m == PUSH_OFF_MECHANISM and lo - 1e-9 <= s <= hi + 1e-9]
     mid_ran = [r for r in mid if not _failed(r)]
+    mid_keys = [r["key"] for r in mid]
     for name, pub in PUSH_OFF_NM:
         figure = (f"support limb: peak {name.replace('_', ' ')} moment, 300 ms after a "
                   "mid-swing trip")
         vals = sorted(v for r in mid_ran
                       if (v := r.get(f"support_peak_moments_nm.{name}")) is not None)
         pub_text = f"{pub:g} N·m (mean; agreement within ×{PUSH_OFF_FACTOR:g})"
-        mid_keys = [r["key"] for r in mid]
         if not vals:
             out.append(_row(figure, "Pijnappels et al. 2005", ctrl, pub, pub_text, None,
                             "not available", "n/a", mid_keys, _why(mid)))
