@@ -62,6 +62,10 @@ def test_reflex_trip_with_a_fitted_network(tmp_path):
     (["trip", "--network", "x.npz"], "for --controller reflex"),
     (["trip", "--controller", "reflex", "--network", "missing.npz"], "does not exist"),
     (["reflex", "fit", "--iterations", "0", "--refine", "0"], "not both 0"),
+    # DAgger and the identification have no generations: not silently ignored
+    (["reflex", "fit", "--closed-loop", "--generations", "-3"],
+     "--generations is for --controller gh2010 and --walk-es"),
+    (["reflex", "fit", "--generations", "5"], "--generations is for --controller gh2010"),
     (["trip", "--start", "own"], "fsm controller does not walk on its own"),
     (["trip", "--controller", "reflex", "--walk-in", "3"], "--walk-in is for --start own"),
     (["trip", "--controller", "gh2010", "--walk-in", "1"], "walk-in 1.0 s is outside 2-30 s"),

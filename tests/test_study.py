@@ -667,6 +667,10 @@ def test_a_grid_too_big_is_refused_from_its_count(tmp_path, capsys, fake):
     (["--controller", "reflex", "--mechanism", "obstacle", "--timestep", "0.0003"],
      "the time step (0.3 ms) must divide it"),
     (["--out", ""], "the output directory is empty"),
+    # force trips ignore the height, but a height out of range is still an error
+    (["--obstacle-height", "0"], "obstacle height 0.0 m is outside 0.02-0.3 m"),
+    (["--mechanism", "force", "--obstacle-height", "0.1,0.5"],
+     "obstacle height 0.5 m is outside 0.02-0.3 m"),
 ])
 def test_every_scenario_is_checked_before_anything_runs(tmp_path, capsys, fake, args, words):
     out = tmp_path / "s"

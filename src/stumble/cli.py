@@ -1185,6 +1185,10 @@ def cmd_reflex(args) -> int:
                          "--knee-weight, --placement, --pushes, --starts, --timestep and "
                          "--ta-bound are for --controller gh2010 (some also for network "
                          "--walk-es; --pushes also for --closed-loop)")
+    if args.generations is not None:
+        raise InputError("--generations is for --controller gh2010 and --walk-es (the "
+                         "CMA-ES fits); the identification and --closed-loop (DAgger) take "
+                         "--iterations, --refine and --passes")
     from stumble.control.reflex.identify import ITERATIONS, REFINE_ITERATIONS, fit
     from stumble.outputs import prepare_dir, write_fit
 

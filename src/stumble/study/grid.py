@@ -117,7 +117,11 @@ class Grid:
         return rest * per
 
     def checked_count(self) -> int:
-        """``count()``, or InputError when it is more than ``MAX_RUNS``."""
+        """``count()``, or InputError when it is more than ``MAX_RUNS`` or an obstacle
+        height is out of range (checked here because force trips, which ignore the
+        height, would otherwise never see it)."""
+        for h in self.values("obstacle_height"):
+            Scenario(mechanism="obstacle", obstacle_height_m=h).validated()
         n = self.count()
         if n > MAX_RUNS:
             raise InputError(f"the grid has {n:,} runs, more than the limit of {MAX_RUNS:,} "
