@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import csv
 import itertools
 import sys
 from pathlib import Path
@@ -317,35 +316,6 @@ def _cycle_curves(pb, names):
     return pct, mean, sd, toe_off
 
 
-def _pelvis_angles(pb) -> dict[str, np.ndarray]:
-    """Pelvis tilt, list and rotation (rad) from the playback's root orientation."""
-    if pb.body.planar:
-        return {"pelvis_tilt": pb.qpos[:, 2]}
-    from scipy.spatial.transform import Rotation
-
-    quat = pb.qpos[:, [4, 5, 6, 3]]  # scipy wants (x, y, z, w)
-    ay, ax, az = Rotation.from_quat(quat).as_euler("YXZ").T  # R = Ry Rx Rz (intrinsic)
-    return {"pelvis_tilt": -ay, "pelvis_list": ax, "pelvis_rotation": az}  # tilt is about -y
-
-
-def write_motion_csv(path: Path, pb) -> None:
-    """time_s, pelvis position (m), pelvis and joint angles (deg) per frame."""
-    root = ["pelvis_tx", "pelvis_ty"] if pb.body.planar else ["pelvis_x", "pelvis_y", "pelvis_z"]
-    pos_cols = ["pelvis_x_m", "pelvis_z_m"] if pb.body.planar else [
-        "pelvis_x_m", "pelvis_y_m", "pelvis_z_m"]
-    pelvis = _pelvis_angles(pb)
-    header = ["time_s", *pos_cols, *[f"{k}_deg" for k in pelvis],
-              *[f"{j}_deg" for j in pb.body.joints]]
-    cols = [pb.time_s, *[pb.qpos[:, i] for i in range(len(root))],
-            *[np.degrees(v) for v in pelvis.values()],
-            *[np.degrees(pb.coordinates[j]) for j in pb.body.joints]]
-    data = np.column_stack(cols)
-    with path.open("w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(header)
-        w.writerows(np.round(data, 6).tolist())
-
-
 def _title(pb, model: str) -> str:
     src = "reference gait (OpenSim subject01)" if pb.source.startswith("reference") else (
         pb.source.removeprefix("file: "))
@@ -366,7 +336,7 @@ def cmd_walk(args) -> int:
         raise InputError("--as-recorded, --model, --up and --forward apply to a --gait file")
     motion = _read_gait_file(args) if args.gait is not None else None  # before the model
     from stumble.gait.playback import walk
-    from stumble.gait.writers import write_bvh, write_mot
+    from stumble.gait.writers import write_bvh, write_mot, write_motion_csv
     from stumble.jsonio import write_json
     from stumble.outputs import VIDEO_FPS, prepare_dir
     from stumble.viz.plots import plot_joint_angles

@@ -330,7 +330,7 @@ def write_reflex_walk(out: Path, result, video: bool, progress: bool) -> list[st
         stride_curves,
         trunk_lean,
     )
-    from stumble.cli import write_motion_csv
+    from stumble.gait.writers import write_motion_csv
     from stumble.viz.plots import plot_joint_angles
 
     pb = walk_playback(result)

@@ -8,6 +8,8 @@ Every function takes the body and its ``qpos`` trajectory (T, nq) at times ``tim
   degrees, a version-1 Storage header (:func:`opensim_coordinates`).
 - :func:`write_muscles_sto`: activation and force per muscle (OpenSim 4 state and output
   names), e.g. from ``Recording.activation`` and ``Recording.actuator_force``.
+- :func:`write_motion_csv`: the pelvis position and every angle in degrees, one row
+  per frame, of a playback (``motion.csv``).
 - :func:`write_bvh`: a standard hierarchy (root ``Hips``, Y up, +Z forward, X to the
   body's left, lengths in cm, ``Zrotation Xrotation Yrotation`` channels), whose zero
   pose is the model's (upright, arms hanging, feet forward).
@@ -21,6 +23,7 @@ half-width to 0.0835 m.
 
 from __future__ import annotations
 
+import csv
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -253,6 +256,35 @@ def write_bvh(path: str | Path, body: Body, time_s: np.ndarray, qpos: np.ndarray
         raise InputError(f"{path.name}: cannot write the file ({exc.strerror or exc})") from exc
 
 
+def _pelvis_angles(pb) -> dict[str, np.ndarray]:
+    """Pelvis tilt, list and rotation (rad) from the playback's root orientation."""
+    if pb.body.planar:
+        return {"pelvis_tilt": pb.qpos[:, 2]}
+    quat = pb.qpos[:, [4, 5, 6, 3]]  # scipy wants (x, y, z, w)
+    ay, ax, az = Rotation.from_quat(quat).as_euler("YXZ").T  # R = Ry Rx Rz (intrinsic)
+    return {"pelvis_tilt": -ay, "pelvis_list": ax, "pelvis_rotation": az}  # tilt is about -y
+
+
+def write_motion_csv(path: Path, pb) -> None:
+    """Write ``motion.csv`` of a played or simulated walk (a ``Playback``, or what
+    ``outputs.walk_playback`` makes of a reflex walk): time_s, the pelvis position (m),
+    the pelvis and joint angles (deg), one row per frame."""
+    root = ["pelvis_tx", "pelvis_ty"] if pb.body.planar else ["pelvis_x", "pelvis_y", "pelvis_z"]
+    pos_cols = ["pelvis_x_m", "pelvis_z_m"] if pb.body.planar else [
+        "pelvis_x_m", "pelvis_y_m", "pelvis_z_m"]
+    pelvis = _pelvis_angles(pb)
+    header = ["time_s", *pos_cols, *[f"{k}_deg" for k in pelvis],
+              *[f"{j}_deg" for j in pb.body.joints]]
+    cols = [pb.time_s, *[pb.qpos[:, i] for i in range(len(root))],
+            *[np.degrees(v) for v in pelvis.values()],
+            *[np.degrees(pb.coordinates[j]) for j in pb.body.joints]]
+    data = np.column_stack(cols)
+    with path.open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(header)
+        w.writerows(np.round(data, 6).tolist())
+
+
 __all__ = [
     "BVH_NAMES",
     "GAIT10DOF_COORDINATES",
@@ -262,5 +294,6 @@ __all__ = [
     "opensim_muscle_name",
     "write_bvh",
     "write_mot",
+    "write_motion_csv",
     "write_muscles_sto",
 ]
