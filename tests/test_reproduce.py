@@ -197,3 +197,17 @@ def test_a_record_that_names_two_results_alike_is_refused(tmp_path, monkeypatch)
     monkeypatch.setattr(rp, "_record", lambda name: ("network", third))
     with pytest.raises(InputError, match="names two stages' results alike"):
         plan("x", tmp_path)
+
+
+def test_the_plan_lists_the_stages_and_runs_nothing(tmp_path, capsys):
+    out = tmp_path / "r"
+    assert main(["reflex", "reproduce", "placement-both", "--from", "placement-touch",
+                 "--out", str(out), "--plan"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert [ln.split("(")[1].split(";")[0] for ln in lines[:-1]] == [
+        "tr4", "placement-foot", "placement-both"]
+    assert lines[0].startswith("stage 1 of 3 (tr4; 15.3 min as recorded): stumble reflex fit")
+    assert f"--out {out / 'placement-foot'}" in lines[1]
+    assert "--walk-es placement-touch" in lines[2]  # the shipped file: its stages not run
+    assert lines[-1].startswith("placement-both: 3 stage(s), 19.1 min as recorded")
+    assert not out.exists()

@@ -352,6 +352,9 @@ def add_reflex_parser(sub, parser_class=argparse.ArgumentParser) -> None:
     rp.add_argument("--from", dest="start_after", metavar="NAME",
                     help="start from this shipped result of the chain: its own fits are "
                     "not run (e.g. --from placement-touch)")
+    rp.add_argument("--plan", action="store_true",
+                    help="print the stages it would run, in order, with their commands and "
+                    "the minutes each took when fitted; run and write nothing")
 
 
 def cmd_reflex_walk(args) -> int:
@@ -657,8 +660,19 @@ def cmd_reflex_fit_network_es(args) -> int:
 
 def cmd_reflex_reproduce(args) -> int:
     """``stumble reflex reproduce``: the recorded chain of fits of a shipped set, re-run."""
-    from stumble.control.reflex.reproduce import run
+    from stumble.control.reflex.reproduce import jobs, run
 
+    if args.plan:  # what would run, in order, with the minutes each took when fitted
+        import shlex
+
+        _kind, todo = jobs(args.name, args.out, args.start_after)
+        for i, st in enumerate(todo, 1):
+            print(f"stage {i} of {len(todo)} ({st.tag}; {st.minutes:.1f} min as recorded): "
+                  f"stumble {shlex.join(st.argv)}")
+        print(f"{args.name}: {len(todo)} stage(s), {sum(s.minutes for s in todo):.1f} min as "
+              "recorded when each was fitted (docs/reflex.md gives the times re-run on this "
+              "project's machines); nothing run or written")
+        return 0
     rep = run(args.name, args.out, start_after=args.start_after)
     same = rep["same_as_shipped"]
     print(f"{args.name}: {len(rep['stages'])} stage(s) in {rep['minutes']:.1f} min; "

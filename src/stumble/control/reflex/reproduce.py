@@ -227,6 +227,21 @@ def same_as_shipped(kind: str, path: Path, name: str) -> tuple[bool, str]:
     return True, ""
 
 
+def jobs(name: str, root: Path, start_after: str | None = None) -> tuple[str, list[Stage]]:
+    """(kind, the stages ``run`` would run in order) for ``name`` into ``root``, from
+    after the shipped result ``start_after`` when given (nothing is run or written)."""
+    kind, todo = plan(name, Path(root))
+    if start_after is not None:
+        shipped = _shipped()
+        tags = [s.tag for s in todo]
+        if start_after not in tags or start_after == name:
+            raise InputError(f"--from {start_after!r}: not a shipped result on the way to "
+                             f"{name!r} (those are: "
+                             f"{', '.join(t for t in tags[:-1] if t in shipped) or 'none'})")
+        todo = _after(todo, start_after, shipped)
+    return kind, todo
+
+
 def run(name: str, root: Path, start_after: str | None = None,
         runner: Callable[[list[str]], int] | None = None, log=sys.stderr) -> dict:
     """Run the chain of ``name`` into ``root`` (stages whose output is there already are
@@ -236,15 +251,8 @@ def run(name: str, root: Path, start_after: str | None = None,
     if runner is None:
         from stumble.cli import main as runner
     root = Path(root)
-    kind, todo = plan(name, root)
+    kind, todo = jobs(name, root, start_after)
     shipped = _shipped()
-    if start_after is not None:
-        tags = [s.tag for s in todo]
-        if start_after not in tags or start_after == name:
-            raise InputError(f"--from {start_after!r}: not a shipped result on the way to "
-                             f"{name!r} (those are: "
-                             f"{', '.join(t for t in tags[:-1] if t in shipped) or 'none'})")
-        todo = _after(todo, start_after, shipped)
     root.mkdir(parents=True, exist_ok=True)
     report = {"name": name, "kind": kind, "from": start_after, "stages": []}
     t_all = time.perf_counter()
