@@ -683,7 +683,10 @@ def cmd_reflex_reproduce(args) -> int:
 
 
 def cmd_reflex(args) -> int:
-    """``stumble reflex fit``: identify the network and write its files."""
+    """``stumble reflex ACTION``: ``walk`` and ``reproduce`` by their own commands; ``fit``
+    here, its options checked, then the fit they name (Geyer & Herr's CMA-ES, the
+    network's CMA-ES, or the network's identification and DAgger) run and its files
+    written."""
     if args.reflex_command == "walk":
         return cmd_reflex_walk(args)
     if args.reflex_command == "reproduce":
