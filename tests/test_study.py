@@ -671,6 +671,9 @@ def test_a_grid_too_big_is_refused_from_its_count(tmp_path, capsys, fake):
     (["--obstacle-height", "0"], "obstacle height 0.0 m is outside 0.02-0.3 m"),
     (["--mechanism", "force", "--obstacle-height", "0.1,0.5"],
      "obstacle height 0.5 m is outside 0.02-0.3 m"),
+    # likewise a walk-in with a playback start, delays for the state machines
+    (["--walk-in", "1"], "walk-in 1.0 s is outside 2-30 s"),
+    (["--controller", "fsm", "--delays", "bogus"], "delays 'bogus' is not one of"),
 ])
 def test_every_scenario_is_checked_before_anything_runs(tmp_path, capsys, fake, args, words):
     out = tmp_path / "s"

@@ -117,11 +117,12 @@ class Grid:
         return rest * per
 
     def checked_count(self) -> int:
-        """``count()``, or InputError when it is more than ``MAX_RUNS`` or an obstacle
-        height is out of range (checked here because force trips, which ignore the
-        height, would otherwise never see it)."""
-        for h in self.values("obstacle_height"):
-            Scenario(mechanism="obstacle", obstacle_height_m=h).validated()
+        """``count()``, or InputError when it is more than ``MAX_RUNS`` or a value of an
+        axis that ``normalised`` may drop is bad (``DROPPABLE``: checked here, since the
+        runs where it cannot matter never see it)."""
+        for name in DROPPABLE:
+            for v in self.values(name):
+                Scenario(**{AXES[name].field: v}).validated()
         n = self.count()
         if n > MAX_RUNS:
             raise InputError(f"the grid has {n:,} runs, more than the limit of {MAX_RUNS:,} "
@@ -167,6 +168,12 @@ class Grid:
         elif other.repeats is not None:
             axes.pop("seed", None)
         return Grid(axes, repeats, other.params if other.params is not None else self.params)
+
+
+# the axes whose value ``normalised`` replaces by the default where it cannot matter
+# (a force trip's obstacle height, a playback start's walk-in, the state machines'
+# delays); each check of ``Scenario.validated`` on them holds whatever the other fields
+DROPPABLE = ("obstacle_height", "walk_in", "delays")
 
 
 def normalised(sc: Scenario) -> Scenario:
