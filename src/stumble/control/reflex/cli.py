@@ -762,7 +762,7 @@ def cmd_reflex(args) -> int:
             raise InputError(f"--expert {args.expert} is wired {expert.wiring}: the network "
                              "learns from a seed003-wired expert (`reflex fit --controller "
                              "gh2010 --wiring seed003`); on Geyer & Herr's own delays its "
-                             "DAgger passes fall within about 1 s (docs/reflex-fits.md)")
+                             "DAgger passes fell within 0.9-5.3 s (docs/reflex-fits.md)")
         expert_text = f"{args.expert} (sha256 {file_sha256(args.expert)})"
     if passes is not None and (not closed or passes < 1):
         raise InputError("--passes is for the closed-loop fit and must be at least 1")
