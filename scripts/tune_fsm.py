@@ -12,10 +12,18 @@ Run:  python scripts/tune_fsm.py [--candidates N] [--workers N] [--seed S]
       [--method random|cma] [--generations G] [--popsize P] [--out FILE]
       [--strength anderson2007|fixed] [--trunk-attitude K] [--max-tilt DEG]
       [--grid-floor N] [--walk-on S] [--walk-on-gait W] [--flight W]
+      [--rec-hip-cap NM] [--sup-hip-cap NM] [--push-off W]
 ``--method cma``: CMA-ES (the ``cmaes`` package, seeded) over the targets scaled to
 their ranges, from the defaults, maximising recoveries + the fraction of the grid's
 time survived; the best so far is written to ``--out`` as it goes, and every
 generation's best to FILE with the suffix ``.generations.jsonl`` (one record a line).
+``--rec-hip-cap NM``: every candidate runs with the recovery hip's servo capped at NM
+N·m in the push-off (``FSMParams.push_off_rec_hip_limit_nm``, a setting of the file);
+``--sup-hip-cap NM`` the support hip's attitude servo (``push_off_hip_limit_nm``).
+``--push-off W``: the objective loses W for each of validate's nine mid-swing obstacle
+trips of the full grid (0.25-0.45 of swing) by how far its support limb's peak hip
+extension and knee flexion moments in the first 300 ms exceed 1.5 times Pijnappels et
+al. 2005's means (52 and 54 N·m): max(0, hip/78 − 1) + max(0, knee/81 − 1).
 ``--max-tilt DEG``: a recovery counts only with the trunk within DEG of vertical at
 recovery-foot contact; ``--grid-floor N``: the objective loses 2 per trip of the first
 48 (the full grid; with ``full+bodies`` the bodies follow) recovered below N.
@@ -79,6 +87,8 @@ BODY_GRID = [(f, 1.2, mech, *body) for body in BODIES for mech in ("force", "obs
 
 
 ATTITUDE_DAMPING = "joint"  # --attitude-damping (FSMParams.attitude_damping)
+REC_HIP_CAP = None  # --rec-hip-cap (FSMParams.push_off_rec_hip_limit_nm)
+SUP_HIP_CAP = None  # --sup-hip-cap (FSMParams.push_off_hip_limit_nm)
 TRUNK_ATTITUDE = 0.0  # --trunk-attitude (FSMParams.trunk_attitude)
 
 
@@ -114,14 +124,15 @@ def read_around(text: str) -> tuple[dict, dict]:
                           for name, value in settings.items()}
 
 
-def setting_of(name: str, explicit, from_file: dict):
+def setting_of(name: str, explicit, from_file: dict, option: str | None = None):
     """The search's setting ``name``: its option's value (``explicit``, None when not
     given), else the ``--around`` file's (``from_file``, read_around's settings), else
-    FSMParams' default; the option and the file both given and different: InputError."""
+    FSMParams' default; the option (``option``, default ``--`` and the name) and the file
+    both given and different: InputError."""
     from stumble.control.fsm_params import FSMParams
     from stumble.errors import InputError
 
-    option = "--" + name.replace("_", "-")
+    option = option or "--" + name.replace("_", "-")
     if explicit is not None and name in from_file and explicit != from_file[name]:
         raise InputError(f"{option} {explicit} conflicts with the --around file's "
                          f"settings.{name} {from_file[name]}: give the same value or "
@@ -133,7 +144,8 @@ def setting_of(name: str, explicit, from_file: dict):
 
 def settings() -> dict:
     """The settings every candidate runs with (a parameter file's ``"settings"``)."""
-    return {"trunk_attitude": TRUNK_ATTITUDE, "attitude_damping": ATTITUDE_DAMPING}
+    return {"trunk_attitude": TRUNK_ATTITUDE, "attitude_damping": ATTITUDE_DAMPING,
+            "push_off_rec_hip_limit_nm": REC_HIP_CAP, "push_off_hip_limit_nm": SUP_HIP_CAP}
 
 
 def out_record(best: tuple, generation: int, argv: list[str]) -> dict:
@@ -142,6 +154,7 @@ def out_record(best: tuple, generation: int, argv: list[str]) -> dict:
     return {"recovered": best[1][0], "of": len(GRID), "grid_recovered": best[1][2],
             "survived_s": round(best[1][1], 3), "generation": generation,
             "gait_bonus": round(best[1][3], 3), "flight_score": best[1][4],
+            "push_off_excess": round(best[1][5], 3),
             "command": " ".join(["python scripts/tune_fsm.py", *argv]),
             "params": best[0], "settings": settings()}
 
@@ -153,7 +166,9 @@ def params_from(x: dict):
     from stumble.control.fsm_params import FSMParams
 
     return replace(FSMParams(), attitude_damping=ATTITUDE_DAMPING,
-                   trunk_attitude=TRUNK_ATTITUDE).with_values(x)
+                   trunk_attitude=TRUNK_ATTITUDE,
+                   push_off_rec_hip_limit_nm=REC_HIP_CAP,
+                   push_off_hip_limit_nm=SUP_HIP_CAP).with_values(x)
 
 
 STRENGTH = "fixed"  # the servos' torque limits (Scenario.strength_model, --strength)
@@ -164,6 +179,11 @@ GAIT_WEIGHT = 0.0  # --walk-on-gait W: a walk on like the walk before is worth 1
 GAIT_SCALE = 0.4  # the gait_mismatch at which that bonus ends (e.g. 20 % off in each)
 FLOOR_N, FLOOR_PENALTY = len(FULL_GRID), 2.0
 FLIGHT_WEIGHT = 0.0  # --flight W: a recovery with a flight where people fly is worth 1 + W
+PUSH_WEIGHT = 0.0  # --push-off W: the objective loses W × push_off_excess of each trip
+# Pijnappels, Bobbert & van Dieën 2005 (J Biomech 38:627): the support limb's peak hip
+# extension and knee flexion moments after mid-swing trips, means of 12 young adults;
+# ×1.5 is our reading of "within the ranges they report" (their spread was not read)
+PIJNAPPELS_HIP_NM, PIJNAPPELS_KNEE_NM, PUSH_TOLERANCE = 52.0, 54.0, 1.5
 
 
 def counts(s: dict) -> bool:
@@ -204,9 +224,24 @@ def flight_score(s: dict) -> int:
     return 0 if fly is None else 1 if fly else -1
 
 
-def trip_counts(x: dict, i: int) -> tuple[bool, float, float, int]:
+def push_off_excess(s: dict, f: float, mech: str, body: list) -> float:
+    """How far a trip's support limb pushes off beyond people's (``--push-off``):
+    max(0, hip/(1.5·52) − 1) + max(0, knee/(1.5·54) − 1), its peak hip extension and
+    knee flexion moments in the first 300 ms (N·m); 0 for a trip other than validate's
+    nine (the reference body's obstacle trips at 0.25-0.45 of swing)."""
+    if body or mech != "obstacle" or not 0.25 - 1e-9 <= f <= 0.45 + 1e-9:
+        return 0.0
+    pk = s.get("support_peak_moments_nm") or {}
+    hip, knee = pk.get("hip_extension"), pk.get("knee_flexion")
+    if hip is None or knee is None:
+        return 0.0
+    return (max(0.0, hip / (PUSH_TOLERANCE * PIJNAPPELS_HIP_NM) - 1.0)
+            + max(0.0, knee / (PUSH_TOLERANCE * PIJNAPPELS_KNEE_NM) - 1.0))
+
+
+def trip_counts(x: dict, i: int) -> tuple[bool, float, float, int, float]:
     """Whether ``GRID[i]`` recovers under ``x`` (``counts``), the time it survived, its
-    walk on's ``gait_bonus`` and its ``flight_score``."""
+    walk on's ``gait_bonus``, its ``flight_score`` and its ``push_off_excess``."""
     from stumble.pipeline import simulate_trip
     from stumble.trip import Scenario
 
@@ -219,31 +254,33 @@ def trip_counts(x: dict, i: int) -> tuple[bool, float, float, int]:
                                strength_model=STRENGTH, **walk_on),
                       params=params_from(x)).summary
     return (counts(s), s["sim_time_s"] if not s["fell"] else (s["fall_time_s"] or 0.0),
-            gait_bonus(s), flight_score(s))
+            gait_bonus(s), flight_score(s), push_off_excess(s, f, mech, body))
 
 
 # --only lowering: the trips the searched targets act on (those the start sends to the
 # lowering strategy; no target of ``LOWERING`` is used by an elevating trip), and the
 # score of the others, run once with the start's values (``fixed_part``); None: all
 ACTIVE = None
-FIXED = (0, 0.0, 0, 0.0, 0)
+FIXED = (0, 0.0, 0, 0.0, 0, 0.0)
 
 
-def score_of(x: dict, indices) -> tuple[int, float, int, float, int]:
+def score_of(x: dict, indices) -> tuple[int, float, int, float, int, float]:
     """(recoveries, total time survived, recoveries among the first 48, the recovered
-    trips' summed ``gait_bonus`` and ``flight_score``) of GRID[indices]."""
-    rec, survived, rec_grid, gait, flight = 0, 0.0, 0, 0.0, 0
+    trips' summed ``gait_bonus`` and ``flight_score``, every trip's summed
+    ``push_off_excess``) of GRID[indices]."""
+    rec, survived, rec_grid, gait, flight, push = 0, 0.0, 0, 0.0, 0, 0.0
     for i in indices:
-        ok, t, m, fl = trip_counts(x, i)
+        ok, t, m, fl, po = trip_counts(x, i)
+        push += po
         rec += int(ok)
         rec_grid += int(ok and i < FLOOR_N)
         survived += t
         gait += m if ok else 0.0
         flight += fl if ok else 0
-    return rec, survived, rec_grid, gait, flight
+    return rec, survived, rec_grid, gait, flight, push
 
 
-def evaluate(x: dict) -> tuple[int, float, int, float, int]:
+def evaluate(x: dict) -> tuple[int, float, int, float, int, float]:
     """``score_of`` over the grid: with ``--only lowering`` its lowering trips run and the
     others' ``FIXED`` score is added (the same figures as running them: they do not use
     the searched targets)."""
@@ -252,7 +289,7 @@ def evaluate(x: dict) -> tuple[int, float, int, float, int]:
     return tuple(a + b for a, b in zip(score_of(x, ACTIVE), FIXED, strict=True))
 
 
-def fixed_part(base: dict, ex=None) -> tuple[list[int], tuple[int, float, int, float, int]]:
+def fixed_part(base: dict, ex=None) -> tuple[list[int], tuple]:
     """--only lowering: the indices of the trips the start sends to the lowering strategy,
     and the score of the rest under the start's values (run once, in ``ex`` if given)."""
     p = params_from(base)
@@ -262,18 +299,20 @@ def fixed_part(base: dict, ex=None) -> tuple[list[int], tuple[int, float, int, f
     parts = ([ex.submit(score_of, base, rest[:half]), ex.submit(score_of, base, rest[half:])]
              if ex else None)
     a, b = ([q.result() for q in parts] if parts else
-            (score_of(base, rest), (0, 0.0, 0, 0.0, 0)))
+            (score_of(base, rest), (0, 0.0, 0, 0.0, 0, 0.0)))
     return active, tuple(p + q for p, q in zip(a, b, strict=True))
 
 
 def penalised(score: tuple) -> tuple[float, float]:
     """(recoveries less the grid floor's penalty plus ``GAIT_WEIGHT`` times the recovered
-    trips' summed ``gait_bonus`` and ``FLIGHT_WEIGHT`` times their ``flight_score``, time
-    survived): compared as a tuple; without ``--grid-floor``, ``--walk-on-gait`` and
-    ``--flight`` the plain (recoveries, time survived)."""
-    rec, survived, rec_grid, gait, flight = score
+    trips' summed ``gait_bonus`` and ``FLIGHT_WEIGHT`` times their ``flight_score``, less
+    ``PUSH_WEIGHT`` times the summed ``push_off_excess``; time survived): compared as a
+    tuple; without ``--grid-floor``, ``--walk-on-gait``, ``--flight`` and ``--push-off``
+    the plain (recoveries, time survived)."""
+    rec, survived, rec_grid, gait, flight, push = score
     short = 0 if GRID_FLOOR is None else max(0, GRID_FLOOR - rec_grid)
-    return rec - FLOOR_PENALTY * short + GAIT_WEIGHT * gait + FLIGHT_WEIGHT * flight, survived
+    return (rec - FLOOR_PENALTY * short + GAIT_WEIGHT * gait + FLIGHT_WEIGHT * flight
+            - PUSH_WEIGHT * push, survived)
 
 
 def main() -> None:
@@ -330,6 +369,18 @@ def main() -> None:
     ap.add_argument("--max-tilt", type=float, default=None, metavar="DEG",
                     help="a recovery counts only if the trunk is within DEG of vertical at "
                     "recovery-foot contact (people: 23-26, van den Bogert et al. 2002)")
+    ap.add_argument("--rec-hip-cap", type=float, default=None, metavar="NM",
+                    help="FSMParams.push_off_rec_hip_limit_nm of every candidate: the "
+                    "recovery hip's servo capped at NM N·m in the push-off (default: the "
+                    "--around file's settings, else none; one differing is refused)")
+    ap.add_argument("--sup-hip-cap", type=float, default=None, metavar="NM",
+                    help="FSMParams.push_off_hip_limit_nm of every candidate: the support "
+                    "hip's attitude servo capped at NM N·m in the push-off (default: the "
+                    "--around file's settings, else none; one differing is refused)")
+    ap.add_argument("--push-off", type=float, default=None, metavar="W",
+                    help="with --grid full: the objective loses W per unit of the nine "
+                    "mid-swing obstacle trips' push-off excess over 1.5 x Pijnappels et "
+                    "al. 2005 (hip 52, knee 54 N·m)")
     ap.add_argument("--grid-floor", type=int, default=None, metavar="N",
                     help="penalise the objective by 2 per trip of the first 48 (the full "
                     "grid, before full+bodies' bodies) recovered below N")
@@ -346,6 +397,10 @@ def main() -> None:
         trunk_attitude = setting_of("trunk_attitude", args.trunk_attitude, file_settings)
         attitude_damping = setting_of("attitude_damping", args.attitude_damping,
                                       file_settings)
+        rec_hip_cap = setting_of("push_off_rec_hip_limit_nm", args.rec_hip_cap, file_settings,
+                                 "--rec-hip-cap")
+        sup_hip_cap = setting_of("push_off_hip_limit_nm", args.sup_hip_cap, file_settings,
+                                 "--sup-hip-cap")
     except InputError as e:
         ap.error(str(e))
     if args.max_tilt is not None and not (np.isfinite(args.max_tilt) and args.max_tilt > 0):
@@ -355,6 +410,12 @@ def main() -> None:
         ap.error("--walk-on-gait needs --walk-on S and a weight > 0")
     if args.flight is not None and not (np.isfinite(args.flight) and args.flight > 0):
         ap.error(f"--flight must be a weight > 0, got {args.flight}")
+    for option, cap in (("--rec-hip-cap", rec_hip_cap), ("--sup-hip-cap", sup_hip_cap)):
+        if cap is not None and not (np.isfinite(cap) and cap > 0):
+            ap.error(f"{option} must be a number of N·m > 0, got {cap}")
+    if args.push_off is not None and (args.grid not in ("full", "full+bodies") or not (
+            np.isfinite(args.push_off) and args.push_off > 0)):
+        ap.error("--push-off needs --grid full (or full+bodies) and a weight > 0")
     if args.grid_floor is not None:
         if args.grid not in ("full", "full+bodies"):
             ap.error("--grid-floor counts the full grid's 48 trips: give --grid full or "
@@ -362,8 +423,9 @@ def main() -> None:
         if not 0 <= args.grid_floor <= FLOOR_N:
             ap.error(f"--grid-floor must be 0-{FLOOR_N}, got {args.grid_floor}")
     global GRID, STRENGTH, WALK_ON_S, ATTITUDE_DAMPING, TRUNK_ATTITUDE, MAX_TILT, GRID_FLOOR
-    global ACTIVE, FIXED, GAIT_WEIGHT, FLIGHT_WEIGHT
+    global ACTIVE, FIXED, GAIT_WEIGHT, FLIGHT_WEIGHT, REC_HIP_CAP, SUP_HIP_CAP, PUSH_WEIGHT
     GAIT_WEIGHT, FLIGHT_WEIGHT = args.walk_on_gait or 0.0, args.flight or 0.0
+    REC_HIP_CAP, SUP_HIP_CAP, PUSH_WEIGHT = rec_hip_cap, sup_hip_cap, args.push_off or 0.0
     GRID = {"small": GRID, "full": FULL_GRID, "lowering": LOWERING_GRID,
             "full+bodies": FULL_GRID + BODY_GRID}[args.grid]
     ATTITUDE_DAMPING = attitude_damping
@@ -429,26 +491,29 @@ def main() -> None:
 def _init_args() -> tuple:
     """The module's settings, for ``_worker_init`` in a worker process."""
     return (STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING, TRUNK_ATTITUDE, MAX_TILT, ACTIVE,
-            FIXED, GAIT_WEIGHT, FLIGHT_WEIGHT)
+            FIXED, GAIT_WEIGHT, FLIGHT_WEIGHT, REC_HIP_CAP, PUSH_WEIGHT, SUP_HIP_CAP)
 
 
 def _worker_init(strength: str, grid: list, walk_on_s: float | None,
                  attitude_damping: str = "joint", trunk_attitude: float = 0.0,
                  max_tilt: float | None = None, active=None,
-                 fixed: tuple = (0, 0.0, 0, 0.0, 0), gait_weight: float = 0.0,
-                 flight_weight: float = 0.0) -> None:
+                 fixed: tuple = (0, 0.0, 0, 0.0, 0, 0.0), gait_weight: float = 0.0,
+                 flight_weight: float = 0.0, rec_hip_cap: float | None = None,
+                 push_weight: float = 0.0, sup_hip_cap: float | None = None) -> None:
     global STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING, TRUNK_ATTITUDE, MAX_TILT
-    global ACTIVE, FIXED, GAIT_WEIGHT, FLIGHT_WEIGHT
+    global ACTIVE, FIXED, GAIT_WEIGHT, FLIGHT_WEIGHT, REC_HIP_CAP, PUSH_WEIGHT, SUP_HIP_CAP
     STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING = strength, grid, walk_on_s, attitude_damping
     TRUNK_ATTITUDE, MAX_TILT, ACTIVE, FIXED = trunk_attitude, max_tilt, active, fixed
     GAIT_WEIGHT, FLIGHT_WEIGHT = gait_weight, flight_weight
+    REC_HIP_CAP, PUSH_WEIGHT, SUP_HIP_CAP = rec_hip_cap, push_weight, sup_hip_cap
 
 
 def _gait(score: tuple) -> str:
     """The recovered trips' summed gait bonus and flight score, for the log (with
     --walk-on-gait, --flight)."""
     return ((f", gait {score[3]:.1f}" if GAIT_WEIGHT else "")
-            + (f", flight {score[4]:+d}" if FLIGHT_WEIGHT else ""))
+            + (f", flight {score[4]:+d}" if FLIGHT_WEIGHT else "")
+            + (f", push-off excess {score[5]:.2f}" if PUSH_WEIGHT else ""))
 
 
 def generations_path(out: str) -> str:

@@ -289,20 +289,27 @@ def test_tune_fsm_out_carries_its_settings_to_around_and_load_params(tmp_path, m
     tune = _tune_fsm()
     monkeypatch.setattr(tune, "TRUNK_ATTITUDE", 0.4)
     monkeypatch.setattr(tune, "ATTITUDE_DAMPING", "pelvis")
-    best = ({"kp_knee": 250.0, "elev_sup_ankle": -30.0}, (40, 100.0, 40, 0.0, 0))
+    monkeypatch.setattr(tune, "REC_HIP_CAP", 60.0)
+    best = ({"kp_knee": 250.0, "elev_sup_ankle": -30.0}, (40, 100.0, 40, 0.0, 0, 0.0))
     out = tmp_path / "best.json"
     out.write_text(json.dumps(tune.out_record(best, 3, ["--trunk-attitude", "0.4"]), indent=1))
     # the search's file is a parameter file: the values and the trunk attitude it ran with
     p = load_params(out)
     assert p.trunk_attitude == 0.4 and p.kp_passive["knee"] == 250.0
-    assert p.attitude_damping == "pelvis"
+    assert p.attitude_damping == "pelvis" and p.push_off_rec_hip_limit_nm == 60.0
     assert p.targets_deg["clearance_elevating"]["sup.ankle_angle"] == -30.0
     assert p == tune.params_from(best[0])  # what the search measured
     # --around FILE (and the file's text) reads both back
     for around in (str(out), out.read_text()):
         values, settings = tune.read_around(around)
         assert values == best[0]
-        assert settings == {"trunk_attitude": 0.4, "attitude_damping": "pelvis"}
+        assert settings == {"trunk_attitude": 0.4, "attitude_damping": "pelvis",
+                            "push_off_rec_hip_limit_nm": 60.0,
+                            "push_off_hip_limit_nm": None}
+        with pytest.raises(InputError, match=re.escape(
+                "--rec-hip-cap 80.0 conflicts with the --around file's "
+                "settings.push_off_rec_hip_limit_nm 60.0")):
+            tune.setting_of("push_off_rec_hip_limit_nm", 80.0, settings, "--rec-hip-cap")
         assert tune.setting_of("trunk_attitude", None, settings) == 0.4
         assert tune.setting_of("trunk_attitude", 0.4, settings) == 0.4
         assert tune.setting_of("attitude_damping", None, settings) == "pelvis"
@@ -325,6 +332,10 @@ def test_tune_fsm_out_carries_its_settings_to_around_and_load_params(tmp_path, m
     bad.write_text(json.dumps({"params": {}, "settings": {"trunk_attitude": -1}}))
     with pytest.raises(InputError, match=f"{bad}: trunk_attitude = -1 is not"):
         tune.read_around(str(bad))
+    bad.write_text(json.dumps({"params": {}, "settings": {"push_off_rec_hip_limit_nm": 0}}))
+    with pytest.raises(InputError, match=f"{bad}: push_off_rec_hip_limit_nm = 0 is not a "
+                       "number of N·m > 0"):
+        load_params(bad)
 
 
 @pytest.mark.parametrize("swing,strategy", [(0.2, "elevating"), (0.65, "lowering")])
@@ -411,6 +422,34 @@ def test_push_off_hip_limit_caps_the_support_hip_in_the_first_300_ms():
     assert capped["recovered"]
 
 
+def test_push_off_rec_hip_limit_caps_the_recovery_hip_and_unloads_the_support_hip():
+    """``push_off_rec_hip_limit_nm`` (issue 11): a mid-swing obstacle trip's recovery hip
+    flexes with at most the cap in the push-off, and the support hip, which holds the
+    pelvis against that hip's reaction, pushes off with far less (the default set:
+    ~250 N·m; people ~52 N·m, Pijnappels et al. 2005)."""
+    from dataclasses import replace
+
+    import mujoco
+
+    from stumble.control.fsm import PUSH_OFF_STATES
+    from stumble.control.fsm_params import load_params
+
+    sc = Scenario(swing_fraction=0.35, speed_m_per_s=1.2, mechanism="obstacle")
+    flight = load_params("flight")
+    base = simulate_trip(sc, params=flight)
+    run = simulate_trip(sc, params=replace(flight, push_off_rec_hip_limit_nm=60.0))
+    m, rec = run.body.model, run.recording
+    i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"hip_flexion_{sc.side}")
+    push = np.isin(np.asarray(rec.state), PUSH_OFF_STATES) & (rec.time_s >= 0.0)
+    assert push.sum() > 20
+    # the cap is applied at each 2 ms control update; the servo acts at every step
+    assert rec.actuator_force[push, i].max() <= 60.0 * 1.1
+    b = base.summary
+    assert b["support_peak_moments_nm"]["hip_extension"] > 230.0
+    assert run.summary["support_peak_moments_nm"]["hip_extension"] < 170.0
+    assert run.summary["recovered"]
+
+
 def test_tune_fsm_only_lowering_runs_the_other_trips_once_with_the_same_score(monkeypatch):
     """--only lowering: the trips the start sends to elevating run once; a candidate's
     score is the same as running every trip (no LOWERING target acts on them)."""
@@ -445,9 +484,9 @@ def test_tune_fsm_gait_mismatch_compares_the_walk_on_with_the_walk_before(monkey
     assert tune.gait_bonus(s) == 0.0  # 0.45 off: no bonus
     monkeypatch.setattr(tune, "GAIT_WEIGHT", 2.0)
     monkeypatch.setattr(tune, "GRID_FLOOR", None)
-    assert tune.penalised((40, 100.0, 40, 12.5, 0)) == pytest.approx((65.0, 100.0))
+    assert tune.penalised((40, 100.0, 40, 12.5, 0, 0.0)) == pytest.approx((65.0, 100.0))
     monkeypatch.setattr(tune, "GAIT_WEIGHT", 0.0)
-    assert tune.penalised((40, 100.0, 40, 12.0, 0)) == (40, 100.0)
+    assert tune.penalised((40, 100.0, 40, 12.0, 0, 0.0)) == (40, 100.0)
 
 
 def test_tune_fsm_flight_score_rewards_flight_where_people_fly(monkeypatch):
@@ -467,7 +506,26 @@ def test_tune_fsm_flight_score_rewards_flight_where_people_fly(monkeypatch):
     monkeypatch.setattr(tune, "GAIT_WEIGHT", 0.0)
     monkeypatch.setattr(tune, "GRID_FLOOR", None)
     monkeypatch.setattr(tune, "FLIGHT_WEIGHT", 0.5)
-    assert tune.penalised((40, 100.0, 40, 0.0, 4)) == pytest.approx((42.0, 100.0))
+    assert tune.penalised((40, 100.0, 40, 0.0, 4, 0.0)) == pytest.approx((42.0, 100.0))
+
+
+def test_tune_fsm_push_off_excess_measures_validates_nine_trips_against_pijnappels(
+        monkeypatch):
+    """--push-off: a mid-swing obstacle trip's excess over 1.5 × Pijnappels et al. 2005
+    (hip 52, knee 54 N·m: 78 and 81); other trips and other bodies count 0."""
+    tune = _tune_fsm()
+    s = {"support_peak_moments_nm": {"hip_extension": 156.0, "knee_flexion": 40.5}}
+    assert tune.push_off_excess(s, 0.35, "obstacle", []) == pytest.approx(1.0)
+    s2 = {"support_peak_moments_nm": {"hip_extension": 78.0, "knee_flexion": 121.5}}
+    assert tune.push_off_excess(s2, 0.25, "obstacle", []) == pytest.approx(0.5)
+    assert tune.push_off_excess(s, 0.35, "force", []) == 0.0
+    assert tune.push_off_excess(s, 0.55, "obstacle", []) == 0.0
+    assert tune.push_off_excess(s, 0.35, "obstacle", [1.5, 45.0, "female"]) == 0.0
+    monkeypatch.setattr(tune, "GAIT_WEIGHT", 0.0)
+    monkeypatch.setattr(tune, "GRID_FLOOR", None)
+    monkeypatch.setattr(tune, "FLIGHT_WEIGHT", 0.0)
+    monkeypatch.setattr(tune, "PUSH_WEIGHT", 2.0)
+    assert tune.penalised((40, 100.0, 40, 0.0, 0, 3.0)) == pytest.approx((34.0, 100.0))
 
 
 def test_walk_on_with_double_support_takes_longer_steps():

@@ -32,8 +32,8 @@ from stumble.sim import CONTROL_HZ, Context
 FIXED, HOLD, ATT_PITCH, ATT_ROLL = 0, 1, 2, 3
 OTHER = {"r": "l", "l": "r"}
 # the support leg's push-off, from the trip until the recovery foot lands or both feet
-# are off (FSMParams.push_off_hip_limit_nm), and the states before the recovery foot
-# lands (FSMParams.trunk_attitude)
+# are off (FSMParams.push_off_hip_limit_nm, push_off_rec_hip_limit_nm), and the states
+# before the recovery foot lands (FSMParams.trunk_attitude)
 PUSH_OFF_STATES = ("passive_reaction", "clearance", "leg_swap")
 PRE_LANDING_STATES = (*PUSH_OFF_STATES, "flight", "fall")
 TRUNK_RELEASE_S = 0.3  # trunk_attitude: the lumbar's return to its held angle (ours)
@@ -395,9 +395,12 @@ class TripFSM:
             self._place_foot_laterally(ctx, target, lst)
         if self.p.trunk_attitude:
             self._hold_trunk(ctx, target, st)
-        cap = self.p.push_off_hip_limit_nm
-        if cap is not None and st in PUSH_OFF_STATES:
-            self._cap_support_hip(target, cap)
+        if st in PUSH_OFF_STATES:
+            cap, rec_cap = self.p.push_off_hip_limit_nm, self.p.push_off_rec_hip_limit_nm
+            if cap is not None:
+                self._cap_hip(target, self.roles["sup"], cap, attitude_only=True)
+            if rec_cap is not None:
+                self._cap_hip(target, self.roles["rec"], rec_cap)
         if st == "clearance" and self._pushing(ctx):
             i = self.bank.index[f"ankle_angle_{self.roles['sup']}"]
             tau_c = self.kc * (self.p.vz_target_m_per_s - ctx.sensors.com_vel[2])  # eq. 4
@@ -433,12 +436,14 @@ class TripFSM:
             w = math.exp(-(t - t0) / TRUNK_RELEASE_S)
             target[i] = self.target[i] + w * (q0 - self.target[i])
 
-    def _cap_support_hip(self, target: np.ndarray, cap_nm: float) -> None:
-        """Limit the support hip's servo moment |k_p(θ_d − θ) − k_d θ̇| to ``cap_nm``
-        (reference body; scaled as the gains) by moving its target (the servo runs at
-        every physics step, the target is rewritten at every control update)."""
-        i = self.bank.index[f"hip_flexion_{self.roles['sup']}"]
-        if self.mode[i] != ATT_PITCH:
+    def _cap_hip(self, target: np.ndarray, side: str, cap_nm: float,
+                 attitude_only: bool = False) -> None:
+        """Limit a hip's servo moment |k_p(θ_d − θ) − k_d θ̇| to ``cap_nm`` (reference
+        body; scaled as the gains) by moving its target (the servo runs at every physics
+        step, the target is rewritten at every control update); ``attitude_only``: only
+        while it holds the pelvis attitude."""
+        i = self.bank.index[f"hip_flexion_{side}"]
+        if attitude_only and self.mode[i] != ATT_PITCH:
             return
         b = self.bank
         kp = b.gain_scale * self.kp[i]

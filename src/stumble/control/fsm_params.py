@@ -400,6 +400,16 @@ class FSMParams:
     # let the trunk rotate as people do; None: the servo's own limit. An experiment:
     # measured, it loses recoveries and tilts the trunk further (docs/trips.md "Trips").
     push_off_hip_limit_nm: float | None = None
+    # push_off_rec_hip_limit_nm caps the recovery (tripped) hip's servo moment (N·m,
+    # reference body, scaled as the gains) in the push-off (fsm.PUSH_OFF_STATES); None:
+    # the servo's own limit (300 N·m). Reason (issue 11): swinging the tripped leg
+    # through at up to 300 N·m, the recovery hip's reaction pitches the pelvis, and the
+    # support hip's attitude servo arrests it with 5 times the 52 N·m of people's
+    # push-off (Pijnappels et al. 2005). People's hip flexors cannot give 300 N·m: for
+    # our reference body Anderson et al. 2007 (J Biomech 40:3105, Table 3, young men)
+    # give 136 N·m isometric, about a third of it at 6 rad/s. Ours: a constant cap, not
+    # Anderson's curve (measured in docs/trips.md "Push-off").
+    push_off_rec_hip_limit_nm: float | None = None
     # trunk_attitude k: until the recovery foot lands (fsm.PRE_LANDING_STATES) the lumbar
     # extends against k times the torso's forward pitch in the world since the trip
     # (0: off, SCA 2009 §4.6's chest held at its trip-instant angle to the pelvis).
@@ -664,7 +674,8 @@ DEFAULT_SETS = {("fixed", "walk_on"): DEFAULT_SET, ("fixed", "step"): DEFAULT_SE
 # The settings a parameter file may carry beside its tunable values (its top-level
 # "settings" object): FSMParams fields that no search varies but that a set was found
 # with (scripts/tune_fsm.py writes its --trunk-attitude and --attitude-damping there).
-SETTINGS = ("trunk_attitude", "attitude_damping")
+SETTINGS = ("trunk_attitude", "attitude_damping", "push_off_hip_limit_nm",
+            "push_off_rec_hip_limit_nm")
 
 
 def check_trunk_attitude(value, where: str) -> float:
@@ -686,6 +697,13 @@ def check_setting(name: str, value, where: str):
 
     if name == "trunk_attitude":
         return check_trunk_attitude(value, where)
+    if name in ("push_off_hip_limit_nm", "push_off_rec_hip_limit_nm"):
+        ok = value is None or (isinstance(value, (int, float)) and not isinstance(value, bool)
+                               and math.isfinite(value) and value > 0)
+        if not ok:
+            raise InputError(f"{where}: {name} = {value!r} is not a number of N·m > 0 "
+                             f"(or null: the servo's own limit)")
+        return None if value is None else float(value)
     if name == "attitude_damping":
         if not isinstance(value, str) or value not in ATTITUDE_DAMPING:
             raise InputError(f"{where}: attitude_damping = {value!r} is not one of "
