@@ -6,7 +6,8 @@ Each design is a JSON object of:
 - ``gain``: the support hip's k_p times this in the push-off states (Clearance, Leg
   Swap), for ``window`` s from their start (default: all of them), then as before;
 - ``rec_cap``: the recovery hip's servo moment capped at this many N·m (reference body)
-  in the push-off states (Passive Reaction, Clearance, Leg Swap);
+  in the push-off states (Passive Reaction, Clearance, Leg Swap): since the seventeenth
+  session the parameter ``FSMParams.push_off_rec_hip_limit_nm``, no longer a patch;
 - ``ref_deg``: the pelvis attitude's reference moved this many degrees anterior of its
   tilt at the trip (negative: posterior).
 
@@ -25,10 +26,12 @@ import json
 import math
 import multiprocessing as mp
 import sys
+from dataclasses import replace
 
 import numpy as np
 
 from stumble.control import fsm as F
+from stumble.control.fsm_params import load_params
 from stumble.errors import InputError
 from stumble.pipeline import simulate_trip
 from stumble.trip import Scenario
@@ -39,19 +42,6 @@ GRID = [(mech, f, v) for mech in ("force", "obstacle") for f in SWINGS
 KEYS = {"gain", "window", "rec_cap", "ref_deg"}
 DESIGN: dict = {}
 _start, _write = F.TripFSM.start, F.TripFSM._write
-
-
-def _cap_hip(fsm, target: np.ndarray, side: str, cap_nm: float) -> None:
-    """Move the target so that |k_p(θ_d − θ) − k_d θ̇| of that hip is at most ``cap_nm``."""
-    b = fsm.bank
-    i = b.index[f"hip_flexion_{side}"]
-    kp = b.gain_scale * fsm.kp[i]
-    if kp <= 0.0:
-        return
-    kd, cap = b.kd_over_kp * kp, cap_nm * b.gain_scale
-    q, qd = float(fsm._qpos[b.qadr[i]]), float(fsm._qvel[b.vadr[i]])
-    if abs(kp * (target[i] - q) - kd * qd) > cap:
-        target[i] = q + (math.copysign(cap, kp * (target[i] - q) - kd * qd) + kd * qd) / kp
 
 
 def start(self, ctx) -> None:
@@ -73,17 +63,15 @@ def write(self, ctx) -> None:
         if self.kp[i] != want:
             self.kp[i], self._gains_dirty = want, True
     _write(self, ctx)
-    if DESIGN.get("rec_cap") is not None and st in F.PUSH_OFF_STATES:
-        target = self._ctrl.copy()
-        _cap_hip(self, target, self.roles["rec"], DESIGN["rec_cap"])
-        self._ctrl[:] = target
 
 
 def run(job):
     design, (mech, f, v) = job
     DESIGN.clear()
     DESIGN.update(design)
-    s = simulate_trip(Scenario(mechanism=mech, swing_fraction=f, speed_m_per_s=v)).summary
+    params = replace(load_params("flight"), push_off_rec_hip_limit_nm=design.get("rec_cap"))
+    s = simulate_trip(Scenario(mechanism=mech, swing_fraction=f, speed_m_per_s=v),
+                      params=params).summary
     pk = s.get("support_peak_moments_nm") or {}
     return (mech, f, bool(s.get("recovered")), pk.get("hip_extension"),
             pk.get("knee_flexion"), pk.get("ankle_plantarflexion"))

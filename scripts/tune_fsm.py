@@ -180,10 +180,6 @@ GAIT_SCALE = 0.4  # the gait_mismatch at which that bonus ends (e.g. 20 % off in
 FLOOR_N, FLOOR_PENALTY = len(FULL_GRID), 2.0
 FLIGHT_WEIGHT = 0.0  # --flight W: a recovery with a flight where people fly is worth 1 + W
 PUSH_WEIGHT = 0.0  # --push-off W: the objective loses W × push_off_excess of each trip
-# Pijnappels, Bobbert & van Dieën 2005 (J Biomech 38:627): the support limb's peak hip
-# extension and knee flexion moments after mid-swing trips, means of 12 young adults;
-# ×1.5 is our reading of "within the ranges they report" (their spread was not read)
-PIJNAPPELS_HIP_NM, PIJNAPPELS_KNEE_NM, PUSH_TOLERANCE = 52.0, 54.0, 1.5
 
 
 def counts(s: dict) -> bool:
@@ -225,18 +221,22 @@ def flight_score(s: dict) -> int:
 
 
 def push_off_excess(s: dict, f: float, mech: str, body: list) -> float:
-    """How far a trip's support limb pushes off beyond people's (``--push-off``):
-    max(0, hip/(1.5·52) − 1) + max(0, knee/(1.5·54) − 1), its peak hip extension and
-    knee flexion moments in the first 300 ms (N·m); 0 for a trip other than validate's
-    nine (the reference body's obstacle trips at 0.25-0.45 of swing)."""
-    if body or mech != "obstacle" or not 0.25 - 1e-9 <= f <= 0.45 + 1e-9:
+    """How far a trip's support limb pushes off beyond people's (``--push-off``): the
+    sum over hip extension and knee flexion of max(0, peak/(1.5·mean) − 1), the peaks in
+    the first 300 ms (N·m) against Pijnappels et al. 2005's means (52 and 54 N·m;
+    ``stumble.validate.PUSH_OFF_NM``, ``PUSH_OFF_FACTOR``); 0 for a trip other than
+    validate's nine (the reference body's obstacle trips at 0.25-0.45 of swing)."""
+    from stumble.validate import PUSH_OFF_FACTOR, PUSH_OFF_MECHANISM, PUSH_OFF_NM, PUSH_OFF_SWING
+
+    lo, hi = PUSH_OFF_SWING
+    if body or mech != PUSH_OFF_MECHANISM or not lo - 1e-9 <= f <= hi + 1e-9:
         return 0.0
     pk = s.get("support_peak_moments_nm") or {}
-    hip, knee = pk.get("hip_extension"), pk.get("knee_flexion")
-    if hip is None or knee is None:
-        return 0.0
-    return (max(0.0, hip / (PUSH_TOLERANCE * PIJNAPPELS_HIP_NM) - 1.0)
-            + max(0.0, knee / (PUSH_TOLERANCE * PIJNAPPELS_KNEE_NM) - 1.0))
+    out = 0.0
+    for name, mean in PUSH_OFF_NM:
+        if name != "ankle_plantarflexion" and pk.get(name) is not None:
+            out += max(0.0, pk[name] / (PUSH_OFF_FACTOR * mean) - 1.0)
+    return out
 
 
 def trip_counts(x: dict, i: int) -> tuple[bool, float, float, int, float]:
