@@ -247,7 +247,9 @@ def test_a_params_file_carries_its_settings(tmp_path):
     rec = read_params(f).record()
     assert rec["path"] == str(f) and rec["sha256"] == hashlib.sha256(f.read_bytes()).hexdigest()
     assert rec["values"]["kp_knee"] == 250.0
-    assert rec["settings"] == {"trunk_attitude": 0.3, "attitude_damping": "joint"}
+    assert rec["settings"] == {"trunk_attitude": 0.3, "attitude_damping": "joint",
+                               "push_off_hip_limit_nm": None,
+                               "push_off_rec_hip_limit_nm": None}
     f.write_text(json.dumps({"params": {}, "settings": {"attitude_damping": "pelvis"}}))
     assert load_params(f).attitude_damping == "pelvis" and load_params(f).trunk_attitude == 0.0
     for settings, match in (('{"trunk_attitude": -0.5}', "trunk_attitude = -0.5 is not"),

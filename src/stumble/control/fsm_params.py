@@ -408,7 +408,9 @@ class FSMParams:
     # push-off (Pijnappels et al. 2005). People's hip flexors cannot give 300 N·m: for
     # our reference body Anderson et al. 2007 (J Biomech 40:3105, Table 3, young men)
     # give 136 N·m isometric, about a third of it at 6 rad/s. Ours: a constant cap, not
-    # Anderson's curve (measured in docs/trips.md "Push-off").
+    # their curve. Searched under 60 N·m, the grid walks on after 46 of 48 with the
+    # support hip at 145 N·m (docs/trips.md, "Where it stands": "Targets and gains
+    # searched under the cap"); scripts/tune_fsm.py --rec-hip-cap NM.
     push_off_rec_hip_limit_nm: float | None = None
     # trunk_attitude k: until the recovery foot lands (fsm.PRE_LANDING_STATES) the lumbar
     # extends against k times the torso's forward pitch in the world since the trip
