@@ -452,6 +452,21 @@ def test_push_off_rec_hip_limit_caps_the_recovery_hip_and_unloads_the_support_hi
     assert run.summary["recovered"]
 
 
+def test_the_hip_cap_set_runs_with_its_cap_and_pushes_off_with_half_flights_hip():
+    """The shipped ``hip_cap`` set (searched under a 60 N·m recovery-hip cap, its
+    settings) walks on after a mid-swing obstacle trip with the support hip's push-off
+    near 150 N·m (``flight``: ~250)."""
+    from stumble.control.fsm_params import load_params, read_params
+
+    p = load_params("hip_cap")
+    assert p.push_off_rec_hip_limit_nm == 60.0 and p.push_off_hip_limit_nm is None
+    assert read_params("hip_cap").record()["settings"]["push_off_rec_hip_limit_nm"] == 60.0
+    s = simulate_trip(Scenario(swing_fraction=0.35, speed_m_per_s=1.2, mechanism="obstacle"),
+                      params=p).summary
+    assert s["recovered"] and s["steps_after_recovery_step"] >= 4
+    assert 120.0 < s["support_peak_moments_nm"]["hip_extension"] < 170.0
+
+
 def test_tune_fsm_only_lowering_runs_the_other_trips_once_with_the_same_score(monkeypatch):
     """--only lowering: the trips the start sends to elevating run once; a candidate's
     score is the same as running every trip (no LOWERING target acts on them)."""
