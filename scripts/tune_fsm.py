@@ -369,14 +369,14 @@ def main() -> None:
     ap.add_argument("--max-tilt", type=float, default=None, metavar="DEG",
                     help="a recovery counts only if the trunk is within DEG of vertical at "
                     "recovery-foot contact (people: 23-26, van den Bogert et al. 2002)")
-    ap.add_argument("--rec-hip-cap", type=float, default=None, metavar="NM",
-                    help="FSMParams.push_off_rec_hip_limit_nm of every candidate: the "
-                    "recovery hip's servo capped at NM N·m in the push-off (default: the "
-                    "--around file's settings, else none; one differing is refused)")
-    ap.add_argument("--sup-hip-cap", type=float, default=None, metavar="NM",
-                    help="FSMParams.push_off_hip_limit_nm of every candidate: the support "
-                    "hip's attitude servo capped at NM N·m in the push-off (default: the "
-                    "--around file's settings, else none; one differing is refused)")
+    for option, field, servo in (("--rec-hip-cap", "push_off_rec_hip_limit_nm",
+                                  "the recovery hip's servo"),
+                                 ("--sup-hip-cap", "push_off_hip_limit_nm",
+                                  "the support hip's attitude servo")):
+        ap.add_argument(option, type=float, default=None, metavar="NM",
+                        help=f"FSMParams.{field} of every candidate: {servo} capped at NM "
+                        "N·m in the push-off (default: the --around file's settings, else "
+                        "none; one differing is refused)")
     ap.add_argument("--push-off", type=float, default=None, metavar="W",
                     help="with --grid full: the objective loses W per unit of the nine "
                     "mid-swing obstacle trips' push-off excess over 1.5 x Pijnappels et "
