@@ -409,7 +409,7 @@ class FSMParams:
     # our reference body Anderson et al. 2007 (J Biomech 40:3105, Table 3, young men)
     # give 136 N·m isometric, about a third of it at 6 rad/s. Ours: a constant cap, not
     # their curve. Searched under 60 N·m, the grid walks on after 46 of 48 with the
-    # support hip at 145 N·m (docs/trips.md, "Where it stands": "Targets and gains
+    # support hip at 142 N·m (docs/trips.md, "Where it stands": "Targets and gains
     # searched under the cap"); scripts/tune_fsm.py --rec-hip-cap NM.
     push_off_rec_hip_limit_nm: float | None = None
     # trunk_attitude k: until the recovery foot lands (fsm.PRE_LANDING_STATES) the lumbar
