@@ -150,7 +150,8 @@ def settings() -> dict:
 
 def out_record(best: tuple, generation: int, argv: list[str]) -> dict:
     """The ``--out`` file: the best so far as a parameter file (``params`` and
-    ``settings``, ``fsm_params.load_params``) with its score and the command."""
+    ``settings``, ``fsm_params.load_params``) with its score, the generation that found
+    it (−1: the start) and the command."""
     return {"recovered": best[1][0], "of": len(GRID), "grid_recovered": best[1][2],
             "survived_s": round(best[1][1], 3), "generation": generation,
             "gait_bonus": round(best[1][3], 3), "flight_score": best[1][4],
@@ -378,9 +379,9 @@ def main() -> None:
                         "N·m in the push-off (default: the --around file's settings, else "
                         "none; one differing is refused)")
     ap.add_argument("--push-off", type=float, default=None, metavar="W",
-                    help="with --grid full: the objective loses W per unit of the nine "
-                    "mid-swing obstacle trips' push-off excess over 1.5 x Pijnappels et "
-                    "al. 2005 (hip 52, knee 54 N·m)")
+                    help="with --grid full or full+bodies: the objective loses W per unit "
+                    "of the nine mid-swing obstacle trips' push-off excess over 1.5 x "
+                    "Pijnappels et al. 2005 (hip 52, knee 54 N·m)")
     ap.add_argument("--grid-floor", type=int, default=None, metavar="N",
                     help="penalise the objective by 2 per trip of the first 48 (the full "
                     "grid, before full+bodies' bodies) recovered below N")
@@ -388,6 +389,7 @@ def main() -> None:
     if args.trunk_attitude is not None and not (np.isfinite(args.trunk_attitude)
                                                 and args.trunk_attitude >= 0):
         ap.error(f"--trunk-attitude must be a number >= 0, got {args.trunk_attitude}")
+    from stumble.control.fsm_params import check_setting
     from stumble.errors import InputError
 
     around, file_settings = {}, {}
@@ -401,6 +403,9 @@ def main() -> None:
                                  "--rec-hip-cap")
         sup_hip_cap = setting_of("push_off_hip_limit_nm", args.sup_hip_cap, file_settings,
                                  "--sup-hip-cap")
+        for option, name, cap in (("--rec-hip-cap", "push_off_rec_hip_limit_nm", rec_hip_cap),
+                                  ("--sup-hip-cap", "push_off_hip_limit_nm", sup_hip_cap)):
+            check_setting(name, cap, option)  # as a parameter file's settings
     except InputError as e:
         ap.error(str(e))
     if args.max_tilt is not None and not (np.isfinite(args.max_tilt) and args.max_tilt > 0):
@@ -410,9 +415,6 @@ def main() -> None:
         ap.error("--walk-on-gait needs --walk-on S and a weight > 0")
     if args.flight is not None and not (np.isfinite(args.flight) and args.flight > 0):
         ap.error(f"--flight must be a weight > 0, got {args.flight}")
-    for option, cap in (("--rec-hip-cap", rec_hip_cap), ("--sup-hip-cap", sup_hip_cap)):
-        if cap is not None and not (np.isfinite(cap) and cap > 0):
-            ap.error(f"{option} must be a number of N·m > 0, got {cap}")
     if args.push_off is not None and (args.grid not in ("full", "full+bodies") or not (
             np.isfinite(args.push_off) and args.push_off > 0)):
         ap.error("--push-off needs --grid full (or full+bodies) and a weight > 0")
@@ -544,7 +546,7 @@ def _cma(args, base: dict, space: dict) -> None:
     span = (WALK_ON_S or 3.0) * len(GRID)  # the grid's time budget
     try:
         first = evaluate(base) if ex is None else ex.submit(evaluate, base).result()
-        best = (base, first)
+        best, best_gen = (base, first), -1
         print(f"start recovered {first[0]}/{len(GRID)} survived {first[1]:.1f} s "
               f"grid {first[2]}{_gait(first)}", flush=True)
         for g in range(args.generations):
@@ -555,7 +557,7 @@ def _cma(args, base: dict, space: dict) -> None:
             opt.tell([(u, -(r + sv / span)) for u, (r, sv) in zip(us, pens, strict=True)])
             for x, sc in zip(xs, scores, strict=True):
                 if penalised(sc) > penalised(best[1]):
-                    best = (x, sc)
+                    best, best_gen = (x, sc), g
             i_top = pens.index(max(pens))
             top = scores[i_top]
             print(f"gen {g:2d} best of gen {top[0]}/{len(GRID)} (grid {top[2]}{_gait(top)}) "
@@ -564,7 +566,7 @@ def _cma(args, base: dict, space: dict) -> None:
             if args.out:
                 argv = __import__("sys").argv[1:]
                 with open(args.out, "w") as fh:
-                    json.dump(out_record(best, g, argv), fh, indent=1)
+                    json.dump(out_record(best, best_gen, argv), fh, indent=1)
                 # every generation's best too, as it goes: the objective weighs the
                 # issue's criteria only roughly, so a generation's best may be the one
                 # to keep (``--out`` holds the best by the objective)

@@ -526,6 +526,29 @@ def test_tune_fsm_flight_score_rewards_flight_where_people_fly(monkeypatch):
     assert tune.penalised((40, 100.0, 40, 0.0, 4, 0.0)) == pytest.approx((42.0, 100.0))
 
 
+def test_tune_fsm_out_names_the_generation_that_found_its_best(tmp_path, monkeypatch):
+    """--out records the generation whose candidate it holds, not the last one run."""
+    import argparse
+    import json
+
+    tune = _tune_fsm()
+    calls = iter(range(100))
+    # the start scores 10, generation 0's candidates 21-24, every later one less
+    monkeypatch.setattr(tune, "evaluate", lambda x: (
+        (lambda n: (10 if n == 0 else 20 + n if n <= 4 else 5, 0.0, 0, 0.0, 0, 0.0))(
+            next(calls))))
+    monkeypatch.setattr(tune, "GRID", [(0.35, 1.2, "obstacle")])
+    out = tmp_path / "best.json"
+    args = argparse.Namespace(sigma=0.1, seed=1, popsize=4, generations=3, workers=1,
+                              out=str(out))
+    space = {k: tune.SPACE[k] for k in ("elev_sup_ankle", "ext_rec_hip")}
+    tune._cma(args, tune.params_from({}).values(), space)
+    rec = json.loads(out.read_text())
+    assert rec["recovered"] == 24 and rec["generation"] == 0
+    lines = (tmp_path / "best.generations.jsonl").read_text().splitlines()
+    assert [json.loads(x)["generation"] for x in lines] == [0, 1, 2]
+
+
 def test_tune_fsm_push_off_excess_measures_validates_nine_trips_against_pijnappels(
         monkeypatch):
     """--push-off: a mid-swing obstacle trip's excess over 1.5 × Pijnappels et al. 2005
