@@ -249,7 +249,8 @@ def test_a_params_file_carries_its_settings(tmp_path):
     assert rec["values"]["kp_knee"] == 250.0
     assert rec["settings"] == {"trunk_attitude": 0.3, "attitude_damping": "joint",
                                "push_off_hip_limit_nm": None,
-                               "push_off_rec_hip_limit_nm": None}
+                               "push_off_rec_hip_limit_nm": None,
+                               "push_off_sup_knee_limit_nm": None}
     f.write_text(json.dumps({"params": {}, "settings": {"attitude_damping": "pelvis"}}))
     assert load_params(f).attitude_damping == "pelvis" and load_params(f).trunk_attitude == 0.0
     for settings, match in (('{"trunk_attitude": -0.5}', "trunk_attitude = -0.5 is not"),
@@ -307,7 +308,8 @@ def test_tune_fsm_out_carries_its_settings_to_around_and_load_params(tmp_path, m
         assert values == best[0]
         assert settings == {"trunk_attitude": 0.4, "attitude_damping": "pelvis",
                             "push_off_rec_hip_limit_nm": 60.0,
-                            "push_off_hip_limit_nm": None}
+                            "push_off_hip_limit_nm": None,
+                            "push_off_sup_knee_limit_nm": None}
         with pytest.raises(InputError, match=re.escape(
                 "--rec-hip-cap 80.0 conflicts with the --around file's "
                 "settings.push_off_rec_hip_limit_nm 60.0")):
@@ -452,6 +454,33 @@ def test_push_off_rec_hip_limit_caps_the_recovery_hip_and_unloads_the_support_hi
     assert run.summary["recovered"]
 
 
+def test_push_off_sup_knee_limit_caps_the_support_knees_push_off():
+    """``push_off_sup_knee_limit_nm`` (issue 11): after a mid-swing obstacle trip the
+    support knee, extending under the push-off against its servo's damping, flexes with
+    ~100 N·m under ``hip_cap`` (people ~54 N·m, Pijnappels et al. 2005); capped at
+    80 N·m it stays within the cap in the push-off states and within 1.5 times people's
+    in the first 300 ms."""
+    from dataclasses import replace
+
+    import mujoco
+
+    from stumble.control.fsm import PUSH_OFF_STATES
+    from stumble.control.fsm_params import load_params
+
+    sc = Scenario(swing_fraction=0.35, speed_m_per_s=1.2, mechanism="obstacle")
+    p = load_params("hip_cap")
+    base = simulate_trip(sc, params=p).summary
+    run = simulate_trip(sc, params=replace(p, push_off_sup_knee_limit_nm=80.0))
+    m, rec = run.body.model, run.recording
+    sup = {"r": "l", "l": "r"}[sc.side]
+    i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"knee_angle_{sup}")
+    push = np.isin(np.asarray(rec.state), PUSH_OFF_STATES) & (rec.time_s >= 0.0)
+    assert push.sum() > 20
+    assert np.abs(rec.actuator_force[push, i]).max() <= 80.0 * 1.1
+    assert base["support_peak_moments_nm"]["knee_flexion"] > 90.0
+    assert run.summary["support_peak_moments_nm"]["knee_flexion"] <= 81.0
+
+
 def test_the_hip_cap_set_runs_with_its_cap_and_pushes_off_with_half_flights_hip():
     """The shipped ``hip_cap`` set (searched under a 60 N·m recovery-hip cap, its
     settings) walks on after a mid-swing obstacle trip with the support hip's push-off
@@ -566,6 +595,24 @@ def test_tune_fsm_push_off_excess_measures_validates_nine_trips_against_pijnappe
     monkeypatch.setattr(tune, "FLIGHT_WEIGHT", 0.0)
     monkeypatch.setattr(tune, "PUSH_WEIGHT", 2.0)
     assert tune.penalised((40, 100.0, 40, 0.0, 0, 3.0)) == pytest.approx((34.0, 100.0))
+
+
+def test_tune_fsm_knee_weight_and_bodies_floor(monkeypatch):
+    """--push-off-knee K counts the knee's excess K times; --bodies-floor N loses 2 per
+    body trip (those after the grid's 48) recovered below N."""
+    tune = _tune_fsm()
+    s = {"support_peak_moments_nm": {"hip_extension": 156.0, "knee_flexion": 121.5}}
+    monkeypatch.setattr(tune, "KNEE_WEIGHT", 4.0)
+    assert tune.push_off_excess(s, 0.35, "obstacle", []) == pytest.approx(1.0 + 4 * 0.5)
+    for name, value in (("GAIT_WEIGHT", 0.0), ("GRID_FLOOR", 46), ("FLIGHT_WEIGHT", 0.0),
+                        ("PUSH_WEIGHT", 0.0), ("BODIES_FLOOR", 87)):
+        monkeypatch.setattr(tune, name, value)
+    # 46 of the grid and 82 of the bodies: 5 body trips short of 87
+    assert tune.penalised((128, 800.0, 46, 0.0, 0, 0.0)) == pytest.approx((118.0, 800.0))
+    # the grid short by one as well
+    assert tune.penalised((127, 800.0, 45, 0.0, 0, 0.0)) == pytest.approx((115.0, 800.0))
+    monkeypatch.setattr(tune, "BODIES_FLOOR", None)
+    assert tune.penalised((128, 800.0, 46, 0.0, 0, 0.0)) == pytest.approx((128.0, 800.0))
 
 
 def test_walk_on_with_double_support_takes_longer_steps():

@@ -543,7 +543,8 @@ def test_params_go_to_every_run_and_are_recorded(tmp_path, monkeypatch, capsys):
     assert rec["values"]["elev_sup_ankle"] == -60.0 and len(rec["values"]) == len(TUNABLE) == 56
     assert rec["settings"] == {"trunk_attitude": 1.0, "attitude_damping": "joint",
                                "push_off_hip_limit_nm": None,
-                               "push_off_rec_hip_limit_nm": None}
+                               "push_off_rec_hip_limit_nm": None,
+                               "push_off_sup_knee_limit_nm": None}
     table = pq.read_table(tmp_path / "a" / "results.parquet").to_pydict()
     assert table["params_sha256"] == [rec["sha256"]] * 2  # every row names its parameters
     # without --params: no parameters passed, nothing recorded as given (as before

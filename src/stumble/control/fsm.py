@@ -32,7 +32,8 @@ from stumble.sim import CONTROL_HZ, Context
 FIXED, HOLD, ATT_PITCH, ATT_ROLL = 0, 1, 2, 3
 OTHER = {"r": "l", "l": "r"}
 # the support leg's push-off, from the trip until the recovery foot lands or both feet
-# are off (FSMParams.push_off_hip_limit_nm, push_off_rec_hip_limit_nm), and the states
+# are off (FSMParams.push_off_hip_limit_nm, push_off_rec_hip_limit_nm,
+# push_off_sup_knee_limit_nm), and the states
 # before the recovery foot lands (FSMParams.trunk_attitude)
 PUSH_OFF_STATES = ("passive_reaction", "clearance", "leg_swap")
 PRE_LANDING_STATES = (*PUSH_OFF_STATES, "flight", "fall")
@@ -396,11 +397,15 @@ class TripFSM:
         if self.p.trunk_attitude:
             self._hold_trunk(ctx, target, st)
         if st in PUSH_OFF_STATES:
-            cap, rec_cap = self.p.push_off_hip_limit_nm, self.p.push_off_rec_hip_limit_nm
-            if cap is not None:
-                self._cap_hip(target, self.roles["sup"], cap, attitude_only=True)
-            if rec_cap is not None:
-                self._cap_hip(target, self.roles["rec"], rec_cap)
+            p, sup = self.p, self.roles["sup"]
+            if p.push_off_hip_limit_nm is not None:
+                self._cap_servo(target, f"hip_flexion_{sup}", p.push_off_hip_limit_nm,
+                                attitude_only=True)
+            if p.push_off_rec_hip_limit_nm is not None:
+                self._cap_servo(target, f"hip_flexion_{self.roles['rec']}",
+                                p.push_off_rec_hip_limit_nm)
+            if p.push_off_sup_knee_limit_nm is not None:
+                self._cap_servo(target, f"knee_angle_{sup}", p.push_off_sup_knee_limit_nm)
         if st == "clearance" and self._pushing(ctx):
             i = self.bank.index[f"ankle_angle_{self.roles['sup']}"]
             tau_c = self.kc * (self.p.vz_target_m_per_s - ctx.sensors.com_vel[2])  # eq. 4
@@ -436,13 +441,13 @@ class TripFSM:
             w = math.exp(-(t - t0) / TRUNK_RELEASE_S)
             target[i] = self.target[i] + w * (q0 - self.target[i])
 
-    def _cap_hip(self, target: np.ndarray, side: str, cap_nm: float,
-                 attitude_only: bool = False) -> None:
-        """Limit a hip's servo moment |k_p(θ_d − θ) − k_d θ̇| to ``cap_nm`` (reference
-        body; scaled as the gains) by moving its target (the servo runs at every physics
-        step, the target is rewritten at every control update); ``attitude_only``: only
-        while it holds the pelvis attitude."""
-        i = self.bank.index[f"hip_flexion_{side}"]
+    def _cap_servo(self, target: np.ndarray, name: str, cap_nm: float,
+                   attitude_only: bool = False) -> None:
+        """Limit the servo ``name``'s moment |k_p(θ_d − θ) − k_d θ̇| to ``cap_nm``
+        (reference body; scaled as the gains) by moving its target (the servo runs at
+        every physics step, the target is rewritten at every control update);
+        ``attitude_only``: only while it holds the pelvis attitude."""
+        i = self.bank.index[name]
         if attitude_only and self.mode[i] != ATT_PITCH:
             return
         b = self.bank
