@@ -9,15 +9,19 @@ Each design is a JSON object of:
   in the push-off states (Passive Reaction, Clearance, Leg Swap): since the seventeenth
   session the parameter ``FSMParams.push_off_rec_hip_limit_nm``, no longer a patch;
 - ``ref_deg``: the pelvis attitude's reference moved this many degrees anterior of its
-  tilt at the trip (negative: posterior).
+  tilt at the trip (negative: posterior);
+- ``knee_cap``: the support knee's servo moment capped at this many N·m in the push-off
+  states (``FSMParams.push_off_sup_knee_limit_nm``, eighteenth session);
+- ``set``: the shipped parameter set the design starts from (default ``flight``).
 
 Runs the 48-trip grid (force and obstacle, 0.05-0.75 of swing, 1.0/1.2/1.4 m/s; the
-default ``flight`` set, walking on 6 s) on 2 processes and prints the trips walked on
-and the support limb's median peak moments over the nine mid-swing obstacle trips of
-``stumble validate``'s rows (0.25-0.45 of swing).
+``flight`` set unless ``set`` names another, walking on 6 s) on 2 processes and prints
+the trips walked on and the support limb's median peak moments over the nine mid-swing
+obstacle trips of ``stumble validate``'s rows (0.25-0.45 of swing).
 
 Run:  python scripts/probe_push_off.py DESIGN [DESIGN ...]
       e.g. python scripts/probe_push_off.py '{}' '{"gain": 0.5}' '{"rec_cap": 150}'
+           python scripts/probe_push_off.py '{"set": "hip_cap", "knee_cap": 80}'
 """
 
 from __future__ import annotations
@@ -39,7 +43,7 @@ from stumble.trip import Scenario
 SWINGS = (0.05, 0.15, 0.25, 0.35, 0.45, 0.55, 0.65, 0.75)
 GRID = [(mech, f, v) for mech in ("force", "obstacle") for f in SWINGS
         for v in (1.0, 1.2, 1.4)]
-KEYS = {"gain", "window", "rec_cap", "ref_deg"}
+KEYS = {"gain", "window", "rec_cap", "ref_deg", "knee_cap", "set"}
 DESIGN: dict = {}
 _start, _write = F.TripFSM.start, F.TripFSM._write
 
@@ -69,7 +73,11 @@ def run(job):
     design, (mech, f, v) = job
     DESIGN.clear()
     DESIGN.update(design)
-    params = replace(load_params("flight"), push_off_rec_hip_limit_nm=design.get("rec_cap"))
+    params = load_params(design.get("set", "flight"))
+    for key, field in (("rec_cap", "push_off_rec_hip_limit_nm"),
+                       ("knee_cap", "push_off_sup_knee_limit_nm")):
+        if key in design:
+            params = replace(params, **{field: design[key]})
     s = simulate_trip(Scenario(mechanism=mech, swing_fraction=f, speed_m_per_s=v),
                       params=params).summary
     pk = s.get("support_peak_moments_nm") or {}

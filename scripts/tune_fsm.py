@@ -12,18 +12,22 @@ Run:  python scripts/tune_fsm.py [--candidates N] [--workers N] [--seed S]
       [--method random|cma] [--generations G] [--popsize P] [--out FILE]
       [--strength anderson2007|fixed] [--trunk-attitude K] [--max-tilt DEG]
       [--grid-floor N] [--walk-on S] [--walk-on-gait W] [--flight W]
-      [--rec-hip-cap NM] [--sup-hip-cap NM] [--push-off W]
+      [--rec-hip-cap NM] [--sup-hip-cap NM] [--sup-knee-cap NM] [--push-off W]
+      [--push-off-knee K] [--bodies-floor N]
 ``--method cma``: CMA-ES (the ``cmaes`` package, seeded) over the targets scaled to
 their ranges, from the defaults, maximising recoveries + the fraction of the grid's
 time survived; the best so far is written to ``--out`` as it goes, and every
 generation's best to FILE with the suffix ``.generations.jsonl`` (one record a line).
 ``--rec-hip-cap NM``: every candidate runs with the recovery hip's servo capped at NM
 N·m in the push-off (``FSMParams.push_off_rec_hip_limit_nm``, a setting of the file);
-``--sup-hip-cap NM`` the support hip's attitude servo (``push_off_hip_limit_nm``).
+``--sup-hip-cap NM`` the support hip's attitude servo (``push_off_hip_limit_nm``),
+``--sup-knee-cap NM`` the support knee's servo (``push_off_sup_knee_limit_nm``).
 ``--push-off W``: the objective loses W for each of validate's nine mid-swing obstacle
 trips of the full grid (0.25-0.45 of swing) by how far its support limb's peak hip
 extension and knee flexion moments in the first 300 ms exceed 1.5 times Pijnappels et
-al. 2005's means (52 and 54 N·m): max(0, hip/78 − 1) + max(0, knee/81 − 1).
+al. 2005's means (52 and 54 N·m): max(0, hip/78 − 1) + K·max(0, knee/81 − 1), K 1
+unless ``--push-off-knee K``. ``--bodies-floor N`` (``full+bodies``): the objective
+loses 2 per body trip recovered below N, as ``--grid-floor`` does for the grid's.
 ``--max-tilt DEG``: a recovery counts only with the trunk within DEG of vertical at
 recovery-foot contact; ``--grid-floor N``: the objective loses 2 per trip of the first
 48 (the full grid; with ``full+bodies`` the bodies follow) recovered below N.
@@ -89,6 +93,7 @@ BODY_GRID = [(f, 1.2, mech, *body) for body in BODIES for mech in ("force", "obs
 ATTITUDE_DAMPING = "joint"  # --attitude-damping (FSMParams.attitude_damping)
 REC_HIP_CAP = None  # --rec-hip-cap (FSMParams.push_off_rec_hip_limit_nm)
 SUP_HIP_CAP = None  # --sup-hip-cap (FSMParams.push_off_hip_limit_nm)
+SUP_KNEE_CAP = None  # --sup-knee-cap (FSMParams.push_off_sup_knee_limit_nm)
 TRUNK_ATTITUDE = 0.0  # --trunk-attitude (FSMParams.trunk_attitude)
 
 
@@ -145,7 +150,8 @@ def setting_of(name: str, explicit, from_file: dict, option: str | None = None):
 def settings() -> dict:
     """The settings every candidate runs with (a parameter file's ``"settings"``)."""
     return {"trunk_attitude": TRUNK_ATTITUDE, "attitude_damping": ATTITUDE_DAMPING,
-            "push_off_rec_hip_limit_nm": REC_HIP_CAP, "push_off_hip_limit_nm": SUP_HIP_CAP}
+            "push_off_rec_hip_limit_nm": REC_HIP_CAP, "push_off_hip_limit_nm": SUP_HIP_CAP,
+            "push_off_sup_knee_limit_nm": SUP_KNEE_CAP}
 
 
 def out_record(best: tuple, generation: int, argv: list[str]) -> dict:
@@ -169,7 +175,8 @@ def params_from(x: dict):
     return replace(FSMParams(), attitude_damping=ATTITUDE_DAMPING,
                    trunk_attitude=TRUNK_ATTITUDE,
                    push_off_rec_hip_limit_nm=REC_HIP_CAP,
-                   push_off_hip_limit_nm=SUP_HIP_CAP).with_values(x)
+                   push_off_hip_limit_nm=SUP_HIP_CAP,
+                   push_off_sup_knee_limit_nm=SUP_KNEE_CAP).with_values(x)
 
 
 STRENGTH = "fixed"  # the servos' torque limits (Scenario.strength_model, --strength)
@@ -181,6 +188,8 @@ GAIT_SCALE = 0.4  # the gait_mismatch at which that bonus ends (e.g. 20 % off in
 FLOOR_N, FLOOR_PENALTY = len(FULL_GRID), 2.0
 FLIGHT_WEIGHT = 0.0  # --flight W: a recovery with a flight where people fly is worth 1 + W
 PUSH_WEIGHT = 0.0  # --push-off W: the objective loses W × push_off_excess of each trip
+KNEE_WEIGHT = 1.0  # --push-off-knee K: the knee's term of push_off_excess counts K times
+BODIES_FLOOR = None  # --bodies-floor N: 2 lost per body trip recovered below N
 
 
 def counts(s: dict) -> bool:
@@ -226,7 +235,8 @@ def push_off_excess(s: dict, f: float, mech: str, body: list) -> float:
     sum over hip extension and knee flexion of max(0, peak/(1.5·mean) − 1), the peaks in
     the first 300 ms (N·m) against Pijnappels et al. 2005's means (52 and 54 N·m;
     ``stumble.validate.PUSH_OFF_NM``, ``PUSH_OFF_FACTOR``); 0 for a trip other than
-    validate's nine (the reference body's obstacle trips at 0.25-0.45 of swing)."""
+    validate's nine (the reference body's obstacle trips at 0.25-0.45 of swing). The
+    knee's term counts ``KNEE_WEIGHT`` times (``--push-off-knee``; 1 by default)."""
     from stumble.validate import PUSH_OFF_FACTOR, PUSH_OFF_MECHANISM, PUSH_OFF_NM, PUSH_OFF_SWING
 
     lo, hi = PUSH_OFF_SWING
@@ -236,7 +246,8 @@ def push_off_excess(s: dict, f: float, mech: str, body: list) -> float:
     out = 0.0
     for name, mean in PUSH_OFF_NM:
         if name != "ankle_plantarflexion" and pk.get(name) is not None:
-            out += max(0.0, pk[name] / (PUSH_OFF_FACTOR * mean) - 1.0)
+            weight = KNEE_WEIGHT if name.startswith("knee") else 1.0
+            out += weight * max(0.0, pk[name] / (PUSH_OFF_FACTOR * mean) - 1.0)
     return out
 
 
@@ -309,9 +320,12 @@ def penalised(score: tuple) -> tuple[float, float]:
     trips' summed ``gait_bonus`` and ``FLIGHT_WEIGHT`` times their ``flight_score``, less
     ``PUSH_WEIGHT`` times the summed ``push_off_excess``; time survived): compared as a
     tuple; without ``--grid-floor``, ``--walk-on-gait``, ``--flight`` and ``--push-off``
-    the plain (recoveries, time survived)."""
+    the plain (recoveries, time survived). ``BODIES_FLOOR`` penalises the body trips (those
+    after the first 48) recovered below it as the grid floor does the grid's."""
     rec, survived, rec_grid, gait, flight, push = score
     short = 0 if GRID_FLOOR is None else max(0, GRID_FLOOR - rec_grid)
+    if BODIES_FLOOR is not None:
+        short += max(0, BODIES_FLOOR - (rec - rec_grid))
     return (rec - FLOOR_PENALTY * short + GAIT_WEIGHT * gait + FLIGHT_WEIGHT * flight
             - PUSH_WEIGHT * push, survived)
 
@@ -373,7 +387,9 @@ def main() -> None:
     for option, field, servo in (("--rec-hip-cap", "push_off_rec_hip_limit_nm",
                                   "the recovery hip's servo"),
                                  ("--sup-hip-cap", "push_off_hip_limit_nm",
-                                  "the support hip's attitude servo")):
+                                  "the support hip's attitude servo"),
+                                 ("--sup-knee-cap", "push_off_sup_knee_limit_nm",
+                                  "the support knee's servo")):
         ap.add_argument(option, type=float, default=None, metavar="NM",
                         help=f"FSMParams.{field} of every candidate: {servo} capped at NM "
                         "N·m in the push-off (default: the --around file's settings, else "
@@ -382,6 +398,11 @@ def main() -> None:
                     help="with --grid full or full+bodies: the objective loses W per unit "
                     "of the nine mid-swing obstacle trips' push-off excess over 1.5 x "
                     "Pijnappels et al. 2005 (hip 52, knee 54 N·m)")
+    ap.add_argument("--push-off-knee", type=float, default=None, metavar="K",
+                    help="with --push-off: the knee's excess counts K times (default 1)")
+    ap.add_argument("--bodies-floor", type=int, default=None, metavar="N",
+                    help="with --grid full+bodies: penalise the objective by 2 per body trip "
+                    f"(of the {len(BODY_GRID)}) recovered below N")
     ap.add_argument("--grid-floor", type=int, default=None, metavar="N",
                     help="penalise the objective by 2 per trip of the first 48 (the full "
                     "grid, before full+bodies' bodies) recovered below N")
@@ -403,8 +424,12 @@ def main() -> None:
                                  "--rec-hip-cap")
         sup_hip_cap = setting_of("push_off_hip_limit_nm", args.sup_hip_cap, file_settings,
                                  "--sup-hip-cap")
+        sup_knee_cap = setting_of("push_off_sup_knee_limit_nm", args.sup_knee_cap,
+                                  file_settings, "--sup-knee-cap")
         for option, name, cap in (("--rec-hip-cap", "push_off_rec_hip_limit_nm", rec_hip_cap),
-                                  ("--sup-hip-cap", "push_off_hip_limit_nm", sup_hip_cap)):
+                                  ("--sup-hip-cap", "push_off_hip_limit_nm", sup_hip_cap),
+                                  ("--sup-knee-cap", "push_off_sup_knee_limit_nm",
+                                   sup_knee_cap)):
             check_setting(name, cap, option)  # as a parameter file's settings
     except InputError as e:
         ap.error(str(e))
@@ -418,6 +443,12 @@ def main() -> None:
     if args.push_off is not None and (args.grid not in ("full", "full+bodies") or not (
             np.isfinite(args.push_off) and args.push_off > 0)):
         ap.error("--push-off needs --grid full (or full+bodies) and a weight > 0")
+    if args.push_off_knee is not None and (args.push_off is None or not (
+            np.isfinite(args.push_off_knee) and args.push_off_knee >= 0)):
+        ap.error("--push-off-knee needs --push-off W and a weight >= 0")
+    if args.bodies_floor is not None and (args.grid != "full+bodies"
+                                          or not 0 <= args.bodies_floor <= len(BODY_GRID)):
+        ap.error(f"--bodies-floor needs --grid full+bodies and 0-{len(BODY_GRID)} trips")
     if args.grid_floor is not None:
         if args.grid not in ("full", "full+bodies"):
             ap.error("--grid-floor counts the full grid's 48 trips: give --grid full or "
@@ -426,6 +457,10 @@ def main() -> None:
             ap.error(f"--grid-floor must be 0-{FLOOR_N}, got {args.grid_floor}")
     global GRID, STRENGTH, WALK_ON_S, ATTITUDE_DAMPING, TRUNK_ATTITUDE, MAX_TILT, GRID_FLOOR
     global ACTIVE, FIXED, GAIT_WEIGHT, FLIGHT_WEIGHT, REC_HIP_CAP, SUP_HIP_CAP, PUSH_WEIGHT
+    global KNEE_WEIGHT, BODIES_FLOOR, SUP_KNEE_CAP
+    SUP_KNEE_CAP = sup_knee_cap
+    KNEE_WEIGHT = 1.0 if args.push_off_knee is None else args.push_off_knee
+    BODIES_FLOOR = args.bodies_floor
     GAIT_WEIGHT, FLIGHT_WEIGHT = args.walk_on_gait or 0.0, args.flight or 0.0
     REC_HIP_CAP, SUP_HIP_CAP, PUSH_WEIGHT = rec_hip_cap, sup_hip_cap, args.push_off or 0.0
     GRID = {"small": GRID, "full": FULL_GRID, "lowering": LOWERING_GRID,
@@ -493,7 +528,8 @@ def main() -> None:
 def _init_args() -> tuple:
     """The module's settings, for ``_worker_init`` in a worker process."""
     return (STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING, TRUNK_ATTITUDE, MAX_TILT, ACTIVE,
-            FIXED, GAIT_WEIGHT, FLIGHT_WEIGHT, REC_HIP_CAP, PUSH_WEIGHT, SUP_HIP_CAP)
+            FIXED, GAIT_WEIGHT, FLIGHT_WEIGHT, REC_HIP_CAP, PUSH_WEIGHT, SUP_HIP_CAP,
+            KNEE_WEIGHT, SUP_KNEE_CAP)
 
 
 def _worker_init(strength: str, grid: list, walk_on_s: float | None,
@@ -501,9 +537,12 @@ def _worker_init(strength: str, grid: list, walk_on_s: float | None,
                  max_tilt: float | None = None, active=None,
                  fixed: tuple = (0, 0.0, 0, 0.0, 0, 0.0), gait_weight: float = 0.0,
                  flight_weight: float = 0.0, rec_hip_cap: float | None = None,
-                 push_weight: float = 0.0, sup_hip_cap: float | None = None) -> None:
+                 push_weight: float = 0.0, sup_hip_cap: float | None = None,
+                 knee_weight: float = 1.0, sup_knee_cap: float | None = None) -> None:
     global STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING, TRUNK_ATTITUDE, MAX_TILT
     global ACTIVE, FIXED, GAIT_WEIGHT, FLIGHT_WEIGHT, REC_HIP_CAP, PUSH_WEIGHT, SUP_HIP_CAP
+    global KNEE_WEIGHT, SUP_KNEE_CAP
+    KNEE_WEIGHT, SUP_KNEE_CAP = knee_weight, sup_knee_cap
     STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING = strength, grid, walk_on_s, attitude_damping
     TRUNK_ATTITUDE, MAX_TILT, ACTIVE, FIXED = trunk_attitude, max_tilt, active, fixed
     GAIT_WEIGHT, FLIGHT_WEIGHT = gait_weight, flight_weight
