@@ -153,7 +153,8 @@ def _parser() -> argparse.ArgumentParser:
                    "step), "
                    "anderson2007_walk_on and anderson2007 (the defaults with --strength "
                    "anderson2007, walking on and with --recovery step), hip_cap (the "
-                   "recovery hip capped at 60 N·m in the push-off)")
+                   "recovery hip capped at 60 N·m in the push-off), knee_cap (the "
+                   "support knee capped at 80 N·m in the push-off)")
     t.add_argument("--network", type=Path, metavar="FILE",
                    help="reflex controller: a network.npz from `stumble reflex fit`, or a "
                    "shipped network: placement-both (the default: placement-touch's "

@@ -728,7 +728,8 @@ def add_validate_parser(sub) -> None:
     p.add_argument("--params", metavar="FILE|NAME",
                    help="the state machines' targets and gains: a JSON file as "
                    "scripts/tune_fsm.py --out writes it, or a shipped set (flight, the "
-                   "default; upright; step; anderson2007_walk_on; anderson2007; hip_cap); a "
+                   "default; upright; step; anderson2007_walk_on; anderson2007; hip_cap; "
+                   "knee_cap); a "
                    "directory "
                    "holds the runs of one set")
 
