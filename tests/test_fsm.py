@@ -485,8 +485,8 @@ def test_push_off_sup_knee_limit_caps_the_support_knees_push_off():
     # searched under a 60 N·m recovery-hip cap: the support hip near 150 N·m (flight ~250)
     ("hip_cap", "push_off_rec_hip_limit_nm", 0.35, "hip_extension", 120.0, 170.0),
     # searched under an 80 N·m support-knee cap: the knee within 1.5 times people's 54 N·m
-    # (flight ~150); three of the nine mid-swing obstacle trips peak later, after the
-    # push-off states, at 86-147 N·m, and the median of the nine is the cap's 80
+    # (flight ~150); four of the nine mid-swing obstacle trips peak later, after the
+    # push-off states, at 87-162 N·m, and the median of the nine is the cap's 80
     ("knee_cap", "push_off_sup_knee_limit_nm", 0.25, "knee_flexion", 60.0, 81.0),
 ])
 def test_the_capped_sets_run_with_their_cap_and_push_off_below_flight(

@@ -679,10 +679,10 @@ HIP_CAP_FILE = Path(__file__).parent / "data" / "fsm_hip_cap.json"
 
 # The push-off with the support knee capped (issue 11): the targets and gains searched
 # from ``flight`` with push_off_sup_knee_limit_nm 80 in its settings (scripts/tune_fsm.py
-# --sup-knee-cap 80; the command and its figures are its "fit"). The support knee pushes
-# off within 1.5 times people's and the grid keeps flight's 47 of 48, but it walks on
-# after 86 of the six bodies' 96 (flight: 89) and flies in fewer elevating trips: an
-# experiment, not the default (docs/trips.md, "Where it stands").
+# --sup-knee-cap 80; the commands and their figures are its "fit"). The support knee
+# pushes off within 1.5 times people's, and it keeps flight's figures for issue 11 (47 of
+# 48, the bodies 87 of 96, the flights); the hip is flight's. Not yet the default
+# (docs/trips.md, "Where it stands").
 KNEE_CAP_FILE = Path(__file__).parent / "data" / "fsm_knee_cap.json"
 
 SHIPPED = {"flight": FLIGHT_FILE,  # named parameter sets (load_params)
