@@ -14,7 +14,8 @@ obstacle, swing 0.05-0.75, 1.0/1.2/1.4 m/s) walking on 6 s after the trip (the d
   SCA 2009 §5.1: 0.59 s in the motion capture, 0.65 s in the paper's simulation), and
   of the lowering window flights the median time from the trip to the recovery leg's
   contact (SCA 2009 §5.2: 0.57 s and 0.72 s);
-- with ``--bodies``, the six bodies' 96 trips at 1.2 m/s (issue 11: at least 90 %).
+- with ``--bodies``, the six bodies' 96 trips at 1.2 m/s walked on (issue 11: at least
+  90 %), and the largest trunk tilt at recovery-foot contact among them.
 
 Each value's figures are appended to ``--out`` (JSON lines) as soon as they are measured.
 Deterministic: the same set, name and values give the same figures.
@@ -93,6 +94,8 @@ def figures(value: float, rows: list[dict]) -> dict:
     if bodies:
         out["bodies_walked_on"] = sum(r["recovered"] for r in bodies)
         out["bodies_of"] = len(bodies)
+        out["bodies_largest_tilt_deg"] = max((r["tilt"] or 0.0 for r in bodies
+                                              if r["recovered"]), default=None)
     return out
 
 

@@ -148,13 +148,13 @@ def _parser() -> argparse.ArgumentParser:
                    help="gh2010 controller: a gh2010.json, or a shipped set by name: "
                    f"{GH2010_NAMES}; fsm: a JSON of tuned "
                    "targets and gains (scripts/tune_fsm.py --out) or a shipped set by "
-                   "name: flight (the default: flies at fast walking in both strategies), "
-                   "upright (the default until 2026-12-05), step (tuned for --recovery "
-                   "step), "
+                   "name: knee_cap (the default: flight's, searched with the support "
+                   "knee capped at 80 N·m in the push-off), flight (flies at fast "
+                   "walking in both strategies; the default until 2026-12-06), upright, "
+                   "step (tuned for --recovery step), "
                    "anderson2007_walk_on and anderson2007 (the defaults with --strength "
                    "anderson2007, walking on and with --recovery step), hip_cap (the "
-                   "recovery hip capped at 60 N·m in the push-off), knee_cap (the "
-                   "support knee capped at 80 N·m in the push-off)")
+                   "recovery hip capped at 60 N·m in the push-off)")
     t.add_argument("--network", type=Path, metavar="FILE",
                    help="reflex controller: a network.npz from `stumble reflex fit`, or a "
                    "shipped network: placement-both (the default: placement-touch's "

@@ -727,9 +727,9 @@ def add_validate_parser(sub) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--params", metavar="FILE|NAME",
                    help="the state machines' targets and gains: a JSON file as "
-                   "scripts/tune_fsm.py --out writes it, or a shipped set (flight, the "
-                   "default; upright; step; anderson2007_walk_on; anderson2007; hip_cap; "
-                   "knee_cap); a "
+                   "scripts/tune_fsm.py --out writes it, or a shipped set (knee_cap, "
+                   "the default; flight; upright; step; anderson2007_walk_on; "
+                   "anderson2007; hip_cap); a "
                    "directory "
                    "holds the runs of one set")
 

@@ -681,8 +681,8 @@ HIP_CAP_FILE = Path(__file__).parent / "data" / "fsm_hip_cap.json"
 # from ``flight`` with push_off_sup_knee_limit_nm 80 in its settings (scripts/tune_fsm.py
 # --sup-knee-cap 80; the commands and their figures are its "fit"). The support knee
 # pushes off within 1.5 times people's, and it keeps flight's figures for issue 11 (47 of
-# 48, the bodies 87 of 96, the flights); the hip is flight's. Not yet the default
-# (docs/trips.md, "Where it stands").
+# 48, the bodies 87 of 96, the flights); the hip is flight's. The default since
+# 2026-12-06 (docs/trips.md, "Where it stands").
 KNEE_CAP_FILE = Path(__file__).parent / "data" / "fsm_knee_cap.json"
 
 SHIPPED = {"flight": FLIGHT_FILE,  # named parameter sets (load_params)
@@ -691,10 +691,11 @@ SHIPPED = {"flight": FLIGHT_FILE,  # named parameter sets (load_params)
            "anderson2007": HUMAN_STRENGTH_FILE, "hip_cap": HIP_CAP_FILE,
            "knee_cap": KNEE_CAP_FILE}
 # The set a trip runs with when none is named (issue 11: recovered means walking on; the
-# flight set walks on after 47 of the 48 grid trips and 89 of the six bodies' 96 with the
-# trunk within 26°, and flies at 1.4 m/s in both strategies; ``upright`` until
-# 2026-12-05, whose lowering trips never fly)
-DEFAULT_SET = "flight"
+# knee_cap set walks on after 47 of the 48 grid trips and 87 of the six bodies' 96 with
+# the trunk within 26°, flies at 1.4 m/s in both strategies, and its support knee pushes
+# off within 1.5 times people's; ``flight`` from 2026-12-05, whose knee pushes off at
+# ~150 N·m; ``upright`` until 2026-12-05, whose lowering trips never fly)
+DEFAULT_SET = "knee_cap"
 # the set a trip runs with when none is named, by (strength model, recovery rule)
 DEFAULT_SETS = {("fixed", "walk_on"): DEFAULT_SET, ("fixed", "step"): DEFAULT_SET,
                 ("anderson2007", "walk_on"): "anderson2007_walk_on",
@@ -800,7 +801,7 @@ def read_params(path_or_name) -> ParamsFile:
 
 def default_params(strength_model: str = "fixed", recovery: str = "walk_on") -> FSMParams:
     """The state machines' parameters when none are given, for a strength model and a
-    recovery rule (``DEFAULT_SETS``; ``flight`` on fixed torque limits); a copy: each
+    recovery rule (``DEFAULT_SETS``; ``knee_cap`` on fixed torque limits); a copy: each
     file is read once."""
     return copy.deepcopy(_shipped(DEFAULT_SETS[(strength_model, recovery)]))
 
