@@ -12,6 +12,11 @@ Each design is a JSON object of:
   tilt at the trip (negative: posterior);
 - ``knee_cap``: the support knee's servo moment capped at this many N·m in the push-off
   states (``FSMParams.push_off_sup_knee_limit_nm``, eighteenth session);
+- ``sup_cap``: the support hip's servo moment capped at this many N·m in the push-off
+  states (``FSMParams.push_off_hip_limit_nm``);
+- ``states``: ``"pre_landing"`` applies the caps in every state before the recovery foot
+  lands (``fsm.PRE_LANDING_STATES``: the push-off's, Flight and Fall), not only the
+  push-off's;
 - ``set``: the shipped parameter set the design starts from (default ``flight``).
 
 Runs the 48-trip grid (force and obstacle, 0.05-0.75 of swing, 1.0/1.2/1.4 m/s; the
@@ -43,9 +48,10 @@ from stumble.trip import Scenario
 SWINGS = (0.05, 0.15, 0.25, 0.35, 0.45, 0.55, 0.65, 0.75)
 GRID = [(mech, f, v) for mech in ("force", "obstacle") for f in SWINGS
         for v in (1.0, 1.2, 1.4)]
-KEYS = {"gain", "window", "rec_cap", "ref_deg", "knee_cap", "set"}
+KEYS = {"gain", "window", "rec_cap", "ref_deg", "knee_cap", "sup_cap", "states", "set"}
 DESIGN: dict = {}
 _start, _write = F.TripFSM.start, F.TripFSM._write
+PUSH_OFF = F.PUSH_OFF_STATES
 
 
 def start(self, ctx) -> None:
@@ -73,9 +79,12 @@ def run(job):
     design, (mech, f, v) = job
     DESIGN.clear()
     DESIGN.update(design)
+    F.PUSH_OFF_STATES = (F.PRE_LANDING_STATES if design.get("states") == "pre_landing"
+                         else PUSH_OFF)
     params = load_params(design.get("set", "flight"))
     for key, field in (("rec_cap", "push_off_rec_hip_limit_nm"),
-                       ("knee_cap", "push_off_sup_knee_limit_nm")):
+                       ("knee_cap", "push_off_sup_knee_limit_nm"),
+                       ("sup_cap", "push_off_hip_limit_nm")):
         if key in design:
             params = replace(params, **{field: design[key]})
     s = simulate_trip(Scenario(mechanism=mech, swing_fraction=f, speed_m_per_s=v),
