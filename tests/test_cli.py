@@ -361,6 +361,30 @@ def test_trip_population_and_strength_options(tmp_path, capsys):
     assert s["speed_m_per_s"] == 1.17 and s["population"] == "older"
     assert s["strength_model"] == "anderson2007"
     assert s["support_peak_moments_nm"]["ankle_plantarflexion"] > 0.0
+    # the set that ran is named: the default for human strength walking on
+    from stumble.control.fsm_params import read_params
+
+    assert s["fsm_params"] == {"path": "anderson2007_walk_on", "default": True,
+                               "sha256": read_params("anderson2007_walk_on").sha256}
+
+
+def test_trip_names_the_state_machine_set_it_ran(tmp_path):
+    """summary.json's ``fsm_params``: the shipped set or file that ran, its SHA-256, and
+    whether it was the default (``knee_cap`` since 2026-12-06)."""
+    from stumble.control.fsm_params import DEFAULT_SET, read_params
+
+    argv = ["trip", "--duration", "0.5", "--no-video"]
+    assert main([*argv, "--out", str(tmp_path / "a")]) == 0
+    s = json.loads((tmp_path / "a" / "summary.json").read_text())
+    assert DEFAULT_SET == "knee_cap"
+    assert s["fsm_params"] == {"path": "knee_cap", "default": True,
+                               "sha256": read_params("knee_cap").sha256}
+    f = tmp_path / "flight.json"
+    f.write_bytes(read_params("flight").path.read_bytes())
+    assert main([*argv, "--out", str(tmp_path / "b"), "--params", str(f)]) == 0
+    s = json.loads((tmp_path / "b" / "summary.json").read_text())
+    assert s["fsm_params"] == {"path": str(f), "default": False,
+                               "sha256": read_params("flight").sha256}
 
 
 def test_the_help_names_every_shipped_gh2010_set_and_the_default():

@@ -456,14 +456,20 @@ def cmd_trip(args) -> int:
 
         network = _network_arg(args.network)
         steps_per_tick(scenario.timestep_s, network.topology.rate_hz)
-    fsm = None
-    if args.params and args.controller != "gh2010":
-        from stumble.control.fsm_params import load_params as load_fsm_params
+    fsm, fsm_record = None, None
+    if args.controller == "fsm":  # the set that runs, named in summary.json
+        from stumble.control.fsm_params import DEFAULT_SETS, read_params
 
-        fsm = load_fsm_params(args.params)
+        read = read_params(args.params if args.params else
+                           DEFAULT_SETS[(scenario.strength_model, scenario.recovery)])
+        fsm = read.params if args.params else None  # None: the pipeline's own default
+        fsm_record = {"path": read.name, "sha256": read.sha256,
+                      "default": not args.params}
     out = prepare_dir(args.out)  # and writable: checked before the simulation
     result = simulate_trip(scenario, params=fsm, reference=reference, network=network,
                            trunk_balance=not args.no_trunk_balance, gh2010=gh2010)
+    if fsm_record is not None:
+        result.summary["fsm_params"] = fsm_record
     write_summary(out, result)
     write_timeseries(out, result)
     time_s, qpos = trip_motion(result)
