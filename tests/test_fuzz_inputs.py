@@ -41,7 +41,8 @@ STUDY = textwrap.dedent("""\
     """).encode()
 TOKENS = [b"nan", b"inf", b"-inf", b"-1", b"0", b"1e309", b"9" * 30, b'"x"', b"[]", b"{}",
           b"[[1]]", b'"1:2:0"', b'"1:2:100001"', b"true", b"1.5", b'"0.05:0.9:100000"',
-          b"\xff", b"\x00", b"=", b"[", b'"', b"\n", b"seed = 1\n", b"repeats = 1000000\n"]
+          b"\xff", b"\x00", b"=", b"[", b'"', b"\n", b"seed = 1\n", b"repeats = 1000000\n",
+          b"1979-05-27", b"07:32:00", b"1979-05-27T07:32:00Z"]  # TOML dates and times
 
 
 class Hang(Exception):

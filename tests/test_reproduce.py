@@ -180,6 +180,22 @@ def test_bad_names_get_one_line(tmp_path, capsys, args, says):
     assert main(["reflex", "reproduce", *args, "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and says in err
+    assert not (tmp_path / "o").exists()  # refused before the directory is made
+
+
+@pytest.mark.parametrize("plan_only", [False, True])
+def test_an_out_that_cannot_be_a_directory_gets_one_line(tmp_path, capsys, plan_only):
+    """An existing file, or a path under one, as --out: one line, exit 2, no stage run."""
+    f = tmp_path / "afile"
+    f.write_text("")
+    for out, says in ((f, "exists and is not a directory"),
+                      (f / "sub", "cannot create output directory")):
+        if plan_only and out != f:
+            continue  # --plan makes nothing: only a file in DIR's place is refused
+        argv = ["reflex", "reproduce", "knee", "--out", str(out), *(["--plan"] * plan_only)]
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and says in err
 
 
 def test_a_record_that_names_two_results_alike_is_refused(tmp_path, monkeypatch):

@@ -149,7 +149,11 @@ def test_toml_grid_and_its_errors(tmp_path):
                         ("swing = \"0.1:0.2\"", "swing: '0.1:0.2' is not a range"),
                         ("seed = [1]\nrepeats = 2", "seed or repeats, not both"),
                         ("speed = {a = 1}", "a table is not a value"),
-                        ("repeats = 1.5", "not a whole number")]:
+                        ("repeats = 1.5", "not a whole number"),
+                        # TOML dates and times are no axis values
+                        ("swing = 1979-05-27", "swing: 1979-05-27 is not a value for swing"),
+                        ("swing = [07:32:00]", "07:32:00 is not a value for swing"),
+                        ("seed = 1979-05-27", "seed: 1979-05-27 is not a value for seed")]:
         f.write_text(text)
         with pytest.raises(InputError) as e:
             load_toml(f)
@@ -460,6 +464,16 @@ def test_unreachable_scheduler_is_one_line(tmp_path, capsys, monkeypatch):
     err = capsys.readouterr().err
     assert "cannot reach the Dask scheduler at tcp://127.0.0.1:1" in err
     assert err.count("\n") == 1 and not (tmp_path / "s").exists()
+    # a malformed address: one line at once (it once left a half-made client that
+    # stalled the exit 40 s and printed a traceback)
+    for bad in ("nope", "", "tcp://", "http://x:1"):
+        tic = time.perf_counter()
+        assert main(["study", "--out", str(tmp_path / "s"), "--scheduler", bad]) == 2
+        err = capsys.readouterr().err
+        assert f"--scheduler {bad!r} is not a Dask scheduler address" in err
+        assert err.count("\n") == 1 and time.perf_counter() - tic < 5.0
+    assert runner.SCHEDULER_ADDRESS.fullmatch("[::1]:8786")
+    assert runner.SCHEDULER_ADDRESS.fullmatch("scheduler-0.cluster.local:8786")
 
 
 # ---------------------------------------------------------------- real trips
@@ -809,8 +823,11 @@ def test_run_timeout_option(tmp_path, capsys, monkeypatch):
     text = capsys.readouterr().out
     assert "timeout" in text.splitlines()[0] and text.splitlines()[-2].split()[-2] == "1"
     assert (tmp_path / "s" / "outcome_map.png").exists()
-    with pytest.raises(SystemExit):
-        main(["study", "--out", str(tmp_path / "t"), "--run-timeout", "-1"])
+    for bad, words in (("-1", "must be a number of seconds >= 0"),
+                       ("1e300", "more than a week")):  # 1e300: past the platform's clock
+        with pytest.raises(SystemExit):
+            main(["study", "--out", str(tmp_path / "t"), "--run-timeout", bad])
+        assert words in capsys.readouterr().err
 
 
 def test_a_summary_with_nan_is_stored_as_null(tmp_path, monkeypatch):

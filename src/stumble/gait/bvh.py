@@ -444,21 +444,24 @@ def _rest_positions(bvh: Bvh) -> np.ndarray:
     return out
 
 
+def _unit_axis(text: str, what: str) -> np.ndarray:
+    """The unit vector (3,) of a signed BVH axis name (``"y"``, ``"-z"``); InputError
+    naming ``what`` (up, forward) otherwise."""
+    m = re.fullmatch(r"\s*([+-]?)\s*([xyzXYZ])\s*", str(text))
+    if not m:
+        raise InputError(f"BVH {what} axis {text!r} is not one of x, y, z, -x, -y, -z")
+    v = np.zeros(3)
+    v[_AXIS_INDEX[m.group(2).lower()]] = -1.0 if m.group(1) == "-" else 1.0
+    return v
+
+
 def basis_matrix(up: str = "y", forward: str = "z") -> np.ndarray:
     """Proper rotation ``C`` (3, 3) with ``v_ours = C · v_bvh``.
 
     ``up`` and ``forward`` name BVH axes, optionally signed (``"y"``, ``"-z"``); our x is
     forward, z is up and y = z × x is the body's left.
     """
-    def unit(text: str, what: str) -> np.ndarray:
-        m = re.fullmatch(r"\s*([+-]?)\s*([xyzXYZ])\s*", text)
-        if not m:
-            raise InputError(f"BVH {what} axis {text!r} is not one of x, y, z, -x, -y, -z")
-        v = np.zeros(3)
-        v[_AXIS_INDEX[m.group(2).lower()]] = -1.0 if m.group(1) == "-" else 1.0
-        return v
-
-    u, f = unit(up, "up"), unit(forward, "forward")
+    u, f = _unit_axis(up, "up"), _unit_axis(forward, "forward")
     if abs(float(u @ f)) > 0.5:
         raise InputError(f"BVH up axis {up!r} and forward axis {forward!r} must differ")
     return np.vstack([f, np.cross(u, f), u])
@@ -997,7 +1000,10 @@ def bvh_to_coordinates(bvh: Bvh, name_map: Mapping[str, str] | None = None, up: 
     how = ""
     if up == "auto":
         up, _, how = detect_axes(bvh, segs, pos_b)
-    side = {"x": "y", "y": "z", "z": "x"}[up.strip().lstrip("+-").lower()[-1:] or "y"]
+    _unit_axis(up, "up")  # a bad name is refused here, before it picks the side axis
+    if forward != "auto":
+        _unit_axis(forward, "forward")
+    side = {"x": "y", "y": "z", "z": "x"}[up.strip().lstrip("+-").lower()[-1:]]
     upright = _rest_is_upright(bvh, segs, rest, basis_matrix(up, side))
     if forward == "auto":  # the facing of the rest pose the alignment reads, else the motion's
         _, forward, how_f = detect_axes(bvh, segs, rest[None] if upright else pos_b, up)

@@ -38,14 +38,20 @@ def workers_arg(text: str) -> int:
     return n
 
 
+MAX_RUN_TIMEOUT_S = 7 * 86400.0  # a week: beyond it, give 0 (no limit)
+
+
 def timeout_arg(text: str) -> float:
-    """Seconds >= 0 (argparse type; 0: no limit)."""
+    """Seconds in 0-``MAX_RUN_TIMEOUT_S`` (argparse type; 0: no limit)."""
     try:
         v = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds") from None
     if not math.isfinite(v) or v < 0:
         raise argparse.ArgumentTypeError(f"must be a number of seconds >= 0, got {text}")
+    if v > MAX_RUN_TIMEOUT_S:
+        raise argparse.ArgumentTypeError(f"{text} s is more than a week "
+                                         f"({MAX_RUN_TIMEOUT_S:g} s); 0 means no limit")
     return v
 
 

@@ -236,8 +236,8 @@ def run_key(sc: Scenario) -> str:
 
 def _scalar(axis: Axis, v, where: str):
     """One value of an axis, from text (command line) or a TOML scalar."""
-    if isinstance(v, bool):
-        raise InputError(f"{where}: {v!r} is not a value for {axis.name}")
+    if isinstance(v, bool) or not isinstance(v, (int, float, str)):  # a TOML date too
+        raise InputError(f"{where}: {v!s} is not a value for {axis.name}")
     if axis.kind is str:
         if not isinstance(v, str) or not v.strip():
             raise InputError(f"{where}: {v!r} is not a name")

@@ -27,6 +27,7 @@ import json
 import math
 import multiprocessing
 import os
+import re
 import signal
 import sys
 import threading
@@ -416,7 +417,16 @@ def _local(todo: Iterator[Scenario], workers: int, close_fds: tuple[int, ...] = 
             return
 
 
+# a Dask scheduler's address: [protocol://]host:port (distributed's own parser accepts
+# more, but a malformed one leaves a half-made Client that stalls the exit for 40 s)
+SCHEDULER_ADDRESS = re.compile(r"(?:(?:tcp|tls|ws|wss|ucx)://)?(?:\[[0-9A-Fa-f:.]+\]|[\w.-]+)"
+                               r":\d{1,5}")
+
+
 def _dask_client(address: str):
+    if not SCHEDULER_ADDRESS.fullmatch(address.strip()):
+        raise StumbleError(f"--scheduler {address!r} is not a Dask scheduler address "
+                           "[protocol://]host:port (e.g. tcp://10.0.0.5:8786)")
     try:
         from distributed import Client
     except ImportError:

@@ -661,7 +661,10 @@ def cmd_reflex_fit_network_es(args) -> int:
 def cmd_reflex_reproduce(args) -> int:
     """``stumble reflex reproduce``: the recorded chain of fits of a shipped set, re-run."""
     from stumble.control.reflex.reproduce import jobs, run
+    from stumble.outputs import prepare_dir
 
+    if args.out.exists() and not args.out.is_dir():  # --plan too: it names DIR's stages
+        raise InputError(f"--out {args.out}: exists and is not a directory")
     if args.plan:  # what would run, in order, with the minutes each took when fitted
         import shlex
 
@@ -673,6 +676,8 @@ def cmd_reflex_reproduce(args) -> int:
               "recorded when each was fitted (docs/reflex.md gives the times re-run on this "
               "project's machines); nothing run or written")
         return 0
+    jobs(args.name, args.out, args.start_after)  # a bad name before the directory is made
+    prepare_dir(args.out)  # and writable: one line, before the first stage
     rep = run(args.name, args.out, start_after=args.start_after)
     same = rep["same_as_shipped"]
     print(f"{args.name}: {len(rep['stages'])} stage(s) in {rep['minutes']:.1f} min; "
