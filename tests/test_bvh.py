@@ -1,5 +1,7 @@
 """BVH reading and retargeting onto the model's joint conventions."""
 
+import re
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -157,6 +159,10 @@ def _break(text, old, new, count=1):
     (GOOD.replace("CHANNELS 3 Zrotation", "CHANNELS 3 Wrotation", 1), "unknown channel"),
     (GOOD.replace("OFFSET 0.000000 -45.000000", "OFFSET zero -45.000000", 1), "not a number"),
     (GOOD.replace("JOINT RightUpLeg", "JOINT LeftUpLeg"), "appears twice"),
+    # 5000 nested joints: refused at 200, before Python's recursion limit
+    ("HIERARCHY\nROOT Hips\n{\nOFFSET 0 0 0\nCHANNELS 0\n"
+     + "".join(f"JOINT J{k}\n{{\nOFFSET 0 1 0\nCHANNELS 0\n" for k in range(5000))
+     + "}\n" * 5001 + "MOTION\nFrames: 1\nFrame Time: 0.01\n\n", "nested more than 200 deep"),
 ])
 def test_malformed_bvh_raises_one_line_error_naming_the_file(tmp_path, text, fragment):
     path = tmp_path / "bad.bvh"
@@ -672,3 +678,14 @@ def test_a_rest_pose_that_is_not_upright_reads_through_the_motion(tmp_path):
                  "lumbar_extension"]:
         np.testing.assert_allclose(np.degrees(got.columns[name]),
                                    np.degrees(ref.columns[name]), atol=0.05, err_msg=name)
+
+
+@pytest.mark.parametrize("up, forward", [("q", "auto"), ("-q", "auto"), ("nan", "auto"),
+                                         ("y", "w")])
+def test_an_unknown_axis_name_gets_one_line(tmp_path, up, forward):
+    """``--up``/``--forward`` of one unknown letter: one line naming it (an unknown single
+    letter once reached a KeyError)."""
+    bad = up if forward == "auto" else forward
+    says = rf"BVH (up|forward) axis '{re.escape(bad)}' is not one of"
+    with pytest.raises(InputError, match=says):
+        _retarget(tmp_path, [{}], up=up, forward=forward)

@@ -412,3 +412,32 @@ def test_a_set_runs_at_the_step_it_was_fitted_at():
     # a verdict at the end of the 3 s (the steps' summed time falls short of 3.0 s by
     # rounding: no verdict was reached until 2026-12-04)
     assert r.summary["stop_reason"] in ("recovered", "stopped walking")
+
+
+@pytest.mark.parametrize("field, value, says", [
+    ("scr_latency_s", 1e9, "scr_latency_s = 1000000000.0 is outside 0-2"),
+    ("g_sol", 1e300, "g_sol = 1e+300 is outside 0-100"),
+    ("g_vas", -1.0, "g_vas = -1.0 is outside 0-100"),
+    ("s0", -5, "s0 = -5 is outside 0-1"),
+    ("scr_hold_s", 1e12, "scr_hold_s = 1000000000000.0 is outside 0-2"),
+    ("delay_scale", 0, "delay_scale = 0 is outside 0.001-10"),
+    ("lean_ref", 40.0, "lean_ref = 40.0 is outside -10-10"),
+])
+def test_a_parameter_file_with_a_nonsense_value_gets_one_line(tmp_path, field, value, says):
+    """A GH2010 parameter file's values outside their sanity ranges (``FILE_RANGES``) are
+    refused in one line naming the field (a latency of 1e9 s once asked for a 178 TiB
+    delay line); every shipped set lies within them."""
+    import json
+
+    from stumble.control.reflex.gh2010 import NAMED, load_params, named_file
+    from stumble.errors import InputError
+
+    for name in NAMED:
+        load_params(name)
+    doc = json.loads(named_file("knee-2ms-dense-wide-s3").read_text())
+    doc["params"][field] = value
+    f = tmp_path / "gh.json"
+    f.write_text(json.dumps(doc))
+    with pytest.raises(InputError) as e:
+        load_params(f)
+    assert says in str(e.value) and "\n" not in str(e.value)

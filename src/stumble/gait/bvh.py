@@ -209,6 +209,9 @@ class _Tokens:
         return v
 
 
+MAX_DEPTH = 200  # joints nested deeper than this are refused (Python's recursion)
+
+
 def _parse_hierarchy(source: str, lines: list[str]) -> tuple[list[dict], int]:
     """Joints (dicts, file order) and the total channel count."""
     tk = _Tokens(source, lines)
@@ -223,9 +226,12 @@ def _parse_hierarchy(source: str, lines: list[str]) -> tuple[list[dict], int]:
     joints: list[dict] = []
     n_channels = 0
 
-    def parse_joint(parent: int) -> None:
+    def parse_joint(parent: int, depth: int = 1) -> None:
         nonlocal n_channels
         _, kw_line, _ = tk.next("ROOT/JOINT")
+        if depth > MAX_DEPTH:
+            raise InputError(f"{source}: line {kw_line}: joints nested more than "
+                             f"{MAX_DEPTH} deep (a skeleton has tens)")
         name, _, _ = tk.next("a joint name")
         if not name:
             raise InputError(f"{source}: line {kw_line}: joint without a name")
@@ -275,7 +281,7 @@ def _parse_hierarchy(source: str, lines: list[str]) -> tuple[list[dict], int]:
                 joint["start"] = n_channels
                 n_channels += count
             elif key == "JOINT":
-                parse_joint(me)
+                parse_joint(me, depth + 1)
             elif key == "END":
                 tk.next("End")
                 site, sline, _ = tk.next("Site")

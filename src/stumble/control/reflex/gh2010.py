@@ -308,8 +308,34 @@ class GH2010Params:
                 raise InputError(f"GH2010 timestep_s {v!r} is outside 0.0002-0.005 s")
             if k.endswith("_s") and v < 0:  # latencies, holds, onsets (s)
                 raise InputError(f"GH2010 parameter {k} is a time and must be >= 0, got {v!r}")
+            lo, hi = file_range(k)
+            if not lo <= v <= hi:
+                raise InputError(f"GH2010 parameter {k} = {v!r} is outside {lo:g}-{hi:g} "
+                                 "(a parameter file's sanity range)")
             vals[k] = float(v)
         return cls(**vals)
+
+
+# Sanity ranges of a parameter file's values, by the field's kind (ours: wide enough for
+# any fit's bounds, fit_walk.GH2010_BOUNDS and GAIN_RANGE times the paper's gains, and
+# for hand-made sets; a value outside is a typo or a corrupt file, e.g. a latency of 1e9 s
+# that would ask for a 178 TiB delay line): (prefix or suffix, low, high)
+FILE_RANGES = (("_s", 0.0, 2.0),  # latencies, holds, onsets (s)
+               ("delay_scale", 1e-3, 10.0),  # every delay times this
+               ("g_", 0.0, 100.0), ("k_", 0.0, 100.0), ("kp_", 0.0, 100.0),
+               ("kd_", 0.0, 100.0),  # reflex and balance gains
+               ("s0", 0.0, 1.0),  # prestimulations (excitations)
+               ("l_off_", 0.0, 3.0))  # length offsets (optimal fibre lengths)
+FILE_RANGE_OTHER = (-10.0, 10.0)  # angles (rad), distances (m), loads, placement terms
+
+
+def file_range(name: str) -> tuple[float, float]:
+    """The sanity range of a parameter file's field ``name`` (``FILE_RANGES``)."""
+    for key, lo, hi in FILE_RANGES:
+        if name == key or (key.startswith("_") and name.endswith(key)) or (
+                not key.startswith("_") and name.startswith(key)):
+            return lo, hi
+    return FILE_RANGE_OTHER
 
 
 def named_file(name):
