@@ -393,6 +393,10 @@ def test_rajagopal_is_detected_by_its_patella_coordinate_and_model_overrides():
     assert str(info.value) == ("walk.mot: knee_angle_r reaches 65 deg, 60 deg outside its range "
                                "-135 to 5 deg (knee flexion counted positive? try --model "
                                "rajagopal)")
+    # forcing rajagopal on a gait2392 motion: no hint to try the family already given
+    with pytest.raises(InputError) as info:
+        map_coordinates(gait, MODEL_3D, family="rajagopal")
+    assert str(info.value).endswith("outside its range -135 to 5 deg")
     with pytest.raises(InputError, match="unknown model family 'osim'"):
         map_coordinates(gait, MODEL_3D, family="osim")
 

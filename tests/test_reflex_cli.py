@@ -69,11 +69,28 @@ def test_reflex_trip_with_a_fitted_network(tmp_path):
     (["trip", "--start", "own"], "fsm controller does not walk on its own"),
     (["trip", "--controller", "reflex", "--walk-in", "3"], "--walk-in is for --start own"),
     (["trip", "--controller", "gh2010", "--walk-in", "1"], "walk-in 1.0 s is outside 2-30 s"),
+    # options of the state machines' alone: refused, not recorded as if applied
+    (["trip", "--controller", "reflex", "--strength", "anderson2007"],
+     "strength model anderson2007 is for the state machines' servos"),
+    (["trip", "--controller", "gh2010", "--recovery", "step"],
+     "recovery rule step is for the state machines"),
 ])
 def test_reflex_errors_are_one_line(tmp_path, capsys, argv, message):
     assert main([*argv, "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1
+
+
+@pytest.mark.parametrize("extra", [[], ["--closed-loop"], ["--controller", "gh2010"]])
+@pytest.mark.parametrize("workers", ["0", "-1"])
+def test_reflex_fit_workers_below_one_are_refused(tmp_path, capsys, extra, workers):
+    """``reflex fit --workers`` below 1 is refused in one line by every fit (the
+    identification ignored it and DAgger ran on one process)."""
+    with pytest.raises(SystemExit) as e:
+        main(["reflex", "fit", *extra, "--workers", workers, "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert e.value.code == 2 and f"--workers: must be at least 1, got {workers}" in err
+    assert err.count("\n") == 1 and not (tmp_path / "o").exists()
 
 
 @pytest.mark.parametrize("make, words", [
@@ -146,3 +163,17 @@ def test_the_closed_loop_network_tripped_in_its_own_gait_writes_uniform_motion(t
 
     bvh = read_bvh(out / "motion.bvh")
     assert bvh.frame_time_s > 0 and bvh.n_frames > 100
+
+
+@pytest.mark.parametrize("flag", ["--recovery-cost", "--strategy-cost", "--track-weight",
+                                  "--knee-weight", "--stance-weight", "--foot-angle"])
+def test_an_objective_weight_past_its_range_is_refused(tmp_path, capsys, flag):
+    """An objective's weight of 1e308 made every cost infinite (a fit of nothing, its
+    history all null): refused in one line, as NaN and negative weights are."""
+    for bad in ("1e308", "-1", "nan"):
+        with pytest.raises(SystemExit) as e:
+            main(["reflex", "fit", "--controller", "gh2010", "--trips", f"{flag}={bad}",
+                  "--out", str(tmp_path / "o")])
+        err = capsys.readouterr().err
+        assert e.value.code == 2 and f"argument {flag}: must be a number in 0-10000" in err
+    assert not (tmp_path / "o").exists()

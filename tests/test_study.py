@@ -472,8 +472,9 @@ def test_unreachable_scheduler_is_one_line(tmp_path, capsys, monkeypatch):
         err = capsys.readouterr().err
         assert f"--scheduler {bad!r} is not a Dask scheduler address" in err
         assert err.count("\n") == 1 and time.perf_counter() - tic < 5.0
-    assert runner.SCHEDULER_ADDRESS.fullmatch("[::1]:8786")
-    assert runner.SCHEDULER_ADDRESS.fullmatch("scheduler-0.cluster.local:8786")
+    for good in ("[::1]:8786", "scheduler-0.cluster.local:8786", "tls://h:1",
+                 "inproc://192.0.2.2/22314/1"):
+        runner.check_scheduler_address(good)
 
 
 # ---------------------------------------------------------------- real trips
@@ -908,3 +909,37 @@ def test_a_reflex_study_is_not_resumed_with_other_default_reflex_sets(tmp_path, 
         err = capsys.readouterr().err
         assert "other default reflex parameters" in err and err.count("\n") == 1
     assert len(got) == 2
+
+
+@pytest.mark.parametrize("name", ["results.parquet", "study.json"])
+def test_a_directory_where_a_result_file_goes_is_refused_before_any_run(
+        tmp_path, capsys, monkeypatch, name):
+    """DIR/results.parquet or DIR/study.json as a directory: one line before the first
+    run (it once failed with a traceback after every run was done)."""
+    ran = []
+    monkeypatch.setattr(pipeline, "simulate_trip",
+                        lambda sc, **kw: ran.append(sc) or SimpleNamespace(
+                            summary=fake_summary(sc)))
+    (tmp_path / "s" / name).mkdir(parents=True)
+    assert main(["study", "--out", str(tmp_path / "s"), "--workers", "1", "--quiet",
+                 "--swing", "0.2"]) == 2
+    err = capsys.readouterr().err
+    assert f"{name} is a directory: the study writes that file" in err
+    assert err.count("\n") == 1 and ran == []
+
+
+@pytest.mark.parametrize("text, says", [("{bad", "cannot be read"),
+                                        ("[]", "is not a study record")])
+def test_a_corrupt_study_record_is_named_as_such(tmp_path, capsys, monkeypatch, text, says):
+    """A study directory with runs whose study.json is corrupt: one line saying so (it once
+    blamed an earlier version's default parameters)."""
+    monkeypatch.setattr(pipeline, "simulate_trip",
+                        lambda sc, **kw: SimpleNamespace(summary=fake_summary(sc)))
+    argv = ["study", "--out", str(tmp_path / "s"), "--workers", "1", "--quiet", "--no-plots",
+            "--swing", "0.2"]
+    assert main(argv) == 0
+    (tmp_path / "s" / "study.json").write_text(text)
+    capsys.readouterr()
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"study.json {says}" in err and err.count("\n") == 1

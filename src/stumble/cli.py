@@ -40,6 +40,9 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"stumble: {message} (see `{self.prog} --help`)\n")
 
 
+MIN_WALK_S = 0.05  # stumble walk --duration: a motion of a few frames at least
+
+
 def _positive(kind: str):
     def parse(text: str) -> float:
         try:
@@ -195,14 +198,15 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--mechanism", choices=("force", "obstacle"), default=None,
                    help="force: SCA 2009 eq. 2-3 on the swing toe; obstacle: a rigid box "
                    "(default: force for fsm, obstacle for reflex, as each seed)")
-    t.add_argument("--obstacle-height", type=float, default=0.10, metavar="M",
-                   help="obstacle height in m (default 0.10)")
+    t.add_argument("--obstacle-height", type=float, default=None, metavar="M",
+                   help="--mechanism obstacle: its height in m (default 0.10)")
     t.add_argument("--leg", choices=("left", "right"), default="left", help="tripped leg")
     t.add_argument("--reference", type=Path, metavar="FILE",
                    help="a recorded trip (.mot/.sto/.bvh/.c3d) for the joint-pitch RMSE")
-    t.add_argument("--reference-align", choices=("swing", "time"), default="swing",
-                   help="swing (default): the reference's trip is its tripped leg's first "
-                   "toe-off plus --swing of that swing; time: the file's time 0 is the trip")
+    t.add_argument("--reference-align", choices=("swing", "time"), default=None,
+                   help="with --reference: swing (default), the reference's trip is its "
+                   "tripped leg's first toe-off plus --swing of that swing; time, the "
+                   "file's time 0 is the trip")
     _motion_file_args(t)
     t.add_argument("--seed", type=seed_arg, default=0,
                    help="0 (default): the recorded walk as it is; another seed perturbs the "
@@ -333,6 +337,9 @@ def cmd_walk(args) -> int:
                          "at its own speed")
     if args.speed is not None:
         check_speed(args.speed)
+    if args.duration is not None and args.duration < MIN_WALK_S:
+        raise InputError(f"--duration {args.duration:g} s is too short to write a motion "
+                         f"(at least {MIN_WALK_S:g} s)")
     if args.gait is None and (args.as_recorded or args.motion_model != "auto"
                               or args.up != "auto" or args.forward != "auto"):
         raise InputError("--as-recorded, --model, --up and --forward apply to a --gait file")
@@ -428,12 +435,17 @@ def cmd_trip(args) -> int:
 
     speed = (POPULATIONS[args.population].preferred_speed_m_per_s if args.speed is None
              else args.speed)
+    mechanism = args.mechanism or ("force" if args.controller == "fsm" else "obstacle")
+    if args.obstacle_height is not None and mechanism != "obstacle":
+        raise InputError("--obstacle-height is for --mechanism obstacle")
+    if args.reference_align is not None and args.reference is None:
+        raise InputError("--reference-align applies to a --reference file")
     scenario = Scenario(swing_fraction=args.swing, speed_m_per_s=speed,
                         strength_model=args.strength, population=args.population,
-                        recovery=args.recovery,
-                        leg=args.leg, mechanism=args.mechanism or (
-                            "force" if args.controller == "fsm" else "obstacle"),
-                        obstacle_height_m=args.obstacle_height, controller=args.controller,
+                        recovery=args.recovery, leg=args.leg, mechanism=mechanism,
+                        **({} if args.obstacle_height is None
+                           else {"obstacle_height_m": args.obstacle_height}),
+                        controller=args.controller,
                         strategy=args.strategy, seed=args.seed, height_m=args.height,
                         mass_kg=args.mass, sex=args.sex, contact=args.contact,
                         duration_after_trip_s=args.duration, start=args.start,
@@ -501,7 +513,7 @@ def _load_reference_trip(args, scenario) -> dict:
 
     motion = read_motion(args.reference, planar=args.controller == "reflex",
                          model=args.motion_model, up=args.up, forward=args.forward)
-    ref = align_reference(motion, scenario, args.reference_align, args.duration)
+    ref = align_reference(motion, scenario, args.reference_align or "swing", args.duration)
     _notes(ref.notes)
     return {"time_s": ref.time_s, **{k: np.degrees(v) for k, v in ref.columns.items()}}
 

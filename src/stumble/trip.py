@@ -323,6 +323,14 @@ class Scenario:
         if self.population != "young" and self.controller in MUSCLE_CONTROLLERS:
             raise InputError(f"population {self.population} is defined for the state "
                              f"machines (fsm), not the {self.controller} controller")
+        if self.strength_model != "fixed" and self.controller in MUSCLE_CONTROLLERS:
+            raise InputError(f"strength model {self.strength_model} is for the state "
+                             f"machines' servos (fsm), not the {self.controller} controller's "
+                             "muscles")
+        if self.recovery != "walk_on" and self.controller in MUSCLE_CONTROLLERS:
+            raise InputError(f"recovery rule {self.recovery} is for the state machines "
+                             f"(fsm); the {self.controller} controller recovers when still "
+                             "walking 3 s after the trip")
         lo_dt, hi_dt = TIMESTEP_RANGE_S
         if not np.isfinite(self.timestep_s) or not lo_dt <= self.timestep_s <= hi_dt:
             raise InputError(f"time step {self.timestep_s} s is outside {lo_dt}-{hi_dt} s")

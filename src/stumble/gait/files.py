@@ -52,6 +52,12 @@ def read_motion(path: str | Path, planar: bool = False, model: str = "auto",
     path = Path(path)
     check_file(path)  # a pipe or device is refused whatever its name
     suffix = path.suffix.lower()
+    if suffix != ".bvh" and (up != "auto" or forward != "auto"):  # not silently ignored
+        raise InputError(f"{path.name}: --up and --forward are for .bvh files (a {suffix} "
+                         "file's axes are its format's)")
+    if suffix not in (".mot", ".sto") and model != "auto":
+        raise InputError(f"{path.name}: --model is for .mot and .sto files (a {suffix} "
+                         "file is read onto gait2392's coordinates)")
     names = model_coordinates(planar)
     if suffix in (".mot", ".sto"):
         return map_coordinates(read_mot(path), names, family=model)

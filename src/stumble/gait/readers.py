@@ -563,7 +563,8 @@ def map_coordinates(motion: Motion, model_coordinates: Iterable[str],
         over = max(lo - float(v.min()), float(v.max()) - hi)
         if over > RANGE_MARGIN_DEG:
             hint = (" (knee flexion counted positive? try --model rajagopal)"
-                    if k.startswith("knee_angle") and v.max() > hi else "")
+                    if k.startswith("knee_angle") and v.max() > hi and family != "rajagopal"
+                    else "")
             raise InputError(f"{src}: {k} reaches {v.min() if lo - v.min() > 0 else v.max():.0f}"
                              f" deg, {over:.0f} deg outside its range {lo:g} to {hi:g} deg"
                              f"{hint}")

@@ -27,7 +27,6 @@ import json
 import math
 import multiprocessing
 import os
-import re
 import signal
 import sys
 import threading
@@ -417,20 +416,30 @@ def _local(todo: Iterator[Scenario], workers: int, close_fds: tuple[int, ...] = 
             return
 
 
-# a Dask scheduler's address: [protocol://]host:port (distributed's own parser accepts
-# more, but a malformed one leaves a half-made Client that stalls the exit for 40 s)
-SCHEDULER_ADDRESS = re.compile(r"(?:(?:tcp|tls|ws|wss|ucx)://)?(?:\[[0-9A-Fa-f:.]+\]|[\w.-]+)"
-                               r":\d{1,5}")
+def check_scheduler_address(address: str) -> None:
+    """StumbleError unless ``address`` is a Dask scheduler's, [protocol://]host:port (or
+    an in-process ``inproc://`` one), read by distributed's own parsers: a malformed one
+    given to ``Client`` leaves a half-made client that stalls the exit for 40 s."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+    from distributed.comm.registry import get_backend
+
+    text = address.strip()
+    try:
+        scheme, loc = parse_address(text if "://" in text else f"tcp://{text}")
+        get_backend(scheme)
+        if scheme != "inproc":
+            parse_host_port(loc)
+    except (ValueError, TypeError) as e:
+        raise StumbleError(f"--scheduler {address!r} is not a Dask scheduler address "
+                           f"[protocol://]host:port, e.g. tcp://10.0.0.5:8786 ({e})") from None
 
 
 def _dask_client(address: str):
-    if not SCHEDULER_ADDRESS.fullmatch(address.strip()):
-        raise StumbleError(f"--scheduler {address!r} is not a Dask scheduler address "
-                           "[protocol://]host:port (e.g. tcp://10.0.0.5:8786)")
     try:
         from distributed import Client
     except ImportError:
         raise StumbleError("--scheduler needs Dask: pip install \"stumble[cluster]\"") from None
+    check_scheduler_address(address)
     try:
         return Client(address, timeout=f"{CONNECT_TIMEOUT_S}s", set_as_default=False)
     except Exception as e:
@@ -799,10 +808,14 @@ def _check_same_defaults(out: Path, defaults: dict, has_runs: bool,
     if not has_runs or not path.exists():
         return
     try:
-        before = json.loads(path.read_text()).get(key)
-    except (OSError, ValueError, AttributeError):
-        before = None
-    if before == defaults:
+        doc = json.loads(path.read_text())
+    except (OSError, ValueError) as e:
+        raise StumbleError(f"{path} cannot be read ({one_line(e)}); the runs in {out} "
+                           "cannot be resumed without it: give another --out") from None
+    if not isinstance(doc, dict):
+        raise StumbleError(f"{path} is not a study record (a JSON object); the runs in "
+                           f"{out} cannot be resumed without it: give another --out")
+    if doc.get(key) == defaults:
         return
     raise StumbleError(f"{out} holds runs made with other default {what} "
                        "parameters (an earlier version's); it cannot be resumed: give "

@@ -51,6 +51,7 @@ from stumble.jsonio import dumps
 from stumble.outdir import check_writable
 
 PART_ROWS = 500  # rows per Parquet part (a journal is moved into a part at this size)
+STUDY_FILES = ("results.parquet", "study.json")  # written in DIR at the end
 RESULT_CHUNK_ROWS = 20_000  # rows of results.parquet assembled at a time (one row group)
 MAX_LINE_BYTES = 1_000_000  # a journal line longer than this is not a row of ours
 MAX_WARNINGS = 20  # bad rows named one by one; past this, one line counts the rest
@@ -365,6 +366,10 @@ class Store:
             raise StumbleError(f"{self.out}: cannot make the study directory "
                                f"({e.strerror or e})") from None
         check_writable(self.runs, "study directory")
+        for name in STUDY_FILES:  # a directory in their place fails only at the end
+            if (self.out / name).is_dir():
+                raise StumbleError(f"{self.out / name} is a directory: the study writes "
+                                   "that file (move it, or give another --out)")
         self._lock.acquire()
         try:
             self._load()

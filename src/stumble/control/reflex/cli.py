@@ -4,6 +4,7 @@ controllers' command line (their parser, and each command from its parsed argume
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
@@ -17,6 +18,19 @@ from stumble.cli import (
     seed_arg,
 )
 from stumble.errors import InputError
+
+MAX_WEIGHT = 1e4  # an objective's weight or cost: beyond it the sums overflow to inf
+
+
+def _weight(text: str) -> float:
+    """An objective's weight or cost (argparse type): a finite number in 0-``MAX_WEIGHT``."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (math.isfinite(v) and 0.0 <= v <= MAX_WEIGHT):
+        raise argparse.ArgumentTypeError(f"must be a number in 0-{MAX_WEIGHT:g}, got {text}")
+    return v
 
 
 def _start_speeds(text: str | None) -> tuple[float, ...]:
@@ -101,7 +115,9 @@ def add_reflex_parser(sub, parser_class=argparse.ArgumentParser) -> None:
                    "for --wiring gh2010, 100 of 10 s walks for seed003); network "
                    "--walk-es: 0 writes the start as given (with --ahead-from, the "
                    "responses combined), its objective evaluated once")
-    f.add_argument("--workers", type=int, default=None, metavar="N",
+    from stumble.study.cli import workers_arg
+
+    f.add_argument("--workers", type=workers_arg, default=None, metavar="N",
                    help="closed-loop fits: worker processes (default: one per core); the "
                    "result does not depend on it")
     f.add_argument("--iterations", type=int, default=None, metavar="N",
@@ -211,7 +227,7 @@ def add_reflex_parser(sub, parser_class=argparse.ArgumentParser) -> None:
                    "the other (foot); default: the starting fit's; network --walk-es "
                    "--touch-response: foot gives the response sets for a touch of the foot "
                    "ahead of the other")
-    f.add_argument("--strategy-cost", type=float, default=None, metavar="W",
+    f.add_argument("--strategy-cost", type=_weight, default=None, metavar="W",
                    help="gh2010 --trips, network --walk-es --trip-set: each of the "
                    "stage's trips in a human window "
                    "(elevating at 0.05-0.25 of swing, lowering at 0.55-0.75) costs W more "
@@ -221,10 +237,10 @@ def add_reflex_parser(sub, parser_class=argparse.ArgumentParser) -> None:
                    help="gh2010: fit the swing-leg placement too (our addition after Song & "
                    "Geyer 2015: the swing hip driven toward a leg angle set by the centre "
                    "of mass's place and speed; a walking law, not with --touch-only)")
-    f.add_argument("--track-weight", type=float, default=None, metavar="W",
+    f.add_argument("--track-weight", type=_weight, default=None, metavar="W",
                    help="gh2010: the objective's tracking term's weight (default 1, every "
                    "shipped fit's)")
-    f.add_argument("--knee-weight", type=float, default=None, metavar="W",
+    f.add_argument("--knee-weight", type=_weight, default=None, metavar="W",
                    help="gh2010: the objective's knee term, per degree of the knees' mean "
                    "extension beyond straight (default 0; 5 in knee-walk's fit; ours: the "
                    "fitted walkers stand their stance knee on the model's +5° stop)")
@@ -253,7 +269,7 @@ def add_reflex_parser(sub, parser_class=argparse.ArgumentParser) -> None:
                    "network's own gait (own, the default here: from the recording a "
                    "network taking over at the trip falls untripped) or from the "
                    "recording at the trip (playback, the network's default elsewhere)")
-    f.add_argument("--recovery-cost", type=float, default=None, metavar="W",
+    f.add_argument("--recovery-cost", type=_weight, default=None, metavar="W",
                    help="gh2010 --trips, network --walk-es --trip-set: each of the "
                    "stage's trips not recovered costs W "
                    "more, on top of its time term (default 0: the time walked on alone, "
@@ -278,11 +294,11 @@ def add_reflex_parser(sub, parser_class=argparse.ArgumentParser) -> None:
     f.add_argument("--stride-time", action="store_true",
                    help="gh2010: the objective also keeps the mean stride within 1.0-1.3 s "
                    "(the played-back walk's at 1.0-1.3 m/s; ((distance)/0.05 s)^2)")
-    f.add_argument("--stance-weight", type=float, default=None, metavar="W",
+    f.add_argument("--stance-weight", type=_weight, default=None, metavar="W",
                    help="gh2010: the weight of the objective's stance-fraction term "
                    "(((distance from 0.57-0.68)/0.05)^2; default 1, the shipped fits'; "
                    "20 makes 0.06 outside the band cost as much as 1.4 lost trips)")
-    f.add_argument("--foot-angle", type=float, nargs="?", const=1.0, default=0.0,
+    f.add_argument("--foot-angle", type=_weight, nargs="?", const=1.0, default=0.0,
                    metavar="W",
                    help="gh2010: the objective also tracks each foot's angle to the floor "
                    "against the recorded stride's (as a joint: RMSE/10 deg + its excess "
@@ -459,23 +475,14 @@ def cmd_reflex_fit_gh2010(args) -> int:
             raise InputError(f"--generations must be at least 1, got {args.generations}")
         stages = tuple((max(1, round(args.generations * g / sum(x[0] for x in stages))), w, t)
                        for g, w, t in stages)
+    # the weights and costs are finite and within 0-MAX_WEIGHT (_weight, their type)
     strategy_cost = args.strategy_cost or 0.0
-    if not (math.isfinite(args.foot_angle) and args.foot_angle >= 0):
-        raise InputError(f"--foot-angle must be a number >= 0, got {args.foot_angle}")
     track_weight = W_TRACK if args.track_weight is None else args.track_weight
-    if not (math.isfinite(track_weight) and track_weight >= 0):
-        raise InputError(f"--track-weight must be a number >= 0, got {args.track_weight}")
     knee_weight = W_KNEE if args.knee_weight is None else args.knee_weight
-    if not (math.isfinite(knee_weight) and knee_weight >= 0):
-        raise InputError(f"--knee-weight must be a number >= 0, got {args.knee_weight}")
     if knee_weight and args.touch_only:
         raise InputError("--knee-weight weighs the walk: it refits the walk, so not with "
                          "--touch-only")
     stance_weight = W_STANCE if args.stance_weight is None else args.stance_weight
-    if not (math.isfinite(stance_weight) and stance_weight >= 0):
-        raise InputError(f"--stance-weight must be a number >= 0, got {args.stance_weight}")
-    if not (math.isfinite(strategy_cost) and strategy_cost >= 0):
-        raise InputError(f"--strategy-cost must be a number >= 0, got {args.strategy_cost}")
     if args.placement and args.touch_only:
         raise InputError("--placement is a walking law: it refits the walk, so not with "
                          "--touch-only")
@@ -487,15 +494,11 @@ def cmd_reflex_fit_gh2010(args) -> int:
         raise InputError("--pushes tests the walk: it refits the walk, so not with "
                          "--touch-only")
     recovery_cost = args.recovery_cost or 0.0
-    if not (math.isfinite(recovery_cost) and recovery_cost >= 0):
-        raise InputError(f"--recovery-cost must be a number >= 0, got {args.recovery_cost}")
     if args.timestep is not None and not (math.isfinite(args.timestep)
                                           and 0.0002 <= args.timestep <= 0.005):
         raise InputError(f"--timestep must be 0.0002-0.005 s, got {args.timestep}")
     gens = sum(g for g, _w, _t in stages)
-    workers = args.workers or os.cpu_count() or 1
-    if workers < 1:
-        raise InputError(f"--workers must be at least 1, got {workers}")
+    workers = args.workers or os.cpu_count() or 1  # --workers is at least 1 (workers_arg)
     out = prepare_dir(args.out)
     bar = _Progress("fitting gh2010", sys.stderr.isatty())
     res = fit_gh2010(seed=args.seed, stages=stages, workers=workers, out=out,
@@ -557,11 +560,8 @@ def cmd_reflex_fit_network_es(args) -> int:
             raise InputError("--ahead-from is for --touch-response --scr-phase foot")
         ahead_from = _network_record(args.ahead_from)
         start.with_touch_response(by_foot=True).with_ahead_response(ahead_from[0])  # checked
-    knee = W_KNEE if args.knee_weight is None else args.knee_weight
+    knee = W_KNEE if args.knee_weight is None else args.knee_weight  # within 0-MAX_WEIGHT
     track = W_TRACK if args.track_weight is None else args.track_weight
-    for flag, v in (("--knee-weight", knee), ("--track-weight", track)):
-        if not (math.isfinite(v) and v >= 0):
-            raise InputError(f"{flag} must be a number >= 0, got {v}")
     gens = NETWORK_ES_GENERATIONS if args.generations is None else args.generations
     if gens < 0:
         raise InputError(f"--generations must be at least 0, got {gens}")
@@ -573,9 +573,7 @@ def cmd_reflex_fit_network_es(args) -> int:
         tick_ratio(args.timestep, start.topology.rate_hz)
     starts = _start_speeds(args.starts)
     delay_walks = _delay_scales(args.delay_walks)
-    workers = args.workers or os.cpu_count() or 1
-    if workers < 1:
-        raise InputError(f"--workers must be at least 1, got {workers}")
+    workers = args.workers or os.cpu_count() or 1  # --workers is at least 1 (workers_arg)
     from stumble.control.reflex.fit_walk import NETWORK_ES_SIGMA, TRIP_SETS
 
     trips = TRIP_SETS[args.trip_set] if args.trip_set else ()
@@ -610,12 +608,9 @@ def cmd_reflex_fit_network_es(args) -> int:
     if args.trunk_weight is not None and not (math.isfinite(args.trunk_weight)
                                               and 0 <= args.trunk_weight <= 100):
         raise InputError(f"--trunk-weight must be a number in 0-100, got {args.trunk_weight}")
-    for flag, key, v in (("--strategy-cost", "strategy_cost", args.strategy_cost),
-                         ("--recovery-cost", "recovery_cost", args.recovery_cost)):
-        v = 0.0 if v is None else v
-        if not (math.isfinite(v) and v >= 0):
-            raise InputError(f"{flag} must be a number >= 0, got {v}")
-        costs[key] = v
+    for key, v in (("strategy_cost", args.strategy_cost),
+                   ("recovery_cost", args.recovery_cost)):
+        costs[key] = 0.0 if v is None else v  # within 0-MAX_WEIGHT (_weight)
 
     sigma = NETWORK_ES_SIGMA if args.sigma is None else args.sigma
     if not (math.isfinite(sigma) and 0.0 < sigma <= 5.0):
