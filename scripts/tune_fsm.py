@@ -79,6 +79,25 @@ FULL_GRID = [(f, v, mech) for mech in ("force", "obstacle")
 LOWERING_FAST = tuple(k for k in FLIGHT if k.startswith("low_fall_"))
 # the walk on's own parameters and the reaching leg's (--only walk_on)
 WALK_ON_NAMES = (*WALK_ON, "reach_thigh_deg", "reach_sup_knee")
+ONLY = ("all", "lowering", "lowering_fast", "lowering_flight", "walk_on", "all+walk_on")
+
+
+def search_space(only: str, gains: bool) -> dict:
+    """The values a search varies (name: (path, low, high)) for ``--only`` and
+    ``--gains``."""
+    if only == "walk_on":
+        space = {k: TUNABLE[k] for k in WALK_ON_NAMES}
+    elif only == "lowering_fast":
+        space = {k: TUNABLE[k] for k in (*LOWERING, *LOWERING_FAST)}
+    elif only == "lowering_flight":
+        space = {k: TUNABLE[k] for k in (*LOWERING, *LOWERING_FAST, *LOWERING_FLIGHT)}
+    else:
+        space = {k: v for k, v in SPACE.items() if only != "lowering" or k in LOWERING}
+        if only == "all+walk_on":
+            space.update({k: TUNABLE[k] for k in WALK_ON_NAMES})
+    if gains:
+        space.update(GAINS)
+    return space
 # the lowering half of the issue's grid (auto chooses lowering above 0.5 of swing)
 LOWERING_GRID = [(f, v, mech) for mech in ("force", "obstacle") for f in (0.55, 0.65, 0.75)
                  for v in (1.0, 1.2, 1.4)]
@@ -338,14 +357,13 @@ def main() -> None:
     ap.add_argument("--grid", choices=("small", "full", "lowering", "full+bodies"),
                     default="small", help="full+bodies: the full grid and the six bodies' "
                     "96 trips at 1.2 m/s")
-    ap.add_argument("--only", choices=("all", "lowering", "lowering_fast", "lowering_flight",
-                                       "walk_on"),
-                    default="all",
+    ap.add_argument("--only", choices=ONLY, default="all",
                     help="search only the lowering strategy's targets, or those and its "
                          "Fall's offsets at fast walking (lowering_fast: LOWERING_FAST), or "
                          "those and its flight's (lowering_flight: LOWERING_FLIGHT), or only "
                          "the walk on's (WALK_ON and the reaching leg's; others stay as they "
-                         "start)")
+                         "start), or all the targets and the walk on's together "
+                         "(all+walk_on)")
     ap.add_argument("--walk-on-gait", type=float, default=None, metavar="W",
                     help="with --walk-on: each recovered trip adds W times its gait bonus, "
                     "1 - m/0.4 (0 at least), m = |v/v0 - 1| + |T/T0 - 1| of the walk on's "
@@ -468,14 +486,7 @@ def main() -> None:
     ATTITUDE_DAMPING = attitude_damping
     TRUNK_ATTITUDE, MAX_TILT, GRID_FLOOR = trunk_attitude, args.max_tilt, args.grid_floor
     STRENGTH, WALK_ON_S = args.strength, args.walk_on
-    space = ({k: TUNABLE[k] for k in WALK_ON_NAMES} if args.only == "walk_on" else
-             {k: TUNABLE[k] for k in (*LOWERING, *LOWERING_FAST)}
-             if args.only == "lowering_fast" else
-             {k: TUNABLE[k] for k in (*LOWERING, *LOWERING_FAST, *LOWERING_FLIGHT)}
-             if args.only == "lowering_flight" else
-             {k: v for k, v in SPACE.items() if args.only == "all" or k in LOWERING})
-    if args.gains:
-        space.update(GAINS)
+    space = search_space(args.only, args.gains)
     rng = np.random.default_rng(args.seed)
     from stumble.control.fsm_params import FSMParams
 

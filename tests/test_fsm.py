@@ -961,3 +961,18 @@ def test_a_parameter_file_of_every_value_reads_back(tmp_path):
     msg = "lowering_push_ahead = -0.5 is outside -0.3-0.4"
     with pytest.raises(InputError, match=re.escape(msg)):
         load_params(f)
+
+
+def test_tune_fsm_searches_the_targets_and_the_walk_on_together():
+    """``tune_fsm.py --only all+walk_on``: the targets (SPACE) and the walk on's values in one
+    search (with ``--gains`` the six gains too); the other choices as before."""
+    from stumble.control.fsm_params import GAINS, SPACE, WALK_ON
+
+    t = _tune_fsm()
+    both = t.search_space("all+walk_on", gains=True)
+    assert set(both) == set(SPACE) | set(t.WALK_ON_NAMES) | set(GAINS)
+    assert set(WALK_ON).isdisjoint(SPACE) and len(both) == len(SPACE) + len(WALK_ON) + len(
+        GAINS)  # the reaching leg's two are targets of SPACE already
+    assert set(t.search_space("all", gains=False)) == set(SPACE)
+    assert set(t.search_space("walk_on", gains=False)) == set(t.WALK_ON_NAMES)
+    assert set(t.search_space("lowering", gains=False)) == set(t.LOWERING) & set(SPACE)
