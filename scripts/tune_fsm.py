@@ -79,6 +79,16 @@ FULL_GRID = [(f, v, mech) for mech in ("force", "obstacle")
 LOWERING_FAST = tuple(k for k in FLIGHT if k.startswith("low_fall_"))
 # the walk on's own parameters and the reaching leg's (--only walk_on)
 WALK_ON_NAMES = (*WALK_ON, "reach_thigh_deg", "reach_sup_knee")
+# the lowering half of the grid (auto chooses lowering above 0.5 of swing)
+LOWERING_GRID = [(f, v, mech) for mech in ("force", "obstacle") for f in (0.55, 0.65, 0.75)
+                 for v in (1.0, 1.2, 1.4)]
+# the six bodies (height m, mass kg, sex) at 1.2 m/s, swing 0.05-0.75, both
+# mechanisms (docs/trips.md "Any body"); --grid full+bodies adds them to the full grid
+BODIES = ((1.50, 45.0, "female"), (1.65, 60.0, "female"), (1.70, 85.0, "female"),
+          (1.70, 80.0, "male"), (1.90, 90.0, "male"), (1.95, 110.0, "male"))
+BODY_GRID = [(f, 1.2, mech, *body) for body in BODIES for mech in ("force", "obstacle")
+             for f in (0.05, 0.15, 0.25, 0.35, 0.45, 0.55, 0.65, 0.75)]
+# the value sets --only chooses among (search_space)
 ONLY = ("all", "lowering", "lowering_fast", "lowering_flight", "walk_on", "all+walk_on")
 
 
@@ -98,15 +108,6 @@ def search_space(only: str, gains: bool) -> dict:
     if gains:
         space.update(GAINS)
     return space
-# the lowering half of the grid (auto chooses lowering above 0.5 of swing)
-LOWERING_GRID = [(f, v, mech) for mech in ("force", "obstacle") for f in (0.55, 0.65, 0.75)
-                 for v in (1.0, 1.2, 1.4)]
-# the six bodies (height m, mass kg, sex) at 1.2 m/s, swing 0.05-0.75, both
-# mechanisms (docs/trips.md "Any body"); --grid full+bodies adds them to the full grid
-BODIES = ((1.50, 45.0, "female"), (1.65, 60.0, "female"), (1.70, 85.0, "female"),
-          (1.70, 80.0, "male"), (1.90, 90.0, "male"), (1.95, 110.0, "male"))
-BODY_GRID = [(f, 1.2, mech, *body) for body in BODIES for mech in ("force", "obstacle")
-             for f in (0.05, 0.15, 0.25, 0.35, 0.45, 0.55, 0.65, 0.75)]
 
 
 ATTITUDE_DAMPING = "joint"  # --attitude-damping (FSMParams.attitude_damping)

@@ -474,7 +474,7 @@ def cmd_trip(args) -> int:
 
         read = read_params(args.params if args.params else
                            DEFAULT_SETS[(scenario.strength_model, scenario.recovery)])
-        fsm = read.params if args.params else None  # None: the pipeline's own default
+        fsm = read.params
         fsm_record = {"path": read.name, "sha256": read.sha256,
                       "default": not args.params}
     out = prepare_dir(args.out)  # and writable: checked before the simulation

@@ -328,9 +328,11 @@ class Scenario:
                              f"machines' servos (fsm), not the {self.controller} controller's "
                              "muscles")
         if self.recovery != "walk_on" and self.controller in MUSCLE_CONTROLLERS:
+            from stumble.analysis import WALK_ON_S  # analysis imports this module
+
             raise InputError(f"recovery rule {self.recovery} is for the state machines "
                              f"(fsm); the {self.controller} controller recovers when still "
-                             "walking 3 s after the trip")
+                             f"walking {WALK_ON_S:g} s after the trip")
         lo_dt, hi_dt = TIMESTEP_RANGE_S
         if not np.isfinite(self.timestep_s) or not lo_dt <= self.timestep_s <= hi_dt:
             raise InputError(f"time step {self.timestep_s} s is outside {lo_dt}-{hi_dt} s")
