@@ -19,7 +19,7 @@ from stumble.gait.readers import (
     write_storage,
 )
 
-WALKING = Path(__file__).resolve().parents[1].parent / "shared" / "reference" / "walking"
+WALKING = Path(__file__).resolve().parents[4] / "shared" / "reference" / "walking"
 MODEL_3D = [*(h.name for h in PELVIS_ROTATIONS), "pelvis_tx", "pelvis_ty", "pelvis_tz",
             *hinge_names()]
 MODEL_PLANAR = ["pelvis_tx", "pelvis_ty", "pelvis_tilt", *hinge_names(planar=True)]

@@ -218,7 +218,7 @@ def test_network_file_round_trip_and_errors(tmp_path):
 def shipped_arrays() -> dict:
     from stumble.control.reflex.identify import SHIPPED
 
-    path = Path(__file__).resolve().parents[1] / "src/stumble/control/reflex/data" / SHIPPED
+    path = Path(__file__).resolve().parent / "data" / SHIPPED
     with np.load(path) as z:
         return {k: z[k] for k in z.files}
 
@@ -399,7 +399,7 @@ def test_shipped_network_fits_walking_like_the_seed():
 def test_both_strategies_emerge_from_one_network(swing, expected):
     """Seed 003 CASE 1 and CASE 2: same network, never switched, strategy from motion;
     the open-loop network, seed 003's identification alone (the default closed-loop one:
-    test_reflex_walking.py)."""
+    controller_walk_test.py)."""
     r = simulate_trip(Scenario(controller="reflex", swing_fraction=swing,
                                mechanism="obstacle", duration_after_trip_s=1.0),
                       network=default_network("open-loop"))

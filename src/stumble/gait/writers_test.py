@@ -24,7 +24,7 @@ from stumble.gait.writers import (
     write_muscles_sto,
 )
 
-REFERENCE = Path(__file__).resolve().parents[2] / "shared" / "reference"
+REFERENCE = Path(__file__).resolve().parents[4] / "shared" / "reference"
 GAIT = load_reference()
 
 

@@ -12,7 +12,7 @@ import pytest
 
 from stumble.cli import main
 
-REFERENCE = Path(__file__).resolve().parents[2] / "shared" / "reference"
+REFERENCE = Path(__file__).resolve().parents[3] / "shared" / "reference"
 
 
 def run(*args: str) -> subprocess.CompletedProcess:
@@ -138,9 +138,8 @@ def test_mot_round_trip_keeps_every_coordinate(tmp_path):
 
 
 def test_bvh_round_trip_keeps_the_legs(tmp_path):
-    from test_bvh import _bvh_text, _walk_frames
-
     from stumble.gait.bvh import bvh_to_coordinates, read_bvh
+    from stumble.gait.bvh_test import _bvh_text, _walk_frames
 
     src = tmp_path / "in.bvh"
     src.write_text(_bvh_text(_walk_frames(n=100), dt=1 / 30))
@@ -259,7 +258,7 @@ def test_pipes_devices_and_absurd_files_are_one_line_errors(tmp_path):
     one.write_text("Coordinates\nendheader\ntime\tknee_angle_r\n0\t-10\n")
     _one_line_error(run("walk", "--out", str(tmp_path / "o"), "--gait", str(one)),
                     "one.mot: 1 data row(s); at least 2 are needed")
-    from test_bvh import _bvh_text
+    from stumble.gait.bvh_test import _bvh_text
 
     frame = tmp_path / "frame.bvh"
     frame.write_text(_bvh_text([{}]))

@@ -141,7 +141,7 @@ def test_fuzz_study_files(tmp_path):
 def shipped_npz() -> bytes:
     from stumble.control.reflex.identify import SHIPPED
 
-    return (Path(__file__).resolve().parents[1] / "src/stumble/control/reflex/data"
+    return (Path(__file__).resolve().parent / "data"
             / SHIPPED).read_bytes()
 
 

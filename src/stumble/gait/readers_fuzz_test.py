@@ -61,7 +61,7 @@ def _valid_sto(tmp_path) -> bytes:
 
 
 def _valid_bvh() -> bytes:
-    from test_bvh import _bvh_text, _walk_frames
+    from stumble.gait.bvh_test import _bvh_text, _walk_frames
 
     return _bvh_text(_walk_frames(n=45), dt=1 / 30).encode()
 

@@ -275,7 +275,7 @@ def _tune_fsm():
     import importlib.util
     from pathlib import Path
 
-    path = Path(__file__).resolve().parents[1] / "scripts" / "tune_fsm.py"
+    path = Path(__file__).resolve().parents[3] / "scripts" / "tune_fsm.py"
     spec = importlib.util.spec_from_file_location("tune_fsm", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
@@ -725,7 +725,7 @@ def test_the_upright_set_walks_on_with_the_trunk_within_26_degrees():
     for cmd in (first, third):  # each starts from a file of the repository
         start = re.search(r"--around (\S+)", cmd).group(1)
         values, settings = _tune_fsm().read_around(
-            str(Path(__file__).resolve().parents[1] / start))
+            str(Path(__file__).resolve().parents[3] / start))
         assert settings == {"trunk_attitude": 0.3, "attitude_damping": "joint"}
         assert set(values) >= {"walk_on_push_s", "swing_sup_hip", "low_rec_hip"}
         assert "--only walk_on" in cmd and "--max-tilt 26" in cmd
@@ -775,7 +775,7 @@ def test_scan_fsm_counts_walk_ons_and_flights_as_validate_does():
     import importlib.util
     from pathlib import Path
 
-    path = Path(__file__).resolve().parents[1] / "scripts" / "scan_fsm.py"
+    path = Path(__file__).resolve().parents[3] / "scripts" / "scan_fsm.py"
     spec = importlib.util.spec_from_file_location("scan_fsm", path)
     scan = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(scan)
@@ -928,7 +928,7 @@ def test_the_flight_set_flies_in_the_lowering_strategy_at_fast_walking_only():
                   and k not in _tune_fsm().LOWERING and not k.startswith("low_fall_")}
     first, second = json.loads(FLIGHT_FILE.read_text())["fit"]["commands"]
     start = re.search(r"--around (\S+)", first).group(1)
-    values, settings = _tune_fsm().read_around(str(Path(__file__).resolve().parents[1] / start))
+    values, settings = _tune_fsm().read_around(str(Path(__file__).resolve().parents[3] / start))
     assert settings == {"trunk_attitude": 0.3, "attitude_damping": "joint"}
     assert values["kc_lowering_fast"] == 300.0  # SCA 2009 §5's fast-walking k_c
     assert "--around A.json" in second and "--out A.json" in first

@@ -10,7 +10,7 @@ from stumble.errors import InputError
 from stumble.gait.playback import foot_slip, stance_mask, walk
 from stumble.gait.reference import FourierSeries, check_speed, load_reference
 
-REFERENCE = Path(__file__).resolve().parents[2] / "shared" / "reference"
+REFERENCE = Path(__file__).resolve().parents[4] / "shared" / "reference"
 
 
 @pytest.fixture(scope="module")

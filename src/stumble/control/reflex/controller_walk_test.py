@@ -1,7 +1,7 @@
 """Walking and tripping under the shipped Geyer & Herr 2010 reflexes (closed-loop fitted;
 the default ``stumble/control/reflex/data/gh2010_knee.json``, ``--params knee``),
 from the played-back walk and in their own gait, and under the closed-loop network; the
-open-loop network's strategies are tested in test_reflex.py."""
+open-loop network's strategies are tested in controller_test.py."""
 
 import numpy as np
 import pytest
@@ -375,7 +375,7 @@ def test_the_default_networks_chain_of_commands_is_read_from_its_file():
 
     from stumble.control.reflex.identify import NETWORK_NAMES, default_network
 
-    path = Path(__file__).resolve().parents[1] / "scripts" / "network_chain.py"
+    path = Path(__file__).resolve().parents[4] / "scripts" / "network_chain.py"
     spec = importlib.util.spec_from_file_location("network_chain", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)

@@ -16,7 +16,7 @@ from stumble.control.reflex.walking import (
 from stumble.errors import InputError
 from stumble.gait.reference import FourierSeries
 
-REFERENCE = Path(__file__).resolve().parents[2] / "shared" / "reference"
+REFERENCE = Path(__file__).resolve().parents[5] / "shared" / "reference"
 WALKING = REFERENCE / "walking"
 
 
