@@ -34,7 +34,7 @@ recovery-foot contact; ``--grid-floor N``: the objective loses 2 per trip of the
 ``--only lowering`` searches the lowering strategy's own targets (``LOWERING``): the
 trips the start sends to the elevating strategy do not use them, so they run once, with
 the start's values, and every candidate runs only the lowering trips (the score is the
-same as running all; ``tests/test_fsm.py``): 54 of the 144 ``full+bodies`` trips.
+same as running all; ``src/stumble/control/fsm_test.py``): 54 of the 144 ``full+bodies`` trips.
 ``--only lowering_fast`` searches those and the lowering Fall's offsets at fast walking
 (``LOWERING_FAST``: ``FSMParams.low_fall_fast_deg``), on the same trips;
 ``--only lowering_flight`` those and the lowering's flight (``LOWERING_FLIGHT``: its own

@@ -26,7 +26,7 @@ in motion to within about d/(1-d). Friction: an elliptic Coulomb cone (μ =
 normal's / 1000), so a point sticks inside the cone and slides on its edge, solved
 implicitly by MuJoCo (a stiff explicit friction on 96 points per foot is unstable at
 1 ms). Checked against ``penalty`` by
-the static penetration and the bounce of a standing body (tests/test_contact.py).
+the static penetration and the bounce of a standing body (contact_test.py).
 Plain (-3000, -10) would *not* be the law: it sets an acceleration, and on a standing
 body it gave about 6 mm of penetration and a 4 Hz bounce instead of 1.2 mm.
 

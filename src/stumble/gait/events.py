@@ -5,7 +5,7 @@ heel strike when the heel is furthest in front of the pelvis, toe-off when the t
 is furthest behind it. Independent of the vertical fit of the feet to the ground, and
 validated by Zeni et al. against force plates in treadmill and overground walking; on
 the subject01 trial it falls within 2 % of the stride of the force-plate events
-(tests/test_gait.py). Extrema closer than ``MIN_STRIDE_FRACTION`` of the mean spacing
+(playback_test.py). Extrema closer than ``MIN_STRIDE_FRACTION`` of the mean spacing
 or less prominent than ``MIN_PROMINENCE_M`` are ignored.
 """
 

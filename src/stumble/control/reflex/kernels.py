@@ -7,7 +7,7 @@ block in one compiled call each.
 
 They change no result: each does, element by element and in the same order, the IEEE
 operations of the NumPy code it stands in for (no fused multiply-add, no reassociation:
-Numba's defaults), and ``tests/test_kernels.py`` checks them equal bit for bit, alone and
+Numba's defaults), and ``kernels_test.py`` checks them equal bit for bit, alone and
 over whole walks and trips. What would not be the same stays NumPy's: its transcendental
 functions (``tanh``, ``exp``, ``log``, ``power``, ``arctan2``: SIMD implementations that
 round differently from a compiled libm on some CPUs) and its matrix products (BLAS).
@@ -30,7 +30,7 @@ Two kernels serve the fits rather than a controller: ``batch_z`` and ``batch_dh`
 motor paths of ``Network.forward`` and ``Network.gradient_z`` over a whole training set
 (DAgger's training, the identification), each sum in einsum's order and each path's
 share added in the paths' order, so that the fits give the NumPy code's numbers
-(``tests/test_reflex.py``).
+(``controller_test.py``).
 
 Numba is the optional extra ``fast`` (``pip install -e ".[fast]"``, in ``dev`` too).
 Without it, or with ``STUMBLE_KERNELS=numpy`` in the environment, the NumPy code runs;

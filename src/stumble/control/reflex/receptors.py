@@ -27,7 +27,7 @@ import numpy as np
 from scipy import signal
 
 try:  # lfilter's own kernel, without its argument checks: the same numbers, 6 µs less per
-    # network block (tests/test_reflex.py checks it against lfilter)
+    # network block (controller_test.py checks it against lfilter)
     from scipy.signal._sigtools import _linear_filter
 except ImportError:  # pragma: no cover - a SciPy without it: lfilter
     _linear_filter = None
