@@ -1,5 +1,5 @@
 """Probe the support hip's push-off moment of the state machines (issue 11): the
-controller patched, nothing built (docs/trips.md, sixteenth session).
+controller patched, nothing built (docs/fsm-fits.md, sixteenth session).
 
 Each design is a JSON object of:
 

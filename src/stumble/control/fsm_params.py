@@ -389,7 +389,7 @@ class FSMParams:
     # the body passes over the foot, and that damping leaves the pelvis 10-16° forward of
     # its reference in the walk after a recovery), or "pelvis": the pelvis's pitch and roll
     # rates in the world, as SIMBICON's torso PD (Yin et al. 2007), through the servo's
-    # target (an experiment: not tuned, docs/trips.md "Trips")
+    # target (an experiment: not tuned, docs/fsm-fits.md "Where it stands")
     attitude_damping: str = "joint"  # ATTITUDE_DAMPING
     # Issue 11, people's support hip pushes off with a peak extension moment of ~52 N·m
     # in the first 300 ms (Pijnappels et al. 2005), ours ~280 N·m: in Clearance the
@@ -398,7 +398,8 @@ class FSMParams:
     # push_off_hip_limit_nm caps that hip's servo moment (N·m, reference body, scaled as
     # the gains) while it holds the attitude in the push-off (fsm.PUSH_OFF_STATES), to
     # let the trunk rotate as people do; None: the servo's own limit. An experiment:
-    # measured, it loses recoveries and tilts the trunk further (docs/trips.md "Trips").
+    # measured, it loses recoveries and tilts the trunk further (docs/fsm-fits.md,
+    # "Where it stands").
     push_off_hip_limit_nm: float | None = None
     # push_off_rec_hip_limit_nm caps the recovery (tripped) hip's servo moment (N·m,
     # reference body, scaled as the gains) in the push-off (fsm.PUSH_OFF_STATES); None:
@@ -409,7 +410,7 @@ class FSMParams:
     # our reference body Anderson et al. 2007 (J Biomech 40:3105, Table 3, young men)
     # give 136 N·m isometric, about a third of it at 6 rad/s. Ours: a constant cap, not
     # their curve. Searched under 60 N·m, the grid walks on after 46 of 48 with the
-    # support hip at 142 N·m (docs/trips.md, "Where it stands": "Targets and gains
+    # support hip at 142 N·m (docs/fsm-fits.md, "Where it stands": "Targets and gains
     # searched under the cap"); scripts/tune_fsm.py --rec-hip-cap NM.
     push_off_rec_hip_limit_nm: float | None = None
     # push_off_sup_knee_limit_nm caps the support knee's servo moment (N·m, reference
@@ -418,7 +419,7 @@ class FSMParams:
     # the push-off, that knee extends at ~1.6 rad/s and its servo's damping (k_d 0.1 k_p,
     # SCA 2009 §4.5) resists with a flexion moment of ~100 N·m under `hip_cap`, where
     # people's peak is 54 N·m (Pijnappels et al. 2005). Ours: a constant cap; 80 N·m is
-    # within 1.5 times their mean (docs/trips.md, "The support knee capped");
+    # within 1.5 times their mean (docs/fsm-fits.md, "The support knee capped");
     # scripts/tune_fsm.py --sup-knee-cap NM.
     push_off_sup_knee_limit_nm: float | None = None
     # trunk_attitude k: until the recovery foot lands (fsm.PRE_LANDING_STATES) the lumbar
@@ -428,7 +429,8 @@ class FSMParams:
     # and people's recoveries keep it within about 23-26° (van den Bogert et al. 2002),
     # while the torso ours pitches with the pelvis; SIMBICON (Yin et al. 2007) controls
     # the torso in the world frame. Ours, not tuned: 0.3 keeps the 48-trip grid's
-    # recoveries and brings the largest tilt from 32.4° to 25.8° (docs/trips.md "Trips").
+    # recoveries and brings the largest tilt from 32.4° to 25.8° (docs/fsm-fits.md,
+    # "Where it stands").
     trunk_attitude: float = 0.0
     # SCA 2009 §5 uses 50 and 300 for slow and fast walking; on our body 300 lifts the
     # support foot off and stalls the recovery; tuned (TUNED_WITH above; 39.5 and 66.7
@@ -465,7 +467,7 @@ class FSMParams:
     # Walking on at the speed before the trip by feedforward (ours): SIMBICON's speed
     # term c_v·v becomes c_v·(v − f·(v_trip − v_ref)), so the walk on's own steady speed
     # v_ref (where it settles whatever the speed before: 1.15-1.19 m/s for the upright
-    # set before it had this, docs/trips.md "Walking on, upright") moves toward v_trip by
+    # set before it had this, docs/fsm-fits.md "Walking on, upright") moves toward v_trip by
     # the fraction f without a larger feedback gain (in SIMBICON's steady gait c_v·v is
     # what holds the thigh's angle, so f = 1 moves the steady speed all the way); phased
     # in as k_s is.
@@ -674,7 +676,7 @@ STEP_FILE = Path(__file__).parent / "data" / "fsm_step.json"
 # limb's push-off beyond people's (scripts/tune_fsm.py --rec-hip-cap 60 --push-off 1; the
 # command and its figures are its "fit"). The support hip pushes off with half of
 # flight's moment, but it walks on after fewer of the six bodies' trips and flies less:
-# an experiment, not the default (docs/trips.md, "Where it stands").
+# an experiment, not the default (docs/fsm-fits.md, "Where it stands").
 HIP_CAP_FILE = Path(__file__).parent / "data" / "fsm_hip_cap.json"
 
 # The push-off with the support knee capped (issue 11): the targets and gains searched
@@ -682,7 +684,7 @@ HIP_CAP_FILE = Path(__file__).parent / "data" / "fsm_hip_cap.json"
 # --sup-knee-cap 80; the commands and their figures are its "fit"). The support knee
 # pushes off within 1.5 times people's, and it keeps flight's figures for issue 11 (47 of
 # 48, the bodies 87 of 96, the flights); the hip is flight's. The default since
-# 2026-12-06 (docs/trips.md, "Where it stands").
+# 2026-12-06 (docs/fsm-fits.md, "Where it stands").
 KNEE_CAP_FILE = Path(__file__).parent / "data" / "fsm_knee_cap.json"
 
 SHIPPED = {"flight": FLIGHT_FILE,  # named parameter sets (load_params)

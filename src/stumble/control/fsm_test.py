@@ -845,7 +845,7 @@ def test_lowering_fall_offsets_at_fast_walking_push_into_flight():
     the speed as k_c is (none at 1.0 m/s); the elevating Fall keeps ``fall``. A support
     ankle pushing 35° further turns a lowering obstacle trip at 0.55 of swing, 1.4 m/s,
     into a flight (it falls: the offsets alone do not make a flight that recovers; the
-    flight set's do with the lowering's own compensation, docs/trips.md "Flight"), and leaves
+    flight set's do with the lowering's own compensation, docs/fsm-fits.md "Flight"), and leaves
     the same trip at 1.0 m/s as it was."""
     from stumble.control.fsm_params import FLIGHT, LOW_FALL_FAST_TARGETS, load_params
 
