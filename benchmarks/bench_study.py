@@ -24,7 +24,7 @@ import tempfile
 import time
 from pathlib import Path
 
-import stumble.pipeline as pipeline
+from stumble.gait import walk_cache
 from stumble.study.grid import Grid, parse_values
 from stumble.study.runner import run_study
 
@@ -47,7 +47,7 @@ def main() -> None:
     for n in counts:
         wall = float("inf")
         for _ in range(args.repeats):
-            pipeline._walk.cache_clear()  # each run loads its walks (forks inherit it)
+            walk_cache.body_and_walk.cache_clear()  # each run loads its walks (forks inherit it)
             with tempfile.TemporaryDirectory() as tmp:
                 t0 = time.perf_counter()
                 res = run_study(scenarios, Path(tmp) / "s", workers=n, progress=False)

@@ -38,6 +38,12 @@ MIN_AIRBORNE_S = 0.1  # the recovery foot was in the air this long before it lan
 # touch right after the trip is the trip's own scuff (ours)
 
 
+def fall_height_m(model: mujoco.MjModel) -> float:
+    """The pelvis height (m) below which the body has fallen: ``FALL_PELVIS_FRACTION`` of
+    its height standing at the zero pose."""
+    return FALL_PELVIS_FRACTION * float(model.body("pelvis").pos[2])
+
+
 def trunk_tilt_deg(model: mujoco.MjModel, xmat: np.ndarray) -> float:
     """Angle (deg) between the torso's long axis and the vertical."""
     z = xmat[model.body("torso").id].reshape(3, 3)[:, 2]
@@ -449,6 +455,20 @@ def stride_curves(time_s: np.ndarray, angles: dict[str, np.ndarray],
         out[name] = np.array(rows).reshape(len(rows), CYCLE_POINTS)
     return out
 
+
+
+def reference_stride(pb) -> dict[str, np.ndarray]:
+    """The played-back walk's mean right stride (a ``stumble.gait.playback.Playback``),
+    101 points per leg joint and, on the planar body, per foot's angle (``foot_angles``)
+    and the trunk's lean (``trunk_lean``; rad): what a reflex walk's RMSE is taken
+    against."""
+    names = [f"{j}_{s}" for j in WALK_JOINTS for s in SIDES]
+    series = {n: pb.coordinates[n] for n in names}
+    if pb.body.planar:
+        series.update(foot_angles(pb.qpos, pb.body.model))
+        series.update(trunk_lean(pb.qpos, pb.body.model))
+    curves = stride_curves(pb.time_s, series, list(pb.events.heel_strike_s["r"]))
+    return {n: c.mean(axis=0) for n, c in curves.items()}
 
 def walk_metrics(rec: Recording, model: mujoco.MjModel, reference: dict[str, np.ndarray],
                  duration_s: float) -> dict:

@@ -9,16 +9,16 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import lru_cache
 
 import mujoco
 import numpy as np
 
 from stumble.analysis import (
-    FALL_PELVIS_FRACTION,
     WALK_ON_S,
     StopRule,
     TripTimer,
+    fall_height_m,
+    reference_stride,
     trip_summary,
     walk_in_summary,
 )
@@ -38,7 +38,7 @@ from stumble.control.make import (
 from stumble.errors import InputError
 from stumble.gait.playback import Playback
 from stumble.gait.reference import load_reference
-from stumble.gait.walk_cache import walk_cached
+from stumble.gait.walk_cache import WALK_BEFORE_TRIP_S, body_and_walk
 from stumble.sim import Context, Recording, Sensors, run
 from stumble.trip import (
     DEFAULT_TIMESTEP_S,
@@ -56,8 +56,6 @@ from stumble.trip import (
     toe_front,
     trip_time,
 )
-
-WALK_BEFORE_TRIP_S = 0.4  # the trip comes in the first swing of that leg after this time
 
 
 @dataclass
@@ -127,7 +125,9 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     walk to the trip of an earlier trip whose parameters (GH2010's) or network differed
     only in the touch's reflexes (the same numbers as walking it again).
     """
-    sc = scenario.validated(_gh2010_step(gh2010) if scenario.controller == "gh2010"
+    from stumble.control.reflex.gh2010 import fitted_timestep
+
+    sc = scenario.validated(fitted_timestep(gh2010) if scenario.controller == "gh2010"
                             else None)
     reflex = sc.controller in MUSCLE_CONTROLLERS
     # the shipped set for the strength model and the recovery rule when none is given
@@ -139,7 +139,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
         strategy = p.strategy_for(sc.swing_fraction) if sc.strategy == "auto" else sc.strategy
     muscle_set = (muscle_set_of("network" if sc.controller == "reflex" else sc.controller,
                                 network) if reflex else DEFAULT_MUSCLE_SET)
-    base, pb = _walk(sc.height_m, sc.mass_kg, sc.sex, sc.contact, sc.speed_m_per_s,
+    base, pb = body_and_walk(sc.height_m, sc.mass_kg, sc.sex, sc.contact, sc.speed_m_per_s,
                      sc.timestep_s, reflex, muscle_set)
     own = sc.start == "own"
     if own:  # the controller takes over at right heel strike and walks to the trip
@@ -177,7 +177,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     controller = trip_controller(sc, strategy, p, network, pb, t_start, trunk_balance, gh2010)
     if sc.controller == "reflex":
         network_steps_per_tick(controller.net, m)
-    fall_height = FALL_PELVIS_FRACTION * _standing_pelvis(body)
+    fall_height = fall_height_m(body.model)
     walk_in = None
     if own:
         key = ((repr(sc), controller.walk_key()) if walk_in_cache is not None
@@ -276,23 +276,6 @@ def _no_trip(sc: Scenario, controller, rec: Recording, walk_in: dict, body: Body
                       controller.net if sc.controller == "reflex" else None)
 
 
-@lru_cache(maxsize=16)
-def _walk(height_m: float, mass_kg: float, sex: str, contact: str, speed_m_per_s: float,
-          timestep_s: float, planar: bool = False, muscle_set: str = DEFAULT_MUSCLE_SET,
-          ) -> tuple[Body, Playback]:
-    """The body and its walk before the trip; deterministic, so cached per process (and on
-    disk across processes, ``stumble.gait.walk_cache``)."""
-    base = build(planar=planar, height_m=height_m, mass_kg=mass_kg, sex=sex, contact=contact,
-                 timestep_s=timestep_s, actuation="muscles" if planar else "servos",
-                 muscle_set=muscle_set)
-    return base, walk_cached(base, speed_m_per_s, WALK_BEFORE_TRIP_S + 2.5 * 1.6)
-
-
-def _standing_pelvis(body: Body) -> float:
-    """Pelvis height (m) of the model standing at its zero pose."""
-    return float(body.model.body("pelvis").pos[2])
-
-
 @dataclass
 class StepResult:
     """One walking step under the reflex network (seed 003 Fig. 3)."""
@@ -314,7 +297,7 @@ def simulate_walking_step(network=None, trunk_balance: bool = True,
 
     net = network or default_network("open-loop")  # the identification's Fig. 3
     speed = speed_m_per_s or load_reference().speed_m_per_s
-    body, pb = _walk(1.75, 70.0, "male", DEFAULT_CONTACT, round(speed, 4), 0.001, True,
+    body, pb = body_and_walk(1.75, 70.0, "male", DEFAULT_CONTACT, round(speed, 4), 0.001, True,
                      net.muscle_set)
     m = body.model
     t0 = next(t for t in pb.events.heel_strike_s["r"] if t >= WALK_BEFORE_TRIP_S)
@@ -322,7 +305,7 @@ def simulate_walking_step(network=None, trunk_balance: bool = True,
     d.qpos[:], d.qvel[:] = pb.state_at(t0)
     rest_support_foot(m, d, planar=True)
     ctrl = network_controller(net, pb, t0, 1.0, trunk_balance)
-    stop = StopRule("elevating", "l", FALL_PELVIS_FRACTION * _standing_pelvis(body))
+    stop = StopRule("elevating", "l", fall_height_m(body.model))
     duration = 0.5 * pb.stride_s
     network_steps_per_tick(net, m)
     rec = run(Context(m, d, body, Sensors(), t0=0.0), ctrl, duration, stop=stop)
@@ -346,28 +329,6 @@ class WalkResult:
     controller: object = None
 
 
-def reference_stride(pb: Playback) -> dict[str, np.ndarray]:
-    """The played-back walk's mean right stride, 101 points per leg joint and, on the
-    planar body, per foot's angle (``analysis.foot_angles``) and the trunk's lean
-    (``analysis.trunk_lean``; rad)."""
-    from stumble.analysis import SIDES, WALK_JOINTS, foot_angles, stride_curves, trunk_lean
-
-    names = [f"{j}_{s}" for j in WALK_JOINTS for s in SIDES]
-    series = {n: pb.coordinates[n] for n in names}
-    if pb.body.planar:
-        series.update(foot_angles(pb.qpos, pb.body.model))
-        series.update(trunk_lean(pb.qpos, pb.body.model))
-    curves = stride_curves(pb.time_s, series, list(pb.events.heel_strike_s["r"]))
-    return {n: c.mean(axis=0) for n, c in curves.items()}
-
-
-def _gh2010_step(params) -> float:
-    """The step (s) a GH2010 set was fitted at (default: the shipped default set's)."""
-    from stumble.control.reflex.gh2010 import shipped_params
-
-    return (params or shipped_params()).timestep_s
-
-
 def simulate_walk(controller: str = "gh2010", duration_s: float = 20.0,
                   speed_m_per_s: float | None = None, params=None, network=None,
                   delay_scale: float = 1.0, trunk_balance: bool = True,
@@ -379,11 +340,12 @@ def simulate_walk(controller: str = "gh2010", duration_s: float = 20.0,
     ``gh2010`` the step its set was fitted at). ``pushes``: (start s, duration s,
     force N) on the pelvis, + forward (``PelvisPushes``; none by default)."""
     from stumble.analysis import WalkStop, walk_metrics
+    from stumble.control.reflex.gh2010 import fitted_timestep
     from stumble.gait.reference import check_speed
     from stumble.trip import check_gh2010_timestep
 
     if controller == "gh2010":
-        fitted = _gh2010_step(params)
+        fitted = fitted_timestep(params)
         timestep_s = fitted if timestep_s is None else timestep_s
         check_gh2010_timestep(timestep_s, fitted)
     elif timestep_s is None:
@@ -393,7 +355,7 @@ def simulate_walk(controller: str = "gh2010", duration_s: float = 20.0,
     check_speed(speed)
     if not 0.5 <= duration_s <= 600.0:
         raise InputError(f"duration {duration_s} s is outside 0.5-600 s")
-    body, pb = _walk(1.75, 70.0, "male", DEFAULT_CONTACT, round(float(speed), 4),
+    body, pb = body_and_walk(1.75, 70.0, "male", DEFAULT_CONTACT, round(float(speed), 4),
                      timestep_s, True, muscle_set_of(controller, network))
     m = body.model
     t0 = next(t for t in pb.events.heel_strike_s["r"] if t >= WALK_BEFORE_TRIP_S)
@@ -403,7 +365,7 @@ def simulate_walk(controller: str = "gh2010", duration_s: float = 20.0,
     ctrl = walk_controller(controller, pb, t0, params, network, delay_scale, trunk_balance)
     if controller == "network":
         network_steps_per_tick(ctrl.net, m)
-    stop = WalkStop(FALL_PELVIS_FRACTION * _standing_pelvis(body))
+    stop = WalkStop(fall_height_m(body.model))
     force = {}
     if pushes:
         pelvis = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "pelvis")

@@ -31,6 +31,8 @@ from stumble.gait import events as gait_events
 from stumble.gait.playback import Playback, walk
 
 CACHE_ENV = "STUMBLE_CACHE_DIR"
+WALK_BEFORE_TRIP_S = 0.4  # the trip comes in the first swing of that leg after this time
+WALK_S = WALK_BEFORE_TRIP_S + 2.5 * 1.6  # the walk played: room for a trip in any swing
 FORMAT = 1  # bump when the file layout changes
 
 
@@ -120,3 +122,19 @@ def walk_cached(body: Body, speed_m_per_s: float, duration_s: float) -> Playback
     except OSError:
         pass  # a read-only or full disk: the walk stays uncached
     return pb
+
+
+@lru_cache(maxsize=16)
+def body_and_walk(height_m: float, mass_kg: float, sex: str, contact: str,
+                  speed_m_per_s: float, timestep_s: float, planar: bool = False,
+                  muscle_set: str | None = None) -> tuple[Body, Playback]:
+    """The body and its walk before the trip; deterministic, so cached per process (and
+    on disk across processes, ``walk_cached``). ``muscle_set``: the planar body's (None:
+    ``stumble.body.muscles.DEFAULT_MUSCLE_SET``)."""
+    from stumble.body import build
+    from stumble.body.muscles import DEFAULT_MUSCLE_SET
+
+    base = build(planar=planar, height_m=height_m, mass_kg=mass_kg, sex=sex, contact=contact,
+                 timestep_s=timestep_s, actuation="muscles" if planar else "servos",
+                 muscle_set=muscle_set or DEFAULT_MUSCLE_SET)
+    return base, walk_cached(base, speed_m_per_s, WALK_S)

@@ -43,7 +43,8 @@ class Axis:
 
 
 # Outer to inner loop: axes that share a walk (body, speed, time step) are outermost, so
-# the runs that reuse one cached walk (``stumble.pipeline._walk``) sit next to each other.
+# the runs that reuse one cached walk (``stumble.gait.walk_cache.body_and_walk``) sit
+# next to each other.
 AXES: dict[str, Axis] = {a.name: a for a in (
     Axis("controller", "controller", str, "fsm (SCA 2009 state machines), reflex (seed 003's "
          "network) or gh2010 (Geyer & Herr 2010's reflexes)"),

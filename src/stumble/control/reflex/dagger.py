@@ -145,20 +145,16 @@ def collect(net: Network, params: GH2010Params, beta: float, seed: int,
     that instant, the toe over the box, leaves the walk untripped); not with ``pushes``."""
     if trip is not None and pushes:
         raise ValueError("an episode is tripped or pushed, not both")
-    from stumble.analysis import FALL_PELVIS_FRACTION, WalkStop
+    from stumble.analysis import WalkStop, fall_height_m
+    from stumble.body.contact import DEFAULT_MODE as DEFAULT_CONTACT
     from stumble.body.contact import rest_support_foot
     from stumble.control.reflex.fit_walk import FIT_TIMESTEP_S
     from stumble.control.reflex.identify import history_before
     from stumble.gait.playback import stride_phase
-    from stumble.pipeline import (
-        DEFAULT_CONTACT,
-        WALK_BEFORE_TRIP_S,
-        _standing_pelvis,
-        _walk,
-    )
+    from stumble.gait.walk_cache import WALK_BEFORE_TRIP_S, body_and_walk
     from stumble.sim import Sensors, run
 
-    body, pb = _walk(1.75, 70.0, "male", DEFAULT_CONTACT, round(speed_m_per_s, 4),
+    body, pb = body_and_walk(1.75, 70.0, "male", DEFAULT_CONTACT, round(speed_m_per_s, 4),
                      FIT_TIMESTEP_S, True, net.muscle_set)
     import mujoco
 
@@ -174,7 +170,7 @@ def collect(net: Network, params: GH2010Params, beta: float, seed: int,
     student = ReflexController(net, history, balance_of(params))
     student.trace = {"inputs": [], "balance": []}
     mix = Mixed(student, GH2010Controller(params), beta, np.random.default_rng(seed))
-    stop = WalkStop(FALL_PELVIS_FRACTION * _standing_pelvis(body))
+    stop = WalkStop(fall_height_m(body.model))
     force = {}
     if pushes:
         from stumble.trip import PelvisPushes
