@@ -177,7 +177,7 @@ def test_the_closed_loop_network_takes_the_seeds_strategies(swing, strategy, nam
 
 def test_the_closed_loop_network_recovers_an_early_trip_in_its_own_gait():
     """0.05 of its own swing, 1.2 m/s start: elevating, still walking 3 s after the trip
-    (docs/reflex-network.md "The strategies emerge": 10 of the 45 own-gait trips recover)."""
+    (docs/reflex-network.md "The shipped networks": 10 of the 45 own-gait trips recover)."""
     from stumble.control.reflex.identify import default_network
 
     s = simulate_trip(Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.05,
