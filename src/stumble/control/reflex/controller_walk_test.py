@@ -64,7 +64,7 @@ def test_gh2010_walks_on_untripped_in_its_own_gait_and_from_the_recording():
 @pytest.mark.parametrize(("swing", "speed"), [(0.05, 1.0), (0.25, 1.2)])
 def test_gh2010_recovers_from_early_swing_trips_in_its_own_gait(swing, speed):
     """The default set, a 10 cm obstacle: elevating, still walking 3 s after the trip
-    (docs/reflex-network.md "The strategies emerge": 26 of the 45 trips recover)."""
+    (docs/gh2010.md "Where it stands": 33 of the 45 trips recover)."""
     s = simulate_trip(Scenario(controller="gh2010", mechanism="obstacle",
                                swing_fraction=swing, speed_m_per_s=speed)).summary
     assert s["strategy"] == "elevating" and s["recovered"] and not s["fell"]
