@@ -140,8 +140,8 @@ def parts() -> None:
     timed(sim._Buffers, "extend", "recording (extend)")
     timed(analysis.StopRule, "__call__", "stop rule")
     timed(analysis.StopRule, "block", "stop rule (bulk)")
-    case1 = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.13,
-                     speed_m_per_s=1.2, duration_after_trip_s=3.0)
+    case1 = Scenario(controller="reflex", start="playback", mechanism="obstacle",
+                     swing_fraction=0.13, speed_m_per_s=1.2, duration_after_trip_s=3.0)
     runs = (("network, CASE 1 trip", lambda: pipeline.simulate_trip(case1).recording),
             ("network, 10 s walk", lambda: pipeline.simulate_walk(
                 "network", 10.0, speed_m_per_s=1.2).recording),
@@ -174,7 +174,7 @@ def main() -> None:
         return parts()
     print("CPU time of this process, best of", args.repeats, "(the run includes building "
           "the body and the walk's set-up; the walk before is cached)")
-    sc = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.13,
+    sc = Scenario(controller="reflex", start="playback", mechanism="obstacle", swing_fraction=0.13,
                   speed_m_per_s=1.2, duration_after_trip_s=3.0)
     pipeline.simulate_trip(sc)  # warm the walk cache
     measure("reflex trip (network), CASE 1", lambda: pipeline.simulate_trip(sc), args.repeats)

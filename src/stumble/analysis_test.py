@@ -147,7 +147,7 @@ def test_fallen_rows_read_as_sensors_do():
     from stumble.sim import Sensors, fallen
     from stumble.trip import Scenario
 
-    r = simulate_trip(Scenario(controller="reflex", mechanism="obstacle",
+    r = simulate_trip(Scenario(controller="reflex", start="playback", mechanism="obstacle",
                                swing_fraction=0.13, speed_m_per_s=1.2))
     rec, lay = r.recording, r.body.sensors
     h = 0.8 * float(np.median(rec.sensordata[:20, lay.decode_index[13]]))

@@ -216,9 +216,9 @@ def _parser() -> argparse.ArgumentParser:
                    "walking on, else 3)")
     t.add_argument("--start", choices=("playback", "own"), default=None,
                    help="playback: the recorded walk up to the trip instant, the controller "
-                   "from there (the seeds'; default fsm, reflex); own: the controller walks "
-                   "from right heel strike and is tripped in its own gait (default gh2010; "
-                   "reflex controllers only)")
+                   "from there (the seeds'; default fsm; seed 003's CASE 1 and 2 with "
+                   "reflex); own: the controller walks from right heel strike and is tripped "
+                   "in its own gait (default reflex, gh2010; reflex controllers only)")
     t.add_argument("--walk-in", type=float, default=None, metavar="S",
                    help="--start own: seconds the controller walks before the trip's swing "
                    "(default 4)")

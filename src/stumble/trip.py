@@ -82,9 +82,11 @@ TIMESTEP_RANGE_S = (0.0002, 0.005)  # any controller
 MAX_TIMESTEP_S = {"fsm": 0.002}
 STARTS = ("playback", "own")
 # where each controller's walk before the trip comes from when a scenario names none:
-# the state machines and the seed's network from the recording, as their seeds (seed 003's
-# CASE 1 and CASE 2 are instants of its recording); GH2010 from its own gait
-DEFAULT_START = {"fsm": "playback", "reflex": "playback", "gh2010": "own"}
+# the state machines from the recording (they do not walk on their own); both reflex
+# walkers from their own gait, where they recover (issue 9; the seed's network was from
+# the recording until 2026-12-06: seed 003's CASE 1 and CASE 2 are instants of its
+# recording, ``start="playback"``, where no network recovers)
+DEFAULT_START = {"fsm": "playback", "reflex": "own", "gh2010": "own"}
 WALK_IN_S = 4.0  # own start: seconds walked before the trip's swing (our choice: GH2010's
 # stride settles within two strides of taking over)
 WALK_IN_RANGE_S = (2.0, 30.0)

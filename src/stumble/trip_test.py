@@ -77,7 +77,8 @@ def test_each_controller_has_its_default_step_and_the_state_machines_refuse_unst
 
 def test_start_own_is_for_walkers_and_the_walk_in_is_bounded():
     assert Scenario(controller="gh2010").validated().start == "own"
-    assert Scenario(controller="reflex").validated().start == "playback"
+    assert Scenario(controller="reflex").validated().start == "own"  # both walkers: own gait
+    assert Scenario().validated().start == "playback"
     with pytest.raises(InputError, match="fsm controller does not walk on its own"):
         Scenario(controller="fsm", start="own").validated()
     with pytest.raises(InputError, match="start 'walk'"):

@@ -36,8 +36,8 @@ def test_reflex_trip_with_a_fitted_network(tmp_path):
     main(["reflex", "fit", "--out", str(net), "--iterations", "5", "--refine", "5"])
     out = tmp_path / "trip"
     assert main(["trip", "--controller", "reflex", "--network", str(net / "network.npz"),
-                 "--swing", "0.56", "--duration", "0.6", "--no-video", "--out",
-                 str(out)]) == 0
+                 "--start", "playback", "--swing", "0.56", "--duration", "0.6", "--no-video",
+                 "--out", str(out)]) == 0
     s = json.loads((out / "summary.json").read_text())
     assert s["controller"] == "reflex" and s["mechanism"] == "obstacle"
     assert s["strategy"] in ("elevating", "lowering", None)
@@ -67,7 +67,8 @@ def test_reflex_trip_with_a_fitted_network(tmp_path):
      "--generations is for --controller gh2010 and --walk-es"),
     (["reflex", "fit", "--generations", "5"], "--generations is for --controller gh2010"),
     (["trip", "--start", "own"], "fsm controller does not walk on its own"),
-    (["trip", "--controller", "reflex", "--walk-in", "3"], "--walk-in is for --start own"),
+    (["trip", "--controller", "reflex", "--start", "playback", "--walk-in", "3"],
+     "--walk-in is for --start own"),
     (["trip", "--controller", "gh2010", "--walk-in", "1"], "walk-in 1.0 s is outside 2-30 s"),
     # options of the state machines' alone: refused, not recorded as if applied
     (["trip", "--controller", "reflex", "--strength", "anderson2007"],

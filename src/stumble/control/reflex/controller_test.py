@@ -400,7 +400,7 @@ def test_both_strategies_emerge_from_one_network(swing, expected):
     """Seed 003 CASE 1 and CASE 2: same network, never switched, strategy from motion;
     the open-loop network, seed 003's identification alone (the default closed-loop one:
     controller_walk_test.py)."""
-    r = simulate_trip(Scenario(controller="reflex", swing_fraction=swing,
+    r = simulate_trip(Scenario(controller="reflex", start="playback", swing_fraction=swing,
                                mechanism="obstacle", duration_after_trip_s=1.0),
                       network=default_network("open-loop"))
     s = r.summary
@@ -415,7 +415,7 @@ def test_both_strategies_emerge_from_one_network(swing, expected):
 
 def test_reflex_is_not_told_a_strategy():
     with pytest.raises(InputError, match="emerges"):
-        Scenario(controller="reflex", strategy="elevating").validated()
+        Scenario(controller="reflex", start="playback", strategy="elevating").validated()
 
 
 def test_block_evaluation_equals_tick_by_tick(monkeypatch):
@@ -428,7 +428,7 @@ def test_block_evaluation_equals_tick_by_tick(monkeypatch):
         def init(self, *args, _block=block, **kwargs):
             orig(self, *args, **{**kwargs, "block": _block})
         monkeypatch.setattr(C.ReflexController, "__init__", init)
-        r = simulate_trip(Scenario(controller="reflex", swing_fraction=0.3,
+        r = simulate_trip(Scenario(controller="reflex", start="playback", swing_fraction=0.3,
                                    mechanism="obstacle", duration_after_trip_s=0.5))
         runs[block] = r.recording
     assert len(runs[1].time_s) == len(runs[None].time_s) > 50
@@ -465,7 +465,7 @@ def test_block_evaluation_at_2ms_equals_two_ticks_at_a_time(monkeypatch):
         def init(self, *args, _block=b, **kwargs):
             orig(self, *args, **{**kwargs, "block": _block})
         monkeypatch.setattr(C.ReflexController, "__init__", init)
-        r = simulate_trip(Scenario(controller="reflex", swing_fraction=0.3,
+        r = simulate_trip(Scenario(controller="reflex", start="playback", swing_fraction=0.3,
                                    mechanism="obstacle", duration_after_trip_s=0.5,
                                    timestep_s=0.002))
         runs[b] = r
@@ -486,7 +486,7 @@ def test_network_tick_ratio():
 
 def test_reflex_time_step_must_divide_a_network_tick():
     with pytest.raises(InputError, match="must divide"):
-        simulate_trip(Scenario(controller="reflex", mechanism="obstacle",
+        simulate_trip(Scenario(controller="reflex", start="playback", mechanism="obstacle",
                                swing_fraction=0.56, timestep_s=0.0015,
                                duration_after_trip_s=0.5))
 
@@ -660,8 +660,8 @@ def test_a_response_by_foot_answers_a_late_swing_touch_with_its_ahead_sets():
                      space.start)
     ahead_only = network_with(by_foot, theta, space.names)
     for swing, same in ((0.13, True), (0.6, False)):
-        sc = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=swing,
-                      speed_m_per_s=1.2, duration_after_trip_s=0.5)
+        sc = Scenario(controller="reflex", start="playback", mechanism="obstacle",
+                      swing_fraction=swing, speed_m_per_s=1.2, duration_after_trip_s=0.5)
         plain = simulate_trip(sc, network=net).recording.qpos
         resp = simulate_trip(sc, network=ahead_only).recording.qpos
         assert (plain.shape == resp.shape and np.array_equal(plain, resp)) == same, swing

@@ -169,8 +169,9 @@ def test_the_closed_loop_network_takes_the_seeds_strategies(swing, strategy, nam
     way) under the closed-loop networks: never switched."""
     from stumble.control.reflex.identify import default_network
 
-    r = simulate_trip(Scenario(controller="reflex", mechanism="obstacle", swing_fraction=swing,
-                               speed_m_per_s=1.2), network=default_network(name))
+    r = simulate_trip(Scenario(controller="reflex", start="playback", mechanism="obstacle",
+                               swing_fraction=swing, speed_m_per_s=1.2),
+                      network=default_network(name))
     assert r.summary["start"] == "playback" and r.summary["strategy"] == strategy
     assert [st["name"] for st in r.summary["states"]] == ["reflex"]
 

@@ -244,7 +244,7 @@ def _tripped(ctx: Context, mix: Mixed, body, swing: float, duration_s: float, st
         return rec, what
     try:
         box = obstacle_at(body, ctx.data.qpos.copy(), Scenario(
-            controller="reflex", mechanism="obstacle", swing_fraction=swing,
+            controller="reflex", start="playback", mechanism="obstacle", swing_fraction=swing,
             leg={"l": "left", "r": "right"}[TRIP_SIDE]))
     except TripNotSet:
         box = None

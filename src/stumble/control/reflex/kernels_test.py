@@ -88,7 +88,7 @@ def test_network_walk_and_trips_compiled_equal_numpy():
     from stumble.trip import Scenario
 
     _same_runs(lambda: simulate_walk("network", 2.0).recording)
-    sc = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.13,
+    sc = Scenario(controller="reflex", start="playback", mechanism="obstacle", swing_fraction=0.13,
                   speed_m_per_s=1.2, duration_after_trip_s=0.6)
     _same_runs(lambda: simulate_trip(sc).recording)
     open_loop = default_network("open-loop")
@@ -197,7 +197,7 @@ def test_the_touch_afferent_compiled_equals_numpy_and_is_silent_at_zero():
     from stumble.trip import Scenario
 
     net = default_network("placement-es")
-    sc = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.13,
+    sc = Scenario(controller="reflex", start="playback", mechanism="obstacle", swing_fraction=0.13,
                   speed_m_per_s=1.2, duration_after_trip_s=0.6)
     plain = simulate_trip(sc, network=net).recording
     silent = simulate_trip(sc, network=net.with_touch()).recording
@@ -276,7 +276,7 @@ def test_the_touch_response_compiled_equals_numpy_and_starts_after_its_latency(t
     from stumble.trip import Scenario
 
     net = default_network("placement-es")
-    sc = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.13,
+    sc = Scenario(controller="reflex", start="playback", mechanism="obstacle", swing_fraction=0.13,
                   speed_m_per_s=1.2, duration_after_trip_s=0.5, timestep_s=timestep)
     plain = simulate_trip(sc, network=net).recording
     silent = simulate_trip(sc, network=net.with_touch_response()).recording
@@ -337,7 +337,7 @@ def test_blocks_run_natively_equal_block_by_block(monkeypatch, controller, case)
             return simulate_walk("network" if controller == "reflex" else "gh2010", 3.0,
                                  speed_m_per_s=1.0, pushes=pushes)
     else:
-        sc = {"case1": Scenario(controller="reflex", mechanism="obstacle",
+        sc = {"case1": Scenario(controller="reflex", start="playback", mechanism="obstacle",
                                 swing_fraction=0.13, speed_m_per_s=1.2,
                                 duration_after_trip_s=3.0),
               "own-lowering": Scenario(controller="reflex", mechanism="obstacle",
@@ -416,7 +416,8 @@ def test_native_blocks_in_threads_give_each_runs_own_numbers():
         pytest.skip(f"{K.ENV}=numpy in the environment")
     jobs = [lambda: simulate_walk("network", 2.0, speed_m_per_s=1.0).recording,
             lambda: simulate_walk("gh2010", 2.0, speed_m_per_s=1.2).recording,
-            lambda: simulate_trip(Scenario(controller="reflex", mechanism="obstacle",
+            lambda: simulate_trip(Scenario(controller="reflex", start="playback",
+                                           mechanism="obstacle",
                                            swing_fraction=0.13, speed_m_per_s=1.2,
                                            duration_after_trip_s=1.0)).recording,
             lambda: simulate_trip(Scenario(controller="gh2010", mechanism="obstacle",
