@@ -518,8 +518,24 @@ def _load_reference_trip(args, scenario) -> dict:
     return {"time_s": ref.time_s, **{k: np.degrees(v) for k, v in ref.columns.items()}}
 
 
+def _mujoco_gl_error() -> str | None:
+    """MuJoCo refuses to import under a ``MUJOCO_GL`` it does not know: that, as one line."""
+    try:
+        import mujoco  # noqa: F401  (reads MUJOCO_GL once, at import)
+    except RuntimeError as e:
+        if "MUJOCO_GL" not in str(e):
+            raise
+        return (f"{e} (MuJoCo takes egl, osmesa, glx or glfw on Linux; unset it, "
+                "or MUJOCO_GL=off for no video)")
+    return None
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point: run a subcommand; user errors become one line on stderr, exit 2."""
+    gl_error = _mujoco_gl_error()
+    if gl_error:
+        print(f"stumble: {gl_error}", file=sys.stderr)
+        return 2
     parser = _parser()
     args = parser.parse_args(argv)
     if args.command is None:

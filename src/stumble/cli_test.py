@@ -424,3 +424,19 @@ def test_a_walk_too_short_to_write_names_the_option(tmp_path, capsys):
     err = _main_error(capsys, ["walk", "--out", str(tmp_path / "o"), "--duration", "1e-9",
                                "--no-video"])
     assert "--duration 1e-09 s is too short to write a motion (at least 0.05 s)" in err
+
+
+def test_an_unknown_mujoco_gl_is_one_line_not_a_traceback(tmp_path):
+    """MuJoCo raises at import under a MUJOCO_GL it does not know; stumble says so in one
+    line and exits 2 before anything runs."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "MUJOCO_GL": "bogus"}
+    r = subprocess.run([sys.executable, "-c", "import sys; from stumble.cli import main; "
+                        f"sys.exit(main(['walk', '--out', {str(tmp_path / 'w')!r}]))"],
+                       env=env, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert r.stderr.count("\n") == 1 and "MUJOCO_GL: bogus" in r.stderr
+    assert not (tmp_path / "w").exists()
