@@ -413,6 +413,9 @@ def _network_arg(path: Path):
 
 def cmd_trip(args) -> int:
     """``stumble trip``: one trip, its summary, time series, plots and video."""
+    import time
+
+    t_command = time.perf_counter()
     from stumble.outputs import (
         prepare_dir,
         trip_motion,
@@ -501,9 +504,10 @@ def cmd_trip(args) -> int:
     if s.get("recovery") == "walk_on" and s["controller"] == "fsm" and s.get(
             "steps_after_recovery_step") is not None:  # what walking on came to
         outcome += f" ({s['steps_after_recovery_step']} steps after the recovery step)"
+    total = time.perf_counter() - t_command
     print(f"{strategy} strategy{variant}: {outcome}; simulated "
-          f"{s['sim_time_s']:.2f} s in {s['wall_time_s']:.2f} s; wrote {', '.join(written)} "
-          f"to {out}")
+          f"{s['sim_time_s']:.2f} s in {s['wall_time_s']:.2f} s ({total:.1f} s in all, files "
+          f"and video included); wrote {', '.join(written)} to {out}")
     return 0
 
 
@@ -537,7 +541,13 @@ def main(argv: list[str] | None = None) -> int:
         print(f"stumble: {gl_error}", file=sys.stderr)
         return 2
     parser = _parser()
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(argv)
+    if extra:  # named with the subcommand whose help lists what it takes
+        words = [w for w in ("stumble", args.command, getattr(args, "reflex_command", None))
+                 if w]
+        print(f"stumble: unrecognized arguments: {' '.join(extra)} (see `{' '.join(words)} "
+              "--help`)", file=sys.stderr)
+        return 2
     if args.command is None:
         parser.print_help()
         return 0

@@ -429,10 +429,6 @@ def test_a_walk_too_short_to_write_names_the_option(tmp_path, capsys):
 def test_an_unknown_mujoco_gl_is_one_line_not_a_traceback(tmp_path):
     """MuJoCo raises at import under a MUJOCO_GL it does not know; stumble says so in one
     line and exits 2 before anything runs."""
-    import os
-    import subprocess
-    import sys
-
     env = {**os.environ, "MUJOCO_GL": "bogus"}
     r = subprocess.run([sys.executable, "-c", "import sys; from stumble.cli import main; "
                         f"sys.exit(main(['walk', '--out', {str(tmp_path / 'w')!r}]))"],
@@ -440,3 +436,15 @@ def test_an_unknown_mujoco_gl_is_one_line_not_a_traceback(tmp_path):
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert r.stderr.count("\n") == 1 and "MUJOCO_GL: bogus" in r.stderr
     assert not (tmp_path / "w").exists()
+
+
+@pytest.mark.parametrize(("argv", "words"), [
+    (["trip", "--strength-scale", "1.5", "--out", "x"],
+     "unrecognized arguments: --strength-scale 1.5 (see `stumble trip --help`)"),
+    (["reflex", "walk", "--out", "x", "--delays", "response"],
+     "unrecognized arguments: --delays response (see `stumble reflex walk --help`)"),
+])
+def test_an_option_the_subcommand_lacks_points_to_its_own_help(argv, words, capsys):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert words in err and err.count("\n") == 1

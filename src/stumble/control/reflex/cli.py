@@ -22,6 +22,11 @@ from stumble.errors import InputError
 MAX_WEIGHT = 1e4  # an objective's weight or cost: beyond it the sums overflow to inf
 
 
+
+def _reflex_controller(value: str) -> str:
+    """``--controller``: ``reflex`` (``stumble trip``'s name for the network) is ``network``."""
+    return "network" if value == "reflex" else value
+
 def _weight(text: str) -> float:
     """An objective's weight or cost (argparse type): a finite number in 0-``MAX_WEIGHT``."""
     try:
@@ -89,8 +94,11 @@ class _Progress:
 
 def add_reflex_parser(sub, parser_class=argparse.ArgumentParser) -> None:
     """Add ``stumble reflex`` and its actions to the top-level subparsers ``sub``."""
-    r = sub.add_parser("reflex", help="the neuromuscular reflex network (seed 003)",
-                       description="The neuromuscular reflex network of seed 003.")
+    r = sub.add_parser("reflex", help="the reflex controllers: seed 003's network, Geyer & "
+                       "Herr 2010",
+                       description="The reflex controllers on the planar musculoskeletal "
+                       "body: seed 003's neuromuscular network and Geyer & Herr 2010's "
+                       "reflexes. Walk, fit, reproduce the shipped fits.")
     rsub = r.add_subparsers(dest="reflex_command", metavar="ACTION", parser_class=parser_class,
                             required=True)
     f = rsub.add_parser("fit", help="fit a reflex controller",
@@ -106,7 +114,9 @@ def add_reflex_parser(sub, parser_class=argparse.ArgumentParser) -> None:
     f.add_argument("--out", required=True, type=out_dir_arg, metavar="DIR",
                    help="output directory")
     f.add_argument("--controller", choices=("network", "gh2010"), default="network",
-                   help="which reflex controller to fit (default network)")
+                   type=_reflex_controller,
+                   help="which reflex controller to fit (default network; reflex, as "
+                   "stumble trip names it, is the same)")
     f.add_argument("--seed", type=seed_arg, default=0,
                    help="initial weights or the evolution strategy's seed, 0 to 2^63 - 1 "
                    "(default 0)")
@@ -322,8 +332,9 @@ def add_reflex_parser(sub, parser_class=argparse.ArgumentParser) -> None:
     rw.add_argument("--out", required=True, type=out_dir_arg, metavar="DIR",
                     help="output directory")
     rw.add_argument("--controller", choices=("network", "gh2010"), default="network",
-                    help="network: seed 003's reflex network (default); gh2010: Geyer & "
-                    "Herr 2010's reflexes")
+                    type=_reflex_controller,
+                    help="network: seed 003's reflex network (default; reflex, as stumble "
+                    "trip names it, is the same); gh2010: Geyer & Herr 2010's reflexes")
     rw.add_argument("--network", type=Path, metavar="FILE",
                     help="network controller: a network.npz, or a shipped network: "
                     "placement-both (the default: walks within 10 deg and recovers "
