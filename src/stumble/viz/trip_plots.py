@@ -37,7 +37,8 @@ def plot_trajectories(path, model: mujoco.MjModel, time_s: np.ndarray, qpos: np.
     """Leading foot COM path (x-z), pelvis, leading hip and knee pitch over time.
 
     The leading leg is the recovery leg. Time 0 and the dashed line mark the trip;
-    dotted lines mark the controller's state changes. The foot's path is drawn over the
+    dotted lines mark the controller's state changes until it walks on (its ``step_*``
+    states, shaded, one a step, are not marked). The foot's path is drawn over the
     first ``FOOT_PATH_S`` after the trip (the recovery, as SCA 2009 Fig. 10), not the
     walk on that may follow: metres of it would flatten the step to a line.
     """
@@ -55,18 +56,26 @@ def plot_trajectories(path, model: mujoco.MjModel, time_s: np.ndarray, qpos: np.
     ax.set_ylabel("height [m]")
     ax.set_title(f"leading ({'left' if lead == 'l' else 'right'}) foot COM, "
                  f"first {FOOT_PATH_S:g} s")
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.legend(loc="best", fontsize=8)
+    top = float(foot[:, 2].max())
+    ax.set_ylim(min(0.0, float(foot[:, 2].min())) - 0.05, top + 0.25 * max(top, 0.2))
+    ax.legend(loc="upper right", fontsize=8)
+    walk_on = next((t for name, t in states if name.startswith("step_")), None)
     for ax, key, label in ((axes[1], "pelvis", "pelvis pitch (+ posterior)"),
                            (axes[2], "lead_hip", "leading hip flexion"),
                            (axes[3], "lead_knee", "leading knee (flexion −)")):
         ax.plot(time_s, ang[key], color="tab:blue")
-        ax.axvline(0.0, color="tab:red", ls="--", lw=1)
-        for _name, t in states[1:]:
-            ax.axvline(t, color="0.6", ls=":", lw=0.8)
+        ax.axvline(0.0, color="tab:red", ls="--", lw=1, label="trip")
+        marked = [t for name, t in states[1:] if walk_on is None or t < walk_on]
+        for k, t in enumerate(marked):
+            ax.axvline(t, color="0.45", ls=":", lw=0.9,
+                       label="state change" if k == 0 else None)
+        if walk_on is not None:
+            ax.axvspan(walk_on, float(time_s[-1]), color="0.92", zorder=0,
+                       label="walking on")
         ax.set_xlabel("time since trip [s]")
         ax.set_title(label + " [deg]")
         ax.grid(alpha=0.3)
+    axes[1].legend(loc="lower right", fontsize=8)
     axes[0].grid(alpha=0.3)
     if title:
         fig.suptitle(title)
