@@ -35,7 +35,9 @@ _SIDES: tuple[tuple[str, str, str, str], ...] = (
     ("r", "right", "tab:blue", "-"),
     ("l", "left", "tab:red", "--"),
 )
-_NO_SIDE = (("", "trunk", "tab:green", "-"),)  # the trunk panel's one curve
+# the trunk panel's one curve, dash-dotted so its recorded curve is told from the right's
+_NO_SIDE = (("", "trunk", "tab:green", "-."),)
+SD_VISIBLE_DEG = 0.1  # a ±SD band narrower than this everywhere is not drawn (nor listed)
 
 
 def _key(stem: str, side: str) -> str:
@@ -82,7 +84,8 @@ def plot_joint_angles(
 
     ``angles_deg`` maps keys such as ``hip_flexion_r`` or ``knee_angle_l`` to curves sampled
     at ``cycle_percent`` (0–100 %); right is drawn solid, left dashed, and missing keys are
-    skipped. ``spread_deg`` (same keys) adds a ±SD band around each curve. ``events`` may
+    skipped. ``spread_deg`` (same keys) adds a ±SD band around each curve (where it is
+    ``SD_VISIBLE_DEG`` wide somewhere: a played-back walk repeats itself). ``events`` may
     hold ``{"toe_off_percent": {"r": 62.0, "l": 12.0}}`` for vertical toe-off lines.
     ``reference_deg`` (same keys) draws a reference stride (e.g. the recorded one) under
     the curves in grey, labelled ``reference_label``.
@@ -123,8 +126,9 @@ def plot_joint_angles(
                     continue
                 y = _curve(key, angles_deg[key], n, "angle curve")
                 ax.plot(x, y, color=colour, linestyle=style, linewidth=1.6, label=side_name)
-                if spread_deg.get(key) is not None:
-                    sd = np.abs(_curve(key, spread_deg[key], n, "spread curve"))
+                sd = (None if spread_deg.get(key) is None
+                      else np.abs(_curve(key, spread_deg[key], n, "spread curve")))
+                if sd is not None and float(np.nanmax(sd)) >= SD_VISIBLE_DEG:
                     ax.fill_between(x, y - sd, y + sd, color=colour, alpha=0.18, linewidth=0,
                                     label=f"{side_name} ±SD")
                 drawn = True

@@ -225,3 +225,24 @@ def test_fall_rate_over_obstacle_heights_and_not_over_a_force_trips_none(tmp_pat
     assert _other_label("delay_scale", 1.5) == ", delay ×1.5"
     png = plot_fall_rate(tmp_path / "two.png", t2, t2.varying_scales())
     assert png.read_bytes()[:4] == b"\x89PNG"
+
+
+@pytest.mark.parametrize(("sd_deg", "listed"), [(0.0, False), (0.05, False), (2.0, True)])
+def test_an_sd_band_too_narrow_to_see_is_neither_drawn_nor_listed(tmp_path, monkeypatch,
+                                                                   sd_deg, listed):
+    """A played-back walk repeats itself (SD 0): no invisible ±SD entries in the legend."""
+    from matplotlib.figure import Figure
+
+    labels = []
+    real = Figure.legend
+
+    def legend(self, handles, names, **kw):
+        labels.extend(names)
+        return real(self, handles, names, **kw)
+
+    monkeypatch.setattr(Figure, "legend", legend)
+    pct, angles = _curves()
+    plot_joint_angles(tmp_path / "a.png", pct, angles,
+                      spread_deg={k: np.full_like(v, sd_deg) for k, v in angles.items()})
+    assert ("right ±SD" in labels) is listed and ("left ±SD" in labels) is listed
+    assert "right" in labels and "left" in labels
