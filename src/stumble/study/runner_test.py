@@ -391,6 +391,19 @@ def test_maps_pool_only_within_a_panel():
     assert Tally.of(rows + rows[:1]).pooled()
 
 
+def test_the_pooled_note_names_only_what_varies_within_a_panel():
+    """A default that differs by controller (6 s after the trip for fsm, 3 s for the
+    reflex controllers) is not a pooled axis; a value that varies within one panel is."""
+    from stumble.viz.study_plots import Tally, _pooled_note
+
+    rows = [{"controller": c, "mechanism": "obstacle", "swing_fraction": s,
+             "speed_m_per_s": 1.2, "duration_after_trip_s": d, "seed": 0}
+            for c, d in (("fsm", 6.0), ("reflex", 3.0)) for s in (0.2, 0.6)]
+    assert _pooled_note(Tally.of(rows)) == ""
+    seeds = [{**r, "seed": k} for r in rows for k in (1, 2, 3)]
+    assert _pooled_note(Tally.of(seeds)) == "pooled over seed (3)"
+
+
 def test_dask_cluster_gives_the_same_rows_as_local_processes(tmp_path, fake):
     """An in-process LocalCluster (threads, so the fake trips apply) against two local
     worker processes; the time limit works on its threads too."""

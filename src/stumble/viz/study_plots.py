@@ -91,6 +91,8 @@ class Tally:
     panels: dict = field(default_factory=lambda: defaultdict(dict))  # facet → (v, s) → Cell
     swings: set = field(default_factory=set)
     speeds: set = field(default_factory=set)
+    # (facet, column) → its values within that panel: a column pooled where one panel's
+    # cells hold several (a default that differs by controller is not pooled)
     pooled_values: dict = field(default_factory=lambda: defaultdict(set))
     outcomes: Counter = field(default_factory=Counter)
     # (scale, controller, mechanism, delays, other scales' values) → value → [falls, runs]
@@ -105,8 +107,9 @@ class Tally:
         facet = tuple(r.get(f) for f in FACETS)
         self.panels[facet].setdefault((speed, swing), Cell()).add(r)
         for name in POOLED:
-            if r.get(name) is not None and len(self.pooled_values[name]) <= 1000:
-                self.pooled_values[name].add(r.get(name))
+            seen = self.pooled_values[(facet, name)]
+            if r.get(name) is not None and len(seen) <= 1000:
+                seen.add(r.get(name))
         what = outcome(r)
         self.outcomes[what] += 1
         if what in ("error", "timeout", "not set"):  # no trip to count a fall of
@@ -157,8 +160,11 @@ def _edges(values: list[float], pad: float) -> np.ndarray:
 
 
 def _pooled_note(t: Tally) -> str:
-    parts = [f"{name} ({len(t.pooled_values[name])})" for name in POOLED
-             if len(t.pooled_values[name]) > 1]
+    """The columns some panel pools over, each with its most values in one panel."""
+    most = defaultdict(int)
+    for (_facet, name), values in t.pooled_values.items():
+        most[name] = max(most[name], len(values))
+    parts = [f"{name} ({most[name]})" for name in POOLED if most[name] > 1]
     return "pooled over " + ", ".join(parts) if parts else ""
 
 
