@@ -390,7 +390,9 @@ def cmd_walk(args) -> int:
             step = max(1, round(1.0 / (VIDEO_FPS * float(np.mean(np.diff(pb.time_s))))))
             frames = pb.qpos[::step]
             fps = 1.0 / (step * float(np.mean(np.diff(pb.time_s))))
-            render_video(out / "walk.mp4", body.model, frames, fps,
+            overlay = [f"t = {t:5.2f} s  played back at {pb.speed_m_per_s:.2f} m/s"
+                       for t in pb.time_s[::step]]
+            render_video(out / "walk.mp4", body.model, frames, fps, overlay=overlay,
                          progress=sys.stderr.isatty())
             written.append("walk.mp4")
         else:
