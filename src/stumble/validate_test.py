@@ -304,7 +304,37 @@ def test_a_trip_not_set_counts_as_no_run_in_the_figures():
                for k, sw in enumerate(WINDOW_SWINGS)}
     (row,) = recovery_rows("gh2010", by_case)
     n = len(WINDOW_SWINGS) - 1
-    assert row["stumble_text"] == f"{n}/{n} (100%)" and len(row["runs"]) == n + 1
+    assert row["stumble_text"] == f"{n}/{n} (100%; 1 not set)" and len(row["runs"]) == n + 1
+
+
+def test_a_window_trip_not_set_is_said_so_with_its_reason_not_raised():
+    """A late window trip whose toe was over the box (``not_set``, no ``error``): the row
+    says "not set" with the trip's own reason, and "raised" only for a run that raised."""
+    reason = "at 0.75 of swing the gh2010 walker's toe is 0.093 m up, over a 0.1 m obstacle"
+    by_case = {f"gh2010/window/{s}": {"key": f"k{s}", "strategy": "lowering",
+                                      "recovered": True, "error": None}
+               for s in validate.WINDOW_SWINGS}
+    by_case["gh2010/window/0.75"] = {"key": "k0.75", "not_set": True,
+                                     "not_set_reason": reason, "error": None}
+    late = validate.window_rows("gh2010", by_case)[-1]
+    assert late["stumble_text"] == f"lowering 2/2 (recovered 2/2); 1 not set ({reason})"
+    assert "raised" not in late["stumble_text"] and late["agreement"] == "yes"
+    by_case["gh2010/window/0.65"] = {"key": "k0.65", "error": "RuntimeError: boom"}
+    late = validate.window_rows("gh2010", by_case)[-1]
+    assert late["stumble_text"].endswith(f"; 1 not set ({reason}); 1 raised")
+
+
+def test_the_help_counts_the_study_it_runs(capsys):
+    """``stumble validate --help`` counts the trips and walks of ``validation_scenarios``
+    and ``WALKS``, not a stale figure."""
+    from stumble.study.grid import run_key
+
+    with pytest.raises(SystemExit):
+        main(["validate", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    trips = len({run_key(sc) for _, sc in validate.validation_scenarios()})
+    assert trips == 226 and f"({trips} trips:" in text
+    assert f"{len(validate.WALKS)} walks of 20 s" in text and len(validate.WALKS) == 3
 
 
 def test_the_own_gait_map_counts_a_trip_not_set_as_not_recovered():

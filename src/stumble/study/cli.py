@@ -63,7 +63,8 @@ def add_study_parser(sub) -> None:
         "study", help="many trips over a grid: results table, strategy and outcome maps",
         description="Run a trip for every point of a grid, on local processes or a Dask "
         "cluster. Writes DIR/results.parquet (one row per run: every scenario parameter "
-        "and every summary.json field), DIR/strategy_map.png, DIR/outcome_map.png and, "
+        "and every summary.json field; not_set and not_set_reason when some trip could "
+        "not be set at its instant), DIR/strategy_map.png, DIR/outcome_map.png and, "
         "when a delay or strength scale or the obstacle trips' height varies, "
         "DIR/fall_rate.png.",
         epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
