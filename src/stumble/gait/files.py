@@ -29,7 +29,10 @@ from stumble.gait.readers import (
 FORMATS = {".mot": "OpenSim", ".sto": "OpenSim", ".bvh": "BVH", ".c3d": "C3D"}
 MAX_PLAY_S = 600.0  # longest motion played (s), as for the reference gait
 MIN_TRAVEL_M = 0.5  # a pelvis travelling less than this is on a treadmill or in place
-HEADING_WINDOW_S = 1.0  # the walking direction is the pelvis path smoothed over ~a stride
+STRIDE_RANGE_S = (0.5, 2.5)  # strides looked for in the joint angles (s): running to a slow walk
+FALLBACK_STRIDE_S = 1.2  # our choice: the heading window when the angles show no stride
+MIN_LAG_OVERLAP_S = 0.5  # a lag is tried only if this much of the file overlaps itself
+MAX_PERIOD_HZ = 200.0  # the stride is looked for in the angles resampled at most this fast
 MIN_TURN_DEG = 5.0  # walks whose heading stays within this of +x are played as they are
 MIN_STRIDE_SHARE = 0.9  # a file must last this share of its stride (one stride: 1.0)
 
@@ -83,16 +86,113 @@ def _pelvis_rotation(cols: dict[str, np.ndarray], n: int) -> np.ndarray:
     return r
 
 
+def stride_period_s(motion: Motion) -> float | None:
+    """The stride time (s) of a motion from its joint angles alone, or None.
+
+    The signal is the right minus the left hip flexion (else knee, else ankle; else one
+    side's), which repeats every stride and is reversed half a stride later. The stride is
+    the first lag in ``STRIDE_RANGE_S`` at which the signal best matches itself (a local
+    maximum of the correlation over the overlap, at least 0.5); in a file too short for
+    that, twice the first lag at which it best matches its reverse (a local minimum, at
+    most -0.5). Both to a fraction of a sample (a parabola through the extremum).
+    """
+    cols, t = motion.columns, motion.time_s
+    signal = None
+    for joint in ("hip_flexion", "knee_angle", "ankle_angle"):
+        right, left = cols.get(f"{joint}_r"), cols.get(f"{joint}_l")
+        if right is not None and left is not None:
+            signal = right - left
+            break
+        if signal is None:
+            signal = right if right is not None else left
+    if signal is None or len(t) < 3:
+        return None
+    dt = max(float(np.median(np.diff(t))), 1.0 / MAX_PERIOD_HZ)
+    if not np.isfinite(dt) or t[-1] - t[0] < 3 * dt:
+        return None
+    s = np.interp(np.arange(t[0], t[-1] + 0.5 * dt, dt), t, signal)
+    if not np.isfinite(s).all():
+        return None
+    s = s - s.mean()
+    n = len(s)
+    shortest, longest = (round(x / dt) for x in STRIDE_RANGE_S)
+    last = min(longest, n - max(3, round(MIN_LAG_OVERLAP_S / dt)))  # lags tried, in samples
+    if last < 2:
+        return None
+    # Pearson's correlation of s[:-k] with s[k:] for every lag k, from sums (the products
+    # by FFT): sums and sums of squares of the overlapping parts from cumulative sums
+    spec = np.fft.rfft(s, 2 * n)
+    prod = np.fft.irfft(spec * np.conj(spec), 2 * n)[:last + 2]
+    cum, cum2 = (np.concatenate([[0.0], np.cumsum(x)]) for x in (s, s * s))
+    lag = np.arange(last + 2)
+    m = n - lag
+    sa, sb = cum[n - lag], cum[n] - cum[lag]
+    var_a, var_b = cum2[n - lag] - sa * sa / m, cum2[n] - cum2[lag] - sb * sb / m
+    with np.errstate(divide="ignore", invalid="ignore"):
+        corr = (prod - sa * sb / m) / np.sqrt(var_a * var_b)
+    corr[~(var_a * var_b > 1e-12 * cum2[n] ** 2)] = np.nan
+
+    def first_extremum(sign: float, lags: range) -> float | None:
+        for k in lags:
+            c0, c1, c2 = sign * corr[k - 1:k + 2]
+            if np.isfinite([c0, c1, c2]).all() and c1 >= 0.5 and c1 >= c0 and c1 > c2:
+                den = c0 - 2.0 * c1 + c2  # the vertex of a parabola through k-1, k, k+1
+                return (k + (0.5 * (c0 - c2) / den if den != 0 else 0.0)) * dt
+        return None
+
+    full = first_extremum(1.0, range(max(2, shortest), last + 1))
+    if full is not None:
+        return full
+    half = first_extremum(-1.0, range(max(2, shortest // 2), min(longest // 2, last) + 1))
+    return None if half is None else 2.0 * half
+
+
+def walking_heading(motion: Motion) -> np.ndarray | None:
+    """The walking direction (rad, from +x towards +y = OpenSim's -z) at each sample.
+
+    At each instant, the direction in which the pelvis (``pelvis_tx``, ``pelvis_tz``)
+    travels over the stride centred there (:func:`stride_period_s`, else
+    ``FALLBACK_STRIDE_S``): the path's average over a whole stride, so the sway within a
+    stride, which repeats every stride, cancels. Within half a stride of either end, where
+    no whole stride is centred, a straight line fitted to the heading over the nearest
+    stride is extended to the end. A file shorter than a stride walks along its overall
+    displacement. None when the pelvis path is missing or the pelvis barely moves.
+    """
+    cols, t = motion.columns, motion.time_s
+    if "pelvis_tx" not in cols or "pelvis_tz" not in cols or len(t) < 3:
+        return None
+    fwd, left = cols["pelvis_tx"], -cols["pelvis_tz"]
+    stride = stride_period_s(motion) or FALLBACK_STRIDE_S
+    half = 0.5 * stride
+    inside = (t - half >= t[0] - 1e-9) & (t + half <= t[-1] + 1e-9)
+    tc = t[inside]
+    dx = np.interp(tc + half, t, fwd) - np.interp(tc - half, t, fwd)
+    dy = np.interp(tc + half, t, left) - np.interp(tc - half, t, left)
+    moving = np.hypot(dx, dy) / stride > 0.1  # m/s
+    if moving.sum() < 2:
+        dx, dy = fwd[-1] - fwd[0], left[-1] - left[0]
+        if np.hypot(dx, dy) / max(t[-1] - t[0], 1e-9) <= 0.1:
+            return None
+        return np.full(len(t), np.arctan2(dy, dx))
+    tm = tc[moving]
+    hm = np.unwrap(np.arctan2(dy[moving], dx[moving]))
+    heading = np.interp(t, tm, hm)
+    for edge, near in ((t < tm[0], tm <= tm[0] + stride), (t > tm[-1], tm >= tm[-1] - stride)):
+        if edge.any():
+            slope, icpt = np.polyfit(tm[near], hm[near], 1) if near.sum() >= 2 else (0.0, hm[0])
+            heading[edge] = slope * t[edge] + icpt
+    return heading
+
+
 def straighten(motion: Motion) -> Motion:
     """The motion turned so that it walks along +x, with a note; else unchanged.
 
-    The walking direction is the heading of the pelvis path (``pelvis_tx``, ``pelvis_tz``
-    in OpenSim's ground: x forward, z right) low-passed at 1/``HEADING_WINDOW_S`` (zero
-    phase), so the sway within a stride stays in the pelvis. A walk
-    that travels at least ``MIN_TRAVEL_M`` with a heading that leaves +x by more than
-    ``MIN_TURN_DEG`` (a walk along -x, a turn, a figure 8) has that heading removed from
-    its pelvis orientation at every instant (a world yaw), and its pelvis path made
-    straight; so speed and gait events come out along the walking direction. Joint
+    The walking direction is :func:`walking_heading`: the direction the pelvis travels
+    over the stride centred at each instant, so the sway within a stride stays in the
+    pelvis. A walk that travels at least ``MIN_TRAVEL_M`` with a heading that leaves +x by
+    more than ``MIN_TURN_DEG`` (a walk along -x, a turn, a figure 8) has that heading
+    removed from its pelvis orientation at every instant (a world yaw), and its pelvis path
+    made straight; so speed and gait events come out along the walking direction. Joint
     angles are untouched.
     """
     cols = motion.columns
@@ -102,24 +202,10 @@ def straighten(motion: Motion) -> Motion:
     if len(t) < 3:
         return motion
     fwd, left = cols["pelvis_tx"], -cols["pelvis_tz"]
-    dt = float(np.median(np.diff(t)))
-    w = max(1, round(HEADING_WINDOW_S / dt))
-    if len(t) <= w or np.hypot(fwd[-1] - fwd[0], left[-1] - left[0]) < MIN_TRAVEL_M:
+    if np.hypot(fwd[-1] - fwd[0], left[-1] - left[0]) < MIN_TRAVEL_M:
         return motion
-    from scipy.signal import butter, filtfilt
-
-    b, a = butter(2, min(0.9, 2.0 * dt / HEADING_WINDOW_S))  # cut-off 1/window (Nyquist units)
-
-    def smooth(x: np.ndarray) -> np.ndarray:
-        return filtfilt(b, a, x, padtype="odd", padlen=min(len(x) - 1, 3 * w))
-
-    vx, vy = np.gradient(smooth(fwd), t), np.gradient(smooth(left), t)
-    moving = np.hypot(vx, vy) > 0.1
-    if not moving.any():
-        return motion
-    heading = np.unwrap(np.arctan2(vy, vx))
-    heading = np.interp(t, t[moving], heading[moving])
-    if np.degrees(np.abs(heading)).max() <= MIN_TURN_DEG:
+    heading = walking_heading(motion)
+    if heading is None or np.degrees(np.abs(heading)).max() <= MIN_TURN_DEG:
         return motion
     from stumble.gait.bvh import hinge_angles
 
