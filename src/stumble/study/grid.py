@@ -80,7 +80,8 @@ AXES: dict[str, Axis] = {a.name: a for a in (
          "at most (default 6 for fsm walking on, else 3)"),
     Axis("start", "start", str, "playback (the recorded walk to the trip; default fsm) or "
          "own (the reflex controllers' own gait; their default)"),
-    Axis("walk_in", "walk_in_s", float, "start own: seconds walked before the trip's swing"),
+    Axis("walk_in", "walk_in_s", float, "start own: seconds walked before the trip's swing "
+         "(default 4)"),
     Axis("swing", "swing_fraction", float, "trip instant as a fraction of swing, 0.05-0.9"),
     Axis("seed", "seed", int, "0: the recorded walk; others perturb the initial state"),
 )}
