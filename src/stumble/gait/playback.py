@@ -28,6 +28,11 @@ LOAD_HEIGHT_M = 0.01  # a foot this far above the lower one carries no weight
 IK_ITERATIONS = 10
 SMOOTH_CUTOFF_HZ = 6.0  # Winter 2009: gait kinematics low-passed at about 6 Hz
 DECAY_S = 0.08  # leg corrections relax toward the data with this time constant (ours)
+# Our choice: a touching-down foot is planted at once (its lowest point put on the floor),
+# which steps the hips, knees, ankles and pelvis position within one frame; the step is
+# spread over this time (a raised cosine centred on it) in the walk that is played and
+# written (``blend_touchdowns``). The trips' start states keep the step (walk_cache).
+TOUCHDOWN_BLEND_S = 0.08
 DAMPING = 1e-4  # m²/rad²: a 1 cm foot error outweighs about 1 rad of leg correction
 # Leg joints the foot planting may correct, each with the joint that undoes its effect
 # on the foot's orientation (all sagittal axes are -y; adduction and subtalar share x).
@@ -263,6 +268,34 @@ def plant_feet(body: Body, qpos: np.ndarray, events: gait_events.GaitEvents,
     return correction
 
 
+def blend_touchdowns(time_s: np.ndarray, qpos: np.ndarray, correction: np.ndarray,
+                     events: gait_events.GaitEvents,
+                     blend_s: float = TOUCHDOWN_BLEND_S) -> np.ndarray:
+    """``qpos`` with the step that planting a touching-down foot makes spread over ``blend_s``.
+
+    ``correction`` is what ``plant_feet`` added to ``qpos`` (T, nq). At each heel strike
+    (the first frame k of a stance, as ``stance_mask``) the step of the correction from
+    frame k-1 to k, less the mean of its changes over the frames either side, is taken
+    out and put back as a raised cosine from 0 to 1 over ``blend_s`` centred between the
+    two frames. Frames outside those windows are unchanged.
+    """
+    out = qpos.copy()
+    n = len(time_s)
+    for side in ("r", "l"):
+        for hs in events.heel_strike_s[side]:
+            k = int(np.searchsorted(time_s, hs))  # the first frame with time_s >= hs
+            if not 2 <= k <= n - 2:
+                continue
+            c = correction
+            step = (c[k] - c[k - 1]) - 0.5 * ((c[k - 1] - c[k - 2]) + (c[k + 1] - c[k]))
+            mid = 0.5 * (time_s[k - 1] + time_s[k])
+            x = np.clip((time_s - (mid - 0.5 * blend_s)) / blend_s, 0.0, 1.0)
+            ramp = 0.5 - 0.5 * np.cos(np.pi * x)
+            after = (np.arange(n) >= k).astype(float)
+            out += (ramp - after)[:, None] * step[None, :]
+    return out
+
+
 def smooth_positions(body: Body, qpos: np.ndarray, dt: float,
                      cutoff_hz: float = SMOOTH_CUTOFF_HZ) -> None:
     """Zero-phase low-pass (4th-order Butterworth) of pelvis position and joint angles.
@@ -315,13 +348,16 @@ def build_qpos(body: Body, coords: dict[str, np.ndarray], n: int) -> np.ndarray:
 
 def play(body: Body, time_s: np.ndarray, coords: dict[str, np.ndarray], source: str,
          speed_m_per_s: float | None = None, stride_s: float | None = None,
-         plant: bool = True) -> Playback:
+         plant: bool = True, blend: bool = True) -> Playback:
     """Play joint-angle series on ``body``: place the pelvis, plant the feet, find events.
 
     Velocities are central differences of the positions low-passed at
     ``SMOOTH_CUTOFF_HZ`` (``smooth_positions``). ``plant=False`` keeps the joint angles
     exactly as given (no foot-planting corrections; the pelvis is still placed by the
-    feet).
+    feet). ``blend`` spreads the step of planting a touching-down foot over
+    ``TOUCHDOWN_BLEND_S`` in the positions (``blend_touchdowns``; the velocities, the
+    speed and the events are the same either way); ``blend=False`` keeps the step, as
+    the trips' start states do.
     """
     if len(time_s) < 2:
         raise InputError(f"{source}: {len(time_s)} sample(s); playing needs at least 2")
@@ -329,6 +365,7 @@ def play(body: Body, time_s: np.ndarray, coords: dict[str, np.ndarray], source: 
     qpos = build_qpos(body, coords, len(time_s))
     anchor_root(body, qpos, dt)
     ev = gait_events.detect(body, qpos, time_s)
+    data = qpos.copy()
     lift = plant_feet(body, qpos, ev, time_s) if plant else np.zeros(len(time_s))
     smooth = qpos.copy()
     smooth_positions(body, smooth, dt)
@@ -338,6 +375,8 @@ def play(body: Body, time_s: np.ndarray, coords: dict[str, np.ndarray], source: 
         speed_m_per_s = float((qpos[-1, 0] - qpos[0, 0]) / dur)
     if stride_s is None:
         stride_s = ev.mean_stride_s()
+    if plant and blend:
+        qpos = blend_touchdowns(time_s, qpos, qpos - data, ev)
     joint_coords = {n: qpos[:, body.model.jnt_qposadr[body.model.joint(n).id]]
                     for n in body.joints}
     return Playback(body, time_s, qpos, qvel, joint_coords, ev, speed_m_per_s, stride_s, source,
@@ -347,17 +386,21 @@ def play(body: Body, time_s: np.ndarray, coords: dict[str, np.ndarray], source: 
 def stride_length(body: Body, gait: ReferenceGait, hip_scale: float, stride_s: float) -> float:
     """Distance (m) the pelvis travels over one stride of the reference on this body."""
     time_s = np.arange(0.0, 3.0 * stride_s, 1.0 / SAMPLE_HZ)
-    pb = play(body, time_s, gait.angles(time_s / stride_s, hip_scale=hip_scale), "")
+    pb = play(body, time_s, gait.angles(time_s / stride_s, hip_scale=hip_scale), "",
+              blend=False)
     i, j = np.searchsorted(time_s, [stride_s, 2.0 * stride_s])
     return float((pb.qpos[j, 0] - pb.qpos[i, 0]) * stride_s / (time_s[j] - time_s[i]))
 
 
 def walk(body: Body, speed_m_per_s: float | None = None, duration_s: float = 4.0,
-         gait: ReferenceGait | None = None) -> Playback:
+         gait: ReferenceGait | None = None, blend: bool = True) -> Playback:
     """Play the reference gait at a speed (default: the subject's) for ``duration_s``.
 
     The stride length comes from the speed (``ReferenceGait.stride_length_at``); the hip
     flexion excursion is scaled (secant iterations) until the model's stride has it.
+    ``blend`` as in :func:`play`: ``stumble walk`` writes the blended walk; the trips
+    start from the walk with ``blend=False`` (``walk_cache.walk_cached``), on which the
+    package's figures were measured.
     """
     gait = gait or load_reference()
     speed = gait.speed_m_per_s if speed_m_per_s is None else float(speed_m_per_s)
@@ -383,7 +426,8 @@ def walk(body: Body, speed_m_per_s: float | None = None, duration_s: float = 4.0
     n0 = int(np.ceil(stride_s * SAMPLE_HZ))
     time_s = np.arange(-n0, round(duration_s * SAMPLE_HZ) + n0 + 1) / SAMPLE_HZ
     pb = play(body, time_s, gait.angles(time_s / stride_s, hip_scale=s1),
-              "reference: " + gait.source, speed_m_per_s=speed, stride_s=stride_s)
+              "reference: " + gait.source, speed_m_per_s=speed, stride_s=stride_s,
+              blend=blend)
     pb = pb.crop(0.0, duration_s)
     pb.qpos[:, 0] -= pb.qpos[0, 0]  # start at x = 0
     if not body.planar:

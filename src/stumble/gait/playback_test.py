@@ -7,7 +7,7 @@ import pytest
 
 from stumble.body import build
 from stumble.errors import InputError
-from stumble.gait.playback import foot_slip, stance_mask, walk
+from stumble.gait.playback import TOUCHDOWN_BLEND_S, foot_slip, play, stance_mask, walk
 from stumble.gait.reference import FourierSeries, check_speed, load_reference
 
 REFERENCE = Path(__file__).resolve().parents[4] / "shared" / "reference"
@@ -92,12 +92,51 @@ def test_playback_walks_at_the_requested_speed_with_planted_feet(planar, speed):
     from stumble.gait.playback import _sole_points
 
     pts = _sole_points(body, pb.qpos)
+    t = pb.time_s
     for side in ("r", "l"):
         low = pts[side][:, :, 2].min(axis=1)
-        stance = stance_mask(pb.events, side, pb.time_s)
-        assert np.all(np.abs(low[stance]) < 0.01)  # no float or penetration beyond 1 cm
+        stance = stance_mask(pb.events, side, t)
+        landing = t < TOUCHDOWN_BLEND_S  # a heel strike just before the walk was cropped
+        for hs in pb.events.heel_strike_s[side]:
+            landing |= (t >= hs - 1e-9) & (t < hs + TOUCHDOWN_BLEND_S - 1e-9)
+        assert np.all(np.abs(low[stance & ~landing]) < 0.01)  # no float or penetration > 1 cm
+        # the touching-down foot comes down over TOUCHDOWN_BLEND_S (measured: from 2.0 cm)
+        assert np.all((low[stance & landing] > -0.01) & (low[stance & landing] < 0.03))
         slips = foot_slip(pb, side)
         assert slips and max(slips) < 0.02  # no sliding beyond 2 cm per step
+
+
+def test_foot_planting_blends_in_without_a_jump_at_touchdown(playback3d, body3d):
+    # planting a touching-down foot at once moved the hips by 2.3-2.6 deg, the ankles by
+    # 3.7-3.8 deg and the pelvis by 4.4 cm forward and 1.5 cm down within one 5 ms sample
+    pb, m = playback3d, body3d.model
+    gait = load_reference()
+    t = pb.time_s
+    angles = gait.angles(t / pb.stride_s, hip_scale=pb.retarget["hip_flexion_scale"])
+    data = play(body3d, t, angles, "", plant=False)  # the same angles, not planted
+    for side in ("r", "l"):
+        for joint in ("hip_flexion", "knee_angle", "ankle_angle"):
+            adr = m.jnt_qposadr[m.joint(f"{joint}_{side}").id]
+            step = np.degrees(np.abs(np.diff(pb.qpos[:, adr])))
+            steps_data = np.degrees(np.abs(np.diff(data.qpos[:, adr])))
+            # measured: at most 1.23 times the data's largest step (the ankles at push-off)
+            assert step.max() < 1.3 * steps_data.max(), (joint, side, step.max())
+            if joint == "hip_flexion":  # measured 2.5 and 2.7 times
+                assert step.max() < 3.0 * np.median(step), (side, step.max())
+    forward = np.diff(pb.qpos[:, 0])
+    assert forward.max() < 2.0 * np.median(forward)  # measured 1.87 times
+    assert np.abs(np.diff(pb.qpos[:, 2])).max() < 0.003  # m; measured 2.25 mm (data: 2.05)
+    # the trips start from the walk with the step kept: the same but near heel strikes
+    kept = walk(body3d, duration_s=4.0, blend=False)
+    near = t < 0.5 * TOUCHDOWN_BLEND_S  # a heel strike just before the walk was cropped
+    for hs in (*pb.events.heel_strike_s["r"], *pb.events.heel_strike_s["l"]):
+        near |= np.abs(t - hs) < 0.5 * TOUCHDOWN_BLEND_S + 0.005
+    np.testing.assert_array_equal(kept.qpos[~near, 2:], pb.qpos[~near, 2:])
+    shift = kept.qpos[~near, :2] - pb.qpos[~near, :2]  # x, y: both start at 0
+    assert np.ptp(shift, axis=0).max() < 1e-12
+    np.testing.assert_array_equal(kept.qvel, pb.qvel)
+    adr = m.jnt_qposadr[m.joint("ankle_angle_l").id]
+    assert np.degrees(np.abs(np.diff(kept.qpos[:, adr]))).max() > 3.0
 
 
 def test_stance_fraction_is_that_of_the_data(playback3d):

@@ -1,14 +1,16 @@
 """The walk before a trip, cached on disk (it costs about a second per body and speed).
 
 ``walk_cached(body, speed, duration)`` returns exactly what ``playback.walk`` returns
-(the same arrays, bit for bit), from ``<cache dir>/walks/<key>.npz`` when a run has
-computed it before, in any process. The key is a SHA-256 of everything the kinematics
-depend on: the body's model family, height, mass and sex, the speed and duration, and
-the code and data that compute it (the source of ``stumble.gait`` and ``stumble.body``,
-the reference gait, the versions of stumble, MuJoCo and NumPy). The foot-contact mode,
-time step and muscles do not enter: the sole sites and segment lengths are the same in
-every mode. Files are written atomically (a temporary file, then a rename), so parallel
-workers never read half a file; an unreadable file is recomputed and replaced.
+with ``blend=False`` (the same arrays, bit for bit: the trips' start states keep the step
+of planting a touching-down foot, as the package's figures were measured with it), from
+``<cache dir>/walks/<key>.npz`` when a run has computed it before, in any process. The
+key is a SHA-256 of everything the kinematics depend on: the body's model family,
+height, mass and sex, the speed and duration, and the code and data that compute it (the
+source of ``stumble.gait`` and ``stumble.body``, the reference gait, the versions of
+stumble, MuJoCo and NumPy). The foot-contact mode, time step and muscles do not enter:
+the sole sites and segment lengths are the same in every mode. Files are written
+atomically (a temporary file, then a rename), so parallel workers never read half a
+file; an unreadable file is recomputed and replaced.
 
 The cache directory is ``$STUMBLE_CACHE_DIR`` (``off`` turns the cache off), else
 ``$XDG_CACHE_HOME/stumble``, else ``~/.cache/stumble``. A directory that cannot be
@@ -106,17 +108,18 @@ def _load(path: Path, body: Body) -> Playback:
 
 
 def walk_cached(body: Body, speed_m_per_s: float, duration_s: float) -> Playback:
-    """``playback.walk(body, speed, duration)``, from the disk cache when it is there."""
+    """``playback.walk(body, speed, duration, blend=False)``, from the disk cache when it
+    is there."""
     root = cache_dir()
     if root is None:
-        return walk(body, speed_m_per_s, duration_s=duration_s)
+        return walk(body, speed_m_per_s, duration_s=duration_s, blend=False)
     path = root / "walks" / f"{walk_key(body, speed_m_per_s, duration_s)}.npz"
     if path.is_file():
         try:
             return _load(path, body)
         except (OSError, ValueError, KeyError, TypeError):
             pass  # unreadable: computed again and replaced below
-    pb = walk(body, speed_m_per_s, duration_s=duration_s)
+    pb = walk(body, speed_m_per_s, duration_s=duration_s, blend=False)
     try:
         _save(path, pb)
     except OSError:
