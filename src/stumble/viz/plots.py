@@ -37,7 +37,8 @@ _SIDES: tuple[tuple[str, str, str, str], ...] = (
 )
 # the trunk panel's one curve, dash-dotted so its recorded curve is told from the right's
 _NO_SIDE = (("", "trunk", "tab:green", "-."),)
-SD_VISIBLE_DEG = 0.1  # a ±SD band narrower than this everywhere is not drawn (nor listed)
+SD_VISIBLE_DEG = 0.5  # a ±SD band narrower than this everywhere is not drawn (nor listed):
+# at 0.5 deg it is about as wide as the curve on a panel of some 80 deg
 
 
 def _key(stem: str, side: str) -> str:

@@ -227,7 +227,7 @@ def test_fall_rate_over_obstacle_heights_and_not_over_a_force_trips_none(tmp_pat
     assert png.read_bytes()[:4] == b"\x89PNG"
 
 
-@pytest.mark.parametrize(("sd_deg", "listed"), [(0.0, False), (0.05, False), (2.0, True)])
+@pytest.mark.parametrize(("sd_deg", "listed"), [(0.0, False), (0.3, False), (2.0, True)])
 def test_an_sd_band_too_narrow_to_see_is_neither_drawn_nor_listed(tmp_path, monkeypatch,
                                                                    sd_deg, listed):
     """A played-back walk repeats itself (SD 0): no invisible ±SD entries in the legend."""
