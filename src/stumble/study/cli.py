@@ -165,7 +165,8 @@ def run_study_cli(args) -> int:
 
         written += write_study_plots(res.out, iter_results(res.out, PLOT_COLUMNS),
                                      params_caption(res.out))
-    note = (f"; {res.other_rows} other runs in {res.out}/runs are not in this grid"
+    note = (f"; {res.other_rows} other runs in {res.out}/runs are not in this grid (kept, "
+            "not in results.parquet or the maps: run their grid again to see them)"
             if res.other_rows else "")
     print(f"{res.runs} runs ({res.ran} run now, {res.before} before); wrote "
           f"{', '.join(written)} to {res.out}{note}")
