@@ -168,6 +168,7 @@ def run_study_cli(args) -> int:
     note = (f"; {res.other_rows} other runs in {res.out}/runs are not in this grid (kept, "
             "not in results.parquet or the maps: run their grid again to see them)"
             if res.other_rows else "")
-    print(f"{res.runs} runs ({res.ran} run now, {res.before} before); wrote "
+    print(f"{res.runs} run{'' if res.runs == 1 else 's'} ({res.ran} run now, {res.before} "
+          "before); wrote "
           f"{', '.join(written)} to {res.out}{note}")
     return 0
