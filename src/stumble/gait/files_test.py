@@ -127,6 +127,8 @@ def test_the_packages_own_straight_walk_is_read_back_straight(own_walks, body3d,
     assert straighten(motion) is motion
     again = play_motion(body3d, motion)
     assert not any("walks along" in n for n in again.notes), again.notes
+    # and at its own speed (the walk blended at each touchdown read back 4 % slower)
+    assert again.speed_m_per_s == pytest.approx(pb.speed_m_per_s, rel=0.01)
     written = opensim_coordinates(body3d, again.qpos)
     for k in ("pelvis_rotation", "pelvis_list", "pelvis_tilt"):  # file precision: 1e-11 deg
         np.testing.assert_allclose(written[k], motion.columns[k], atol=1e-9)
