@@ -200,8 +200,8 @@ def main() -> None:
     pipeline.simulate_trip(gh, gh2010=knee)
     measure("reflex trip (gh2010 knee, 1 ms), CASE 1",
             lambda: pipeline.simulate_trip(gh, gh2010=knee), args.repeats)
-    # whole trips in the walker's own gait (GH2010's default start): the walk to the trip
-    # (4 s and the swing) and 3 s after it, 0.10 of swing at 1.2 m/s
+    # whole trips in the walker's own gait (both reflex controllers' default start): the
+    # walk to the trip (4 s and the swing) and 3 s after it, 0.10 of swing at 1.2 m/s
     own = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.10,
                    speed_m_per_s=1.2, start="own")
     for label, sc_own, kw in (("own-gait trip (network)", own, {}),

@@ -514,8 +514,9 @@ def cmd_trip(args) -> int:
         outcome += f" ({s['steps_after_recovery_step']} steps after the recovery step)"
     total = time.perf_counter() - t_command
     print(f"{strategy} strategy{variant}: {outcome}; simulated "
-          f"{s['sim_time_s']:.2f} s in {s['wall_time_s']:.2f} s ({total:.1f} s in all, files "
-          f"and video included); wrote {', '.join(written)} to {out}")
+          f"{s['sim_time_s']:.2f} s in {s['wall_time_s']:.2f} s ({total:.1f} s in all, "
+          f"{'files' if args.no_video else 'files and video'} included); wrote "
+          f"{', '.join(written)} to {out}")
     return 0
 
 

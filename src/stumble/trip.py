@@ -464,7 +464,7 @@ def obstacle_at(body: Body, qpos: np.ndarray, sc: Scenario, who: str = "the"):
     front, low, lane = toe_front(body, qpos, sc.side)
     if low > sc.obstacle_height_m - 0.01:
         raise TripNotSet(f"at {sc.swing_fraction} of swing {who} toe is {low:.3f} m up, "
-                         f"within 0.01 m of a {sc.obstacle_height_m} m obstacle's top: it "
+                         f"not 0.01 m below a {sc.obstacle_height_m} m obstacle's top: it "
                          "would clear it")
     box = (front + OBSTACLE_GAP_M, sc.obstacle_height_m, OBSTACLE_DEPTH_M,
            OBSTACLE_WIDTH_M, lane)

@@ -310,7 +310,7 @@ def test_a_trip_not_set_counts_as_no_run_in_the_figures():
 def test_a_window_trip_not_set_is_said_so_with_its_reason_not_raised():
     """A late window trip whose toe was over the box (``not_set``, no ``error``): the row
     says "not set" with the trip's own reason, and "raised" only for a run that raised."""
-    reason = ("at 0.75 of swing the gh2010 walker's toe is 0.093 m up, within 0.01 m of a "
+    reason = ("at 0.75 of swing the gh2010 walker's toe is 0.093 m up, not 0.01 m below a "
               "0.1 m obstacle's top: it would clear it")
     by_case = {f"gh2010/window/{s}": {"key": f"k{s}", "strategy": "lowering",
                                       "recovered": True, "error": None}

@@ -153,9 +153,10 @@ def walking_heading(motion: Motion) -> np.ndarray | None:
     At each instant, the direction in which the pelvis (``pelvis_tx``, ``pelvis_tz``)
     travels over the stride centred there (:func:`stride_period_s`, else
     ``FALLBACK_STRIDE_S``): the path's average over a whole stride, so the sway within a
-    stride, which repeats every stride, cancels. Within half a stride of either end, where
-    no whole stride is centred, a straight line fitted to the heading over the nearest
-    stride is extended to the end. A file shorter than a stride walks along its overall
+    stride, which repeats every stride, cancels. Within half a stride of either end of the
+    walking, where no whole stride is centred, a straight line fitted to the heading over
+    the nearest stride is extended; beyond that (a file that stands before or after it
+    walks) the heading is held. A file shorter than a stride walks along its overall
     displacement. None when the pelvis path is missing or the pelvis barely moves.
     """
     cols, t = motion.columns, motion.time_s
@@ -177,10 +178,13 @@ def walking_heading(motion: Motion) -> np.ndarray | None:
     tm = tc[moving]
     hm = np.unwrap(np.arctan2(dy[moving], dx[moving]))
     heading = np.interp(t, tm, hm)
-    for edge, near in ((t < tm[0], tm <= tm[0] + stride), (t > tm[-1], tm >= tm[-1] - stride)):
+    for edge, near, end, step in ((t < tm[0], tm <= tm[0] + stride, 0, -half),
+                                  (t > tm[-1], tm >= tm[-1] - stride, -1, half)):
         if edge.any():
-            slope, icpt = np.polyfit(tm[near], hm[near], 1) if near.sum() >= 2 else (0.0, hm[0])
-            heading[edge] = slope * t[edge] + icpt
+            slope, icpt = (np.polyfit(tm[near], hm[near], 1) if near.sum() >= 2
+                           else (0.0, hm[end]))
+            reach = np.clip(t[edge], min(tm[end], tm[end] + step), max(tm[end], tm[end] + step))
+            heading[edge] = slope * reach + icpt
     return heading
 
 

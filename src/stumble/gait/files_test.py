@@ -30,6 +30,20 @@ GAIT = load_reference()
 SPEED = GAIT.speed_m_per_s
 
 
+def test_the_heading_is_held_where_the_file_stands_before_it_walks(tmp_path):
+    """Standing 3 s, then walking and turning at 20 deg/s: before the walking the heading
+    is that of its start (it was the end line extended back, -25 deg at t = 0)."""
+    t = np.arange(0.0, 7.0, 0.01)
+    cols = _gait_columns(t, lambda t: np.radians(20.0) * np.clip(t - 3.0, 0.0, None))
+    standing = t < 3.0
+    for k in ("pelvis_tx", "pelvis_tz"):
+        cols[k] = np.where(standing, 0.0, cols[k] - cols[k][np.argmax(~standing)])
+    heading = np.degrees(walking_heading(read_motion(_mot(tmp_path, t, cols, "stand.mot"))))
+    assert np.ptp(heading[t < 1.5]) < 1e-9  # held (the walk is seen from 2.4 s: a stride
+    # centred there reaches past 3 s)
+    assert abs(heading[0]) < 12.0  # the walk's heading half a stride in, not -25
+
+
 @pytest.fixture(scope="module")
 def body3d():
     return build()

@@ -865,8 +865,8 @@ def test_a_trip_that_cannot_be_set_is_an_outcome_not_an_error(tmp_path, monkeypa
 
     def simulate_trip(sc, **kw):
         if sc.swing_fraction == 0.6:
-            raise TripNotSet("at 0.6 of swing the gh2010 walker's toe is 0.12 m up, within "
-                             "0.01 m of a 0.1 m obstacle's top: it would clear it")
+            raise TripNotSet("at 0.6 of swing the gh2010 walker's toe is 0.12 m up, not "
+                             "0.01 m below a 0.1 m obstacle's top: it would clear it")
         return SimpleNamespace(summary=fake_summary(sc))
 
     monkeypatch.setattr(pipeline, "simulate_trip", simulate_trip)

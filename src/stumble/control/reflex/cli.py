@@ -278,7 +278,7 @@ def add_reflex_parser(sub, parser_class=argparse.ArgumentParser) -> None:
                    help="network, --walk-es with --trip-set: the trips start in the "
                    "network's own gait (own, the default here: from the recording a "
                    "network taking over at the trip falls untripped) or from the "
-                   "recording at the trip (playback, the network's default elsewhere)")
+                   "recording at the trip (playback, seed 003's CASE 1 and 2)")
     f.add_argument("--recovery-cost", type=_weight, default=None, metavar="W",
                    help="gh2010 --trips, network --walk-es --trip-set: each of the "
                    "stage's trips not recovered costs W "

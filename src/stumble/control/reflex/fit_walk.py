@@ -1263,9 +1263,10 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
     ``TRIP_SETS`` entry) each candidate that walks must walk on from, costed by
     ``trip_terms`` with ``strategy_cost`` and ``recovery_cost``, started at
     ``trip_start`` (``Scenario.start``: ``own`` or ``playback``; default the network's,
-    ``playback``); ``touch``: give the start the touch afferent first
-    (``Network.with_touch``: its weights join the subset, from 0); ``track_limit_deg``:
-    ``walk_cost``'s (each joint's RMSE beyond it costs ``W_TRACK_LIMIT`` a degree);
+    ``own`` since 2026-12-06, ``playback`` before: every recorded command names it);
+    ``touch``: give the start the touch afferent first (``Network.with_touch``: its
+    weights join the subset, from 0); ``track_limit_deg``: ``walk_cost``'s (each joint's
+    RMSE beyond it costs ``W_TRACK_LIMIT`` a degree);
     ``touch_only``: the network's touch stage, the touch afferent's weights alone (given
     the afferent first if the start has none): the walk stays the start's, bit for bit, so
     it is run once per worker and each trip's walk to the trip once (``WalkInCache``);
