@@ -249,7 +249,8 @@ def play_motion(body: Body, motion: Motion, duration_s: float | None = None,
     and the file's own sample times when they are uniform. A motion shorter than
     ``MIN_STRIDE_SHARE`` of its stride, or without a heel strike of each foot, is an
     :class:`InputError` (below one stride); with fewer than two heel strikes of a foot the
-    stride is twice the step (``GaitEvents.stride_estimate_s``), with a note.
+    stride is the period of the joint angles (``stride_period_s``), else twice the step
+    (``GaitEvents.stride_estimate_s``), with a note.
     """
     src = motion.source
     if motion.n_frames < 2:
@@ -282,6 +283,10 @@ def play_motion(body: Body, motion: Motion, duration_s: float | None = None,
                          "at least 2")
     pb = play(body, time_s, coords, f"file: {src}", plant=not as_recorded)
     stride, how = pb.events.stride_estimate_s()
+    if how != "complete strides":  # a step or two: the hips' own period is the better guess
+        period = stride_period_s(motion)  # (0.7 m/s, 1.5 s: 1.597 s, the steps 1.71, true 1.594)
+        if period is not None:
+            stride, how = period, "the period of the hips' flexion"
     hs = {s: len(pb.events.heel_strike_s[s]) for s in ("r", "l")}
     if stride is None or duration_s < MIN_STRIDE_SHARE * stride:
         span = "" if stride is None else f" of {stride:.2f} s"

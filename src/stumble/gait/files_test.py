@@ -184,8 +184,14 @@ def test_a_file_of_one_stride_plays_on_its_steps_and_less_is_an_error(tmp_path, 
     t = np.arange(0.0, 1.2, 1 / 60)  # about subject01_walk1_ik.mot: 1.2 s at 60 Hz
     pb = play_motion(body3d, read_motion(_mot(tmp_path, t, _gait_columns(t))))
     assert np.isfinite(pb.stride_s) and pb.stride_s == pytest.approx(GAIT.stride_s, rel=0.05)
-    assert any("no complete stride of one foot; stride" in n and "twice the step" in n
+    assert any("no complete stride of one foot; stride" in n and "period of the hips" in n
                for n in pb.notes)
+    # the package's own 0.7 m/s walk, 1.5 s of its 1.594 s stride: the steps said 1.71 s
+    # (less than one stride: refused); the hips' period 1.597 s
+    slow = walk(body3d, 0.7, duration_s=1.5)
+    write_mot(tmp_path / "slow.mot", body3d, slow.time_s, slow.qpos)
+    again = play_motion(body3d, read_motion(tmp_path / "slow.mot"))
+    assert again.stride_s == pytest.approx(slow.stride_s, rel=0.01)
     short = np.arange(0.0, 0.5, 1 / 60)
     with pytest.raises(InputError, match=r"^gait\.mot: 0\.48 s is less than one stride"):
         play_motion(body3d, read_motion(_mot(tmp_path, short, _gait_columns(short))))
