@@ -378,11 +378,9 @@ def cmd_walk(args) -> int:
               "retarget": pb.retarget,
               "notes": notes}
     write_json(out / "events.json", events)
-    # plots and video show the walk with each touchdown's planting step spread over 80 ms
-    # (gait.playback.blend_touchdowns); the motion files keep it, so they read back as
-    # they were written (the blended walk reads back about 4 % slower)
-    shown = pb if motion is not None else walk(body, args.speed,
-                                               duration_s=args.duration or 4.0, blend=True)
+    # plots and video show each touchdown's planting step spread over 80 ms; the motion
+    # files keep it, so they read back as written (Playback.shown, TOUCHDOWN_BLEND_S)
+    shown = pb.shown()
     pct, mean, sd, toe_off = _cycle_curves(shown, ["hip_flexion", "knee_angle",
                                                    "ankle_angle"])
     plot_joint_angles(out / "joint_angles.png", pct, mean, events={"toe_off_percent": toe_off},

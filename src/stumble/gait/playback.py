@@ -13,7 +13,7 @@ frame.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import mujoco
 import numpy as np
@@ -29,9 +29,10 @@ IK_ITERATIONS = 10
 SMOOTH_CUTOFF_HZ = 6.0  # Winter 2009: gait kinematics low-passed at about 6 Hz
 DECAY_S = 0.08  # leg corrections relax toward the data with this time constant (ours)
 # Our choice: a touching-down foot is planted at once (its lowest point put on the floor),
-# which steps the hips, knees, ankles and pelvis position within one frame; the step is
-# spread over this time (a raised cosine centred on it) in the walk that is played and
-# written (``blend_touchdowns``). The trips' start states keep the step (walk_cache).
+# which steps the hips, knees, ankles and pelvis position within one frame; in what is
+# shown (``Playback.shown``: plots and video) the step is spread over this time, a raised
+# cosine centred on it (``blend_touchdowns``). The states (trips' starts, motion files)
+# keep it: a file of the blended walk reads back 3.7 % slow (its feet roll less).
 TOUCHDOWN_BLEND_S = 0.08
 DAMPING = 1e-4  # m²/rad²: a 1 cm foot error outweighs about 1 rad of leg correction
 # Leg joints the foot planting may correct, each with the joint that undoes its effect
@@ -56,6 +57,9 @@ class Playback:
     source: str
     retarget: dict = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)  # one-line remarks on the input
+    # qpos with each touchdown's planting step spread over TOUCHDOWN_BLEND_S, for plots
+    # and video (``shown``); None: qpos (nothing planted, or a walk loaded from the cache)
+    shown_qpos: np.ndarray | None = None
 
     def swing_fraction(self, side: str, t: float) -> float | None:
         """Fraction of the swing of ``side`` at time t (0 toe-off, 1 heel strike), or None."""
@@ -75,7 +79,17 @@ class Playback:
         return Playback(self.body, t, self.qpos[sel], self.qvel[sel],
                         {k: v[sel] for k, v in self.coordinates.items()}, ev,
                         self.speed_m_per_s, self.stride_s, self.source, dict(self.retarget),
-                        list(self.notes))
+                        list(self.notes),
+                        None if self.shown_qpos is None else self.shown_qpos[sel])
+
+    def shown(self) -> Playback:
+        """The playback as plots and video show it: ``shown_qpos`` for ``qpos`` (and the
+        joint coordinates), the rest the same."""
+        if self.shown_qpos is None:
+            return self
+        m = self.body.model
+        coords = {n: self.shown_qpos[:, m.jnt_qposadr[m.joint(n).id]] for n in self.coordinates}
+        return replace(self, qpos=self.shown_qpos, coordinates=coords, shown_qpos=None)
 
     def state_at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """(qpos, qvel) at time t, linearly interpolated between frames."""
@@ -348,17 +362,14 @@ def build_qpos(body: Body, coords: dict[str, np.ndarray], n: int) -> np.ndarray:
 
 def play(body: Body, time_s: np.ndarray, coords: dict[str, np.ndarray], source: str,
          speed_m_per_s: float | None = None, stride_s: float | None = None,
-         plant: bool = True, blend: bool = False) -> Playback:
+         plant: bool = True) -> Playback:
     """Play joint-angle series on ``body``: place the pelvis, plant the feet, find events.
 
     Velocities are central differences of the positions low-passed at
     ``SMOOTH_CUTOFF_HZ`` (``smooth_positions``). ``plant=False`` keeps the joint angles
     exactly as given (no foot-planting corrections; the pelvis is still placed by the
-    feet). ``blend`` spreads the step of planting a touching-down foot over
-    ``TOUCHDOWN_BLEND_S`` in the positions (``blend_touchdowns``; the velocities, the
-    speed and the events are the same either way), for plots and video; by default
-    (False) the step is kept, as the trips' start states and the motion files have it: a
-    motion file of the blended walk reads back about 4 % slower (its feet roll less).
+    feet). When planted, ``shown_qpos`` has the step of planting a touching-down foot
+    spread over ``TOUCHDOWN_BLEND_S`` (``blend_touchdowns``), for plots and video.
     """
     if len(time_s) < 2:
         raise InputError(f"{source}: {len(time_s)} sample(s); playing needs at least 2")
@@ -376,32 +387,28 @@ def play(body: Body, time_s: np.ndarray, coords: dict[str, np.ndarray], source: 
         speed_m_per_s = float((qpos[-1, 0] - qpos[0, 0]) / dur)
     if stride_s is None:
         stride_s = ev.mean_stride_s()
-    if plant and blend:
-        qpos = blend_touchdowns(time_s, qpos, qpos - data, ev)
+    shown = blend_touchdowns(time_s, qpos, qpos - data, ev) if plant else None
     joint_coords = {n: qpos[:, body.model.jnt_qposadr[body.model.joint(n).id]]
                     for n in body.joints}
     return Playback(body, time_s, qpos, qvel, joint_coords, ev, speed_m_per_s, stride_s, source,
-                    {"joint_correction_max_deg": round(float(np.degrees(lift.max())), 3)})
+                    {"joint_correction_max_deg": round(float(np.degrees(lift.max())), 3)},
+                    shown_qpos=shown)
 
 
 def stride_length(body: Body, gait: ReferenceGait, hip_scale: float, stride_s: float) -> float:
     """Distance (m) the pelvis travels over one stride of the reference on this body."""
     time_s = np.arange(0.0, 3.0 * stride_s, 1.0 / SAMPLE_HZ)
-    pb = play(body, time_s, gait.angles(time_s / stride_s, hip_scale=hip_scale), "",
-              blend=False)
+    pb = play(body, time_s, gait.angles(time_s / stride_s, hip_scale=hip_scale), "")
     i, j = np.searchsorted(time_s, [stride_s, 2.0 * stride_s])
     return float((pb.qpos[j, 0] - pb.qpos[i, 0]) * stride_s / (time_s[j] - time_s[i]))
 
 
 def walk(body: Body, speed_m_per_s: float | None = None, duration_s: float = 4.0,
-         gait: ReferenceGait | None = None, blend: bool = False) -> Playback:
+         gait: ReferenceGait | None = None) -> Playback:
     """Play the reference gait at a speed (default: the subject's) for ``duration_s``.
 
     The stride length comes from the speed (``ReferenceGait.stride_length_at``); the hip
     flexion excursion is scaled (secant iterations) until the model's stride has it.
-    ``blend`` as in :func:`play`: ``stumble walk`` plots and films the blended walk and
-    writes the motion files, and the trips start, from the walk with the step kept
-    (``walk_cache.walk_cached``), on which the package's figures were measured.
     """
     gait = gait or load_reference()
     speed = gait.speed_m_per_s if speed_m_per_s is None else float(speed_m_per_s)
@@ -427,12 +434,12 @@ def walk(body: Body, speed_m_per_s: float | None = None, duration_s: float = 4.0
     n0 = int(np.ceil(stride_s * SAMPLE_HZ))
     time_s = np.arange(-n0, round(duration_s * SAMPLE_HZ) + n0 + 1) / SAMPLE_HZ
     pb = play(body, time_s, gait.angles(time_s / stride_s, hip_scale=s1),
-              "reference: " + gait.source, speed_m_per_s=speed, stride_s=stride_s,
-              blend=blend)
+              "reference: " + gait.source, speed_m_per_s=speed, stride_s=stride_s)
     pb = pb.crop(0.0, duration_s)
-    pb.qpos[:, 0] -= pb.qpos[0, 0]  # start at x = 0
-    if not body.planar:
-        pb.qpos[:, 1] -= pb.qpos[0, 1]
+    origin = pb.qpos[0, :1 if body.planar else 2].copy()  # start at x = 0 (3D: and y)
+    for q in (pb.qpos, pb.shown_qpos):
+        if q is not None:
+            q[:, :len(origin)] -= origin
     pb.retarget["hip_flexion_scale"] = round(s1, 5)
     pb.retarget["stride_length_m"] = round(target, 5)
     return pb

@@ -109,7 +109,7 @@ def test_playback_walks_at_the_requested_speed_with_planted_feet(planar, speed):
 def test_foot_planting_blends_in_without_a_jump_at_touchdown(playback3d, body3d):
     # planting a touching-down foot at once moved the hips by 2.3-2.6 deg, the ankles by
     # 3.7-3.8 deg and the pelvis by 4.4 cm forward and 1.5 cm down within one 5 ms sample
-    pb, m = walk(body3d, duration_s=4.0, blend=True), body3d.model
+    pb, m = playback3d.shown(), body3d.model
     gait = load_reference()
     t = pb.time_s
     angles = gait.angles(t / pb.stride_s, hip_scale=pb.retarget["hip_flexion_scale"])
@@ -127,7 +127,7 @@ def test_foot_planting_blends_in_without_a_jump_at_touchdown(playback3d, body3d)
     assert forward.max() < 2.0 * np.median(forward)  # measured 1.87 times
     assert np.abs(np.diff(pb.qpos[:, 2])).max() < 0.003  # m; measured 2.25 mm (data: 2.05)
     # the trips start from the walk with the step kept: the same but near heel strikes
-    kept = playback3d  # the default: the step kept
+    kept = playback3d  # its state: the step kept
     near = t < 0.5 * TOUCHDOWN_BLEND_S  # a heel strike just before the walk was cropped
     for hs in (*pb.events.heel_strike_s["r"], *pb.events.heel_strike_s["l"]):
         near |= np.abs(t - hs) < 0.5 * TOUCHDOWN_BLEND_S + 0.005

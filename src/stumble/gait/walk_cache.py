@@ -1,8 +1,7 @@
 """The walk before a trip, cached on disk (it costs about a second per body and speed).
 
 ``walk_cached(body, speed, duration)`` returns exactly what ``playback.walk`` returns
-with ``blend=False`` (the same arrays, bit for bit: the trips' start states keep the step
-of planting a touching-down foot, as the package's figures were measured with it), from
+(the same arrays, bit for bit; not its ``shown_qpos``, which only plots use), from
 ``<cache dir>/walks/<key>.npz`` when a run has computed it before, in any process. The
 key is a SHA-256 of everything the kinematics depend on: the body's model family,
 height, mass and sex, the speed and duration, and the code and data that compute it (the
@@ -109,18 +108,17 @@ def _load(path: Path, body: Body) -> Playback:
 
 
 def walk_cached(body: Body, speed_m_per_s: float, duration_s: float) -> Playback:
-    """``playback.walk(body, speed, duration, blend=False)``, from the disk cache when it
-    is there."""
+    """``playback.walk(body, speed, duration)``, from the disk cache when it is there."""
     root = cache_dir()
     if root is None:
-        return walk(body, speed_m_per_s, duration_s=duration_s, blend=False)
+        return walk(body, speed_m_per_s, duration_s=duration_s)
     path = root / "walks" / f"{walk_key(body, speed_m_per_s, duration_s)}.npz"
     if path.is_file():
         try:
             return _load(path, body)
         except (OSError, ValueError, KeyError, TypeError):
             pass  # unreadable: computed again and replaced below
-    pb = walk(body, speed_m_per_s, duration_s=duration_s, blend=False)
+    pb = walk(body, speed_m_per_s, duration_s=duration_s)
     try:
         _save(path, pb)
     except OSError:

@@ -26,7 +26,7 @@ def _same(a, b) -> bool:
 
 def test_a_cached_walk_is_the_computed_walk_bit_for_bit(cache, monkeypatch):
     body = build(planar=True)
-    fresh = walk(body, 1.2, duration_s=1.5, blend=False)  # the trips' start states
+    fresh = walk(body, 1.2, duration_s=1.5)  # the trips' start states
     first = walk_cache.walk_cached(body, 1.2, 1.5)
     assert len(list(cache.glob("*.npz"))) == 1
     assert _same(fresh, first)
