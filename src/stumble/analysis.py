@@ -456,7 +456,6 @@ def stride_curves(time_s: np.ndarray, angles: dict[str, np.ndarray],
     return out
 
 
-
 def reference_stride(pb) -> dict[str, np.ndarray]:
     """The played-back walk's mean right stride (a ``stumble.gait.playback.Playback``),
     101 points per leg joint and, on the planar body, per foot's angle (``foot_angles``)
@@ -469,6 +468,7 @@ def reference_stride(pb) -> dict[str, np.ndarray]:
         series.update(trunk_lean(pb.qpos, pb.body.model))
     curves = stride_curves(pb.time_s, series, list(pb.events.heel_strike_s["r"]))
     return {n: c.mean(axis=0) for n, c in curves.items()}
+
 
 def walk_metrics(rec: Recording, model: mujoco.MjModel, reference: dict[str, np.ndarray],
                  duration_s: float) -> dict:

@@ -87,7 +87,6 @@ def test_start_own_is_for_walkers_and_the_walk_in_is_bounded():
         Scenario(controller="gh2010", walk_in_s=1.0).validated()
 
 
-
 def test_scenario_names_a_bad_strength_model_or_population():
     from stumble.trip import Scenario
 
@@ -97,7 +96,6 @@ def test_scenario_names_a_bad_strength_model_or_population():
         Scenario(population="teen").validated()
     with pytest.raises(InputError, match="population older is defined for the state machines"):
         Scenario(controller="gh2010", mechanism="obstacle", population="older").validated()
-
 
 
 def test_recovery_rule_walk_on_asks_for_walking_to_the_end():

@@ -231,7 +231,6 @@ def test_load_params_names_bad_files_and_values(tmp_path):
         load_params("nosuch")
 
 
-
 def test_a_params_file_carries_its_settings(tmp_path):
     import hashlib
     import json

@@ -22,10 +22,10 @@ from stumble.errors import InputError
 MAX_WEIGHT = 1e4  # an objective's weight or cost: beyond it the sums overflow to inf
 
 
-
 def _reflex_controller(value: str) -> str:
     """``--controller``: ``reflex`` (``stumble trip``'s name for the network) is ``network``."""
     return "network" if value == "reflex" else value
+
 
 def _weight(text: str) -> float:
     """An objective's weight or cost (argparse type): a finite number in 0-``MAX_WEIGHT``."""

@@ -396,10 +396,10 @@ def shipped_params(wiring: str = "gh2010", walking_only: bool = False) -> GH2010
                    wiring=wiring)
 
 
-
 def fitted_timestep(params: GH2010Params | None = None) -> float:
     """The physics step (s) a set was fitted at (default: the shipped default set's)."""
     return (params or shipped_params()).timestep_s
+
 
 def seed003_delays_s(muscles: tuple[str, ...]) -> dict:
     """Path delays (s) of the GH2010 laws through seed 003's nerves (Table I, afferents
