@@ -6,7 +6,10 @@ is furthest behind it. Independent of the vertical fit of the feet to the ground
 validated by Zeni et al. against force plates in treadmill and overground walking; on
 the subject01 trial it falls within 2 % of the stride of the force-plate events
 (playback_test.py). Extrema closer than ``MIN_STRIDE_FRACTION`` of the mean spacing
-or less prominent than ``MIN_PROMINENCE_M`` are ignored.
+or less prominent than ``MIN_PROMINENCE_M`` are ignored. At either end of a motion an
+extremum has no far side to measure its prominence against: there it counts when it is
+``MIN_PROMINENCE_M`` prominent on its inner side and the signal has turned back by
+``EDGE_TURN_M`` before the file ends (``_edge_peaks``; ours).
 """
 
 from __future__ import annotations
@@ -18,6 +21,10 @@ import numpy as np
 
 MIN_PROMINENCE_M = 0.05  # the heel/toe excursion about the pelvis is 0.3-0.5 m
 MIN_EVENT_SPACING_S = 0.35  # two heel strikes of one foot are a stride (> 0.8 s) apart
+# an extremum at a file's end counts once the heel or toe has turned back by this much
+# (m, about the pelvis) before the end: 5 samples after toe-off at 100 Hz (ours; the
+# foot moves 0.3-0.5 m relative to the pelvis in a swing of ~0.4 s)
+EDGE_TURN_M = 0.01
 
 
 @dataclass
@@ -120,8 +127,31 @@ def detect(body, qpos: np.ndarray, time_s: np.ndarray) -> GaitEvents:
     hs: dict[str, list[float]] = {}
     to: dict[str, list[float]] = {}
     for side, (heel, toe) in heel_toe_x(body, qpos).items():
-        i_hs, _ = find_peaks(heel, distance=spacing, prominence=MIN_PROMINENCE_M)
-        i_to, _ = find_peaks(-toe, distance=spacing, prominence=MIN_PROMINENCE_M)
+        i_hs = _edge_peaks(heel, find_peaks(heel, distance=spacing,
+                                            prominence=MIN_PROMINENCE_M)[0], spacing)
+        i_to = _edge_peaks(-toe, find_peaks(-toe, distance=spacing,
+                                            prominence=MIN_PROMINENCE_M)[0], spacing)
         hs[side] = [float(time_s[i]) for i in i_hs]
         to[side] = [float(time_s[i]) for i in i_to]
     return GaitEvents(hs, to)
+
+
+def _edge_peaks(x: np.ndarray, peaks: np.ndarray, spacing: int) -> np.ndarray:
+    """``peaks`` of ``x`` with the maximum before its end, and the one after its start,
+    where they qualify: at least ``spacing`` samples from the nearest peak, at least
+    ``MIN_PROMINENCE_M`` above the lowest point between it and that peak (or the far
+    end), and with ``x`` back down by ``EDGE_TURN_M`` at the file's end (start)."""
+    n = len(x)
+    out = [int(i) for i in peaks]
+    for forward in (True, False):
+        y = x if forward else x[::-1]
+        mine = [i if forward else n - 1 - i for i in out]
+        last = max(mine) if mine else -spacing
+        lo = last + spacing
+        if lo >= n - 1:
+            continue
+        j = lo + int(np.argmax(y[lo:]))
+        inner = y[max(last, 0):j + 1].min()
+        if j < n - 1 and y[j] - y[-1] >= EDGE_TURN_M and y[j] - inner >= MIN_PROMINENCE_M:
+            out.append(j if forward else n - 1 - j)
+    return np.array(sorted(out), dtype=int)

@@ -148,6 +148,24 @@ def test_the_packages_own_straight_walk_is_read_back_straight(own_walks, body3d,
         np.testing.assert_allclose(written[k], motion.columns[k], atol=1e-9)
 
 
+def test_a_slow_walk_read_back_keeps_its_last_toe_off(body3d, tmp_path):
+    """stumble walk --speed 0.8 (4 s) ends 80 ms after the right foot's toe-off: read back,
+    that toe-off was missed, the foot stayed planted to the end, the walk read 0.765 m/s
+    and its joints moved by up to 8 deg (events._edge_peaks)."""
+    pb = walk(body3d, 0.8)
+    path = tmp_path / "motion.mot"
+    write_mot(path, body3d, pb.time_s, pb.qpos)
+    again = play_motion(body3d, read_motion(path))
+    for side in ("r", "l"):
+        for kind in ("toe_off_s", "heel_strike_s"):
+            want, got = getattr(pb.events, kind)[side], getattr(again.events, kind)[side]
+            assert len(got) == len(want), (side, kind, want, got)
+            np.testing.assert_allclose(got, want, atol=0.035)
+    assert pb.events.toe_off_s["r"][-1] > pb.time_s[-1] - 0.1  # the case: near the end
+    assert again.speed_m_per_s == pytest.approx(0.8, rel=0.01)
+    assert again.retarget["joint_correction_max_deg"] < 3.0
+
+
 def test_the_packages_own_walk_turned_is_straightened_back(own_walks):
     """Its pelvis path and orientation turned by a world yaw of 22.5 deg/s: straightened,
     it is the straight walk again, sway and all."""
