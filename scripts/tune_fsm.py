@@ -63,7 +63,15 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 # name: (path in FSMParams, lo, hi)
-from stumble.control.fsm_params import FLIGHT, GAINS, LOWERING_FLIGHT, SPACE, TUNABLE, WALK_ON
+from stumble.control.fsm_params import (
+    FLIGHT,
+    GAINS,
+    LATERAL,
+    LOWERING_FLIGHT,
+    SPACE,
+    TUNABLE,
+    WALK_ON,
+)
 
 # the targets that only the lowering strategy uses (--only lowering)
 LOWERING = ("low_sup_ankle", "low_rec_hip", "low_rec_knee", "low_rec_ankle", "swap_trip_hip",
@@ -92,9 +100,9 @@ BODY_GRID = [(f, 1.2, mech, *body) for body in BODIES for mech in ("force", "obs
 ONLY = ("all", "lowering", "lowering_fast", "lowering_flight", "walk_on", "all+walk_on")
 
 
-def search_space(only: str, gains: bool) -> dict:
-    """The values a search varies (name: (path, low, high)) for ``--only`` and
-    ``--gains``."""
+def search_space(only: str, gains: bool, lateral: bool = False) -> dict:
+    """The values a search varies (name: (path, low, high)) for ``--only``, ``--gains``
+    and ``--lateral``."""
     if only == "walk_on":
         space = {k: TUNABLE[k] for k in WALK_ON_NAMES}
     elif only == "lowering_fast":
@@ -107,6 +115,8 @@ def search_space(only: str, gains: bool) -> dict:
             space.update({k: TUNABLE[k] for k in WALK_ON_NAMES})
     if gains:
         space.update(GAINS)
+    if lateral:
+        space.update(LATERAL)
     return space
 
 
@@ -397,6 +407,9 @@ def main() -> None:
                     "is refused)")
     ap.add_argument("--gains", action="store_true",
                     help="search the servo gains too (GAINS) as well as the targets")
+    ap.add_argument("--lateral", action="store_true",
+                    help="search the frontal plane's values too (LATERAL: the coronal foot "
+                    "placement's gains, the hips' out-of-plane gains)")
     ap.add_argument("--trunk-attitude", type=float, default=None, metavar="K",
                     help="FSMParams.trunk_attitude of every candidate (default: the --around "
                     "file's settings, else 0: off; one differing from the file's is refused)")
@@ -487,7 +500,7 @@ def main() -> None:
     ATTITUDE_DAMPING = attitude_damping
     TRUNK_ATTITUDE, MAX_TILT, GRID_FLOOR = trunk_attitude, args.max_tilt, args.grid_floor
     STRENGTH, WALK_ON_S = args.strength, args.walk_on
-    space = search_space(args.only, args.gains)
+    space = search_space(args.only, args.gains, args.lateral)
     rng = np.random.default_rng(args.seed)
     from stumble.control.fsm_params import FSMParams
 

@@ -166,7 +166,9 @@ class TripFSM:
             if name.startswith("hip_flexion"):  # the hip that holds the attitude supports
                 support = self.mode[i] == ATT_PITCH
                 kp = p.kp_passive["support_hip" if support else "swing_hip"] * f
-            elif name.startswith(("hip_adduction", "hip_rotation")):
+            elif name.startswith("hip_adduction"):
+                kp = self._adduction_kp(i)
+            elif name.startswith("hip_rotation"):
                 kp = p.kp_hip_out_of_plane
             elif name.startswith("knee_angle"):
                 kp = p.kp_passive["knee"] * f
@@ -200,6 +202,14 @@ class TripFSM:
             self.mode[i] = ATT_PITCH if "flexion" in joint else ATT_ROLL
         else:
             self.mode[i], self.target[i] = FIXED, np.radians(float(value))
+        if joint.startswith("hip_adduction") and self.kp[i] != self._adduction_kp(i):
+            self._set_kp(joint, self._adduction_kp(i))
+
+    def _adduction_kp(self, i: int) -> float:
+        """A hip adduction's gain: the stance hip's while it holds the pelvis's list, the
+        swing hip's otherwise (``kp_stance_hip_roll``, ``kp_hip_out_of_plane``)."""
+        p = self.p
+        return p.kp_stance_hip_roll if self.mode[i] == ATT_ROLL else p.kp_hip_out_of_plane
 
     def _schedule(self, state: str, key: str, at_s: float) -> None:
         self._seq += 1

@@ -58,7 +58,11 @@ KP_SSAT_SUPPORT_HIP = 1500.0  # SCA 2009 §4.5
 # §4.6 gives no number; ours) and the arm servos (ours).
 KP_UPPER = {"lumbar": 1500.0, "neck": 300.0, "wrist": 100.0, "pro_sup": 50.0,
             "shoulder": 150.0, "elbow": 80.0}
-KP_HIP_OUT_OF_PLANE = 600.0  # hip adduction/rotation of the swing leg (ours)
+# hip adduction of the swing leg, hip rotation of both (ours)
+KP_HIP_OUT_OF_PLANE = 600.0
+# the stance hip's adduction while it holds the pelvis's list (ours; by default the
+# swing leg's, as it was before it had a gain of its own)
+KP_STANCE_HIP_ROLL = KP_HIP_OUT_OF_PLANE
 KP_KNEE_ROTATION = 200.0  # the knee's axial DOF (ours)
 KP_SUBTALAR = 300.0  # (ours)
 
@@ -333,10 +337,20 @@ LOWERING_FLIGHT = {
                              "sup.knee_angle": (-110.0, -5.0),
                              "sup.ankle_angle": (-40.0, 20.0)}.items()},
 }
+# The frontal plane (issue 11; ours, never searched before 2026-12-06): SIMBICON's
+# coronal foot placement (Yin et al. 2007) and the hips' out-of-plane gains. Under the
+# push-off caps most falls are sideways (the COM 0.3-1.5 m to the side at the fall):
+# scripts/tune_fsm.py --lateral searches these.
+LATERAL = {
+    "balance_cd_lat": (("balance_cd_lat_rad_per_m",), 0.0, 1.5),
+    "balance_cv_lat": (("balance_cv_lat_rad_s_per_m",), 0.0, 1.0),
+    "kp_hip_out_of_plane": (("kp_hip_out_of_plane",), 200.0, 2000.0),
+    "kp_stance_hip_roll": (("kp_stance_hip_roll",), 200.0, 3000.0),
+}
 # tables a search may create from another (``with_values``): the lowering's own Flight
 DERIVED_TABLES = {"flight_lowering": "flight"}
-TUNABLE = {**SPACE, **GAINS, **WALK_ON, **FLIGHT, **LOWERING_FLIGHT}  # every name a
-# parameter file may set
+# every name a parameter file may set
+TUNABLE = {**SPACE, **GAINS, **WALK_ON, **FLIGHT, **LOWERING_FLIGHT, **LATERAL}
 
 # How the values marked "tuned" were found: CMA-ES (the cmaes package, seeded) over the
 # 24 targets and 6 gains of SPACE and GAINS, from the earlier tuned values (random and
@@ -379,6 +393,7 @@ class FSMParams:
     kp_ssat_support_hip: float = 2076.452647925406  # tuned
     kp_upper: dict = field(default_factory=lambda: dict(KP_UPPER))
     kp_hip_out_of_plane: float = KP_HIP_OUT_OF_PLANE
+    kp_stance_hip_roll: float = KP_STANCE_HIP_ROLL
     kp_knee_rotation: float = KP_KNEE_ROTATION
     kp_subtalar: float = KP_SUBTALAR
     # gains are the reference body's (70 kg, 1.75 m); dynamic: scaled to each body by
