@@ -568,7 +568,7 @@ def test_params_go_to_every_run_and_are_recorded(tmp_path, monkeypatch, capsys):
     assert rec["path"] == str(p) and rec["file"] == str(p.resolve())
     assert rec["sha256"] == hashlib.sha256(p.read_bytes()).hexdigest()
     # the values of SPACE, GAINS and WALK_ON
-    assert rec["values"]["elev_sup_ankle"] == -60.0 and len(rec["values"]) == len(TUNABLE) == 56
+    assert rec["values"]["elev_sup_ankle"] == -60.0 and len(rec["values"]) == len(TUNABLE) == 60
     assert rec["settings"] == {"trunk_attitude": 1.0, "attitude_damping": "joint",
                                "push_off_hip_limit_nm": None,
                                "push_off_rec_hip_limit_nm": None,
