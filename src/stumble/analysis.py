@@ -613,6 +613,31 @@ def steps_to_steady(steps: list[tuple[float, float]], speed_m_per_s: float,
     return None
 
 
+def walk_on_heading_deg(rec: Recording, landing_s: float | None,
+                        steps: list[tuple[float, float]], planar: bool,
+                        tail: int = STEADY_TAIL) -> float | None:
+    """The direction the pelvis travels over the walk on's last ``tail`` steps
+    (``walk_on_steps``' figures), in degrees from the direction walked before the trip
+    (the x axis; + to the left); None with fewer steps or on a planar body."""
+    if planar or landing_s is None or len(steps) < tail:
+        return None
+    durations = [d for d, _v in steps]
+    a = landing_s + sum(durations[:-tail])
+    b = landing_s + sum(durations)
+    t, q = rec.time_s, rec.qpos
+    dx = float(np.interp(b, t, q[:, 0]) - np.interp(a, t, q[:, 0]))
+    dy = float(np.interp(b, t, q[:, 1]) - np.interp(a, t, q[:, 1]))
+    return float(np.degrees(np.arctan2(dy, dx)))
+
+
+def sideways_m(rec: Recording, planar: bool) -> float | None:
+    """How far the pelvis moved sideways from the trip to the end of the run (m, + to the
+    left of the direction walked before the trip, the x axis); None on a planar body."""
+    if planar or not len(rec.time_s):
+        return None
+    return float(rec.qpos[-1, 1] - np.interp(0.0, rec.time_s, rec.qpos[:, 1]))
+
+
 SUPPORT_WINDOW_S = 0.3  # the issue's window: the first 300 ms after the trip
 # (servo hinge, exertion of a negative torque, of a positive one): stumble.body.joints
 _EXERTIONS = (("hip_flexion", "hip_extension", "hip_flexion"),
@@ -690,6 +715,7 @@ def trip_summary(sc: Scenario, strategy: str, log: list, rec: Recording, stop: S
             sim, rec.time_s, ref, np.asarray(reference["time_s"])).items()}
     diverged = rec.diverged
     fell = stop.fell_s is not None and not diverged
+    planar = int(m.jnt_type[0]) != int(mujoco.mjtJoint.mjJNT_FREE)
     steps = walk_on_steps(rec, landing)  # one pass over the contacts for both figures
     n_after = None if landing is None or not len(rec.time_s) else len(steps)
     recovered = stop.recovered_s is not None and not diverged
@@ -737,4 +763,7 @@ def trip_summary(sc: Scenario, strategy: str, log: list, rec: Recording, stop: S
         "walk_on_speed_m_per_s": (None if (u := walk_on_speed(steps)) is None
                                   else round(u, 4)),
         "steps_to_steady_gait": steps_to_steady(steps, sc.speed_m_per_s),
+        "walk_on_heading_deg": (None if (h := walk_on_heading_deg(rec, landing, steps, planar))
+                                is None else round(h, 2)),
+        "sideways_m": None if (y := sideways_m(rec, planar)) is None else round(y, 4),
     }

@@ -122,6 +122,29 @@ def test_a_walk_on_recovery_reports_its_steps_and_when_its_gait_is_steady():
         np.median([x["speed_m_per_s"] for x in steps[-4:]]), abs=1e-4)
 
 
+def test_the_walk_on_reports_where_it_heads():
+    """``walk_on_heading_deg`` and ``sideways_m``: a force trip at 0.25 of swing (1.2 m/s)
+    walks on straight; one at 0.65 (1.4 m/s) walks on 27 deg to the right of the walk
+    before, 2.6 m to the side after 6 s (the default set's largest of the 48-trip grid);
+    the step speeds along x read the veer as slower (1.10 m/s, 1.23 along its path).
+    The planar reflex body has no sideways: None."""
+    from stumble.pipeline import simulate_trip
+    from stumble.trip import Scenario
+
+    straight = simulate_trip(Scenario(mechanism="force", swing_fraction=0.25,
+                                      speed_m_per_s=1.2)).summary
+    veers = simulate_trip(Scenario(mechanism="force", swing_fraction=0.65,
+                                   speed_m_per_s=1.4)).summary
+    assert straight["recovered"] and veers["recovered"]
+    assert abs(straight["walk_on_heading_deg"]) < 1.0 and abs(straight["sideways_m"]) < 0.2
+    assert veers["walk_on_heading_deg"] == pytest.approx(-26.8, abs=0.5)
+    assert veers["sideways_m"] == pytest.approx(-2.62, abs=0.05)
+    along = veers["walk_on_speed_m_per_s"] / np.cos(np.radians(veers["walk_on_heading_deg"]))
+    assert along == pytest.approx(1.23, abs=0.01)
+    reflex = simulate_trip(Scenario(controller="reflex", swing_fraction=0.3)).summary
+    assert reflex["walk_on_heading_deg"] is None and reflex["sideways_m"] is None
+
+
 def test_walk_on_steps_counts_both_feet_striking_at_one_sample_as_one_step():
     """A reflex walker's trip ended with both feet landing at the same sample: one step,
     not a step of no time (which divided by zero and stopped a fit)."""
