@@ -43,13 +43,15 @@ def write_timeseries(out: Path, result: TripResult) -> None:
                         *np.round(rec.trip_force[k], 3)])
 
 
-def trip_motion(result: TripResult, before_s: float = WALK_SHOWN_S) -> tuple[np.ndarray,
-                                                                              np.ndarray]:
+def trip_motion(result: TripResult, before_s: float = WALK_SHOWN_S,
+                shown: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Times (s, 0 at the trip) and qpos of a trip with ``before_s`` of its walk before it.
 
     The walk is the playback at the recording's sample interval, so the whole motion is
     uniformly sampled (for BVH); a trip in the controller's own gait (start own) shows
-    the end of that walk, and a walk that never reached the trip all of it."""
+    the end of that walk, and a walk that never reached the trip all of it. ``shown``:
+    the played-back walk as video shows it, each touchdown's planting step spread
+    (``Playback.shown``; the motion files keep the step, as ``stumble walk``'s)."""
     rec = result.recording
     t_trip = result.summary["trip_time_s"]
     if t_trip is None:  # start own, no trip: the walk itself
@@ -65,7 +67,8 @@ def trip_motion(result: TripResult, before_s: float = WALK_SHOWN_S) -> tuple[np.
         return np.concatenate([t_walk, rec.time_s]), np.vstack([walk_q, rec.qpos])
     k = int(np.floor(min(before_s, t_trip - result.playback.time_s[0]) / dt + 1e-9))
     t_walk = -dt * np.arange(k, 0, -1)
-    walk_q = [result.playback.state_at(t_trip + t)[0] for t in t_walk]
+    pb = result.playback.shown() if shown else result.playback
+    walk_q = [pb.state_at(t_trip + t)[0] for t in t_walk]
     qpos = np.vstack([*walk_q, rec.qpos]) if walk_q else rec.qpos
     return np.concatenate([t_walk, rec.time_s]), qpos
 
@@ -154,7 +157,7 @@ def write_media(out: Path, result: TripResult, video: bool, progress: bool) -> l
     save_filmstrip(out / "filmstrip.png", frames, labels)
     written.append("filmstrip.png")
     # one second of the walk before the trip (played back), then the physics
-    time_all, qpos_all = trip_motion(result)
+    time_all, qpos_all = trip_motion(result, shown=True)
     step = max(1, round(1.0 / (VIDEO_FPS * float(np.mean(np.diff(time_all))))))
     n_walk = len(time_all) - len(rec.time_s)
     state = ["walking"] * n_walk + list(rec.state)

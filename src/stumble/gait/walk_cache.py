@@ -1,7 +1,7 @@
 """The walk before a trip, cached on disk (it costs about a second per body and speed).
 
 ``walk_cached(body, speed, duration)`` returns exactly what ``playback.walk`` returns
-(the same arrays, bit for bit; not its ``shown_qpos``, which only plots use), from
+(the same arrays, bit for bit, ``shown_qpos`` among them), from
 ``<cache dir>/walks/<key>.npz`` when a run has computed it before, in any process. The
 key is a SHA-256 of everything the kinematics depend on: the body's model family,
 height, mass and sex, the speed and duration, and the code and data that compute it (the
@@ -34,7 +34,7 @@ from stumble.gait.playback import Playback, walk
 CACHE_ENV = "STUMBLE_CACHE_DIR"
 WALK_BEFORE_TRIP_S = 0.4  # the trip comes in the first swing of that leg after this time
 WALK_S = WALK_BEFORE_TRIP_S + 2.5 * 1.6  # the walk played: room for a trip in any swing
-FORMAT = 1  # bump when the file layout changes
+FORMAT = 2  # bump when the file layout changes (2: with shown_qpos)
 
 
 def cache_dir() -> Path | None:
@@ -85,6 +85,8 @@ def _save(path: Path, pb: Playback) -> None:
     arrays = {"time_s": pb.time_s, "qpos": pb.qpos, "qvel": pb.qvel,
               "coordinates": np.array([pb.coordinates[n] for n in meta["names"]]),
               "meta": np.array(json.dumps(meta))}
+    if pb.shown_qpos is not None:
+        arrays["shown_qpos"] = pb.shown_qpos
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".walk-", suffix=".npz")
     try:
@@ -104,7 +106,8 @@ def _load(path: Path, body: Body) -> Playback:
                                     meta["events"]["toe_off_s"])
         return Playback(body, z["time_s"], z["qpos"], z["qvel"], coords, ev,
                         meta["speed_m_per_s"], meta["stride_s"], meta["source"],
-                        meta["retarget"], meta["notes"])
+                        meta["retarget"], meta["notes"],
+                        shown_qpos=z["shown_qpos"] if "shown_qpos" in z.files else None)
 
 
 def walk_cached(body: Body, speed_m_per_s: float, duration_s: float) -> Playback:

@@ -21,7 +21,8 @@ def _same(a, b) -> bool:
             and all(np.array_equal(a.coordinates[k], b.coordinates[k]) for k in a.coordinates)
             and a.events == b.events and (a.speed_m_per_s, a.stride_s, a.source, a.retarget,
                                           a.notes) == (b.speed_m_per_s, b.stride_s, b.source,
-                                                       b.retarget, b.notes))
+                                                       b.retarget, b.notes)
+            and a.shown_qpos is not None and np.array_equal(a.shown_qpos, b.shown_qpos))
 
 
 def test_a_cached_walk_is_the_computed_walk_bit_for_bit(cache, monkeypatch):
