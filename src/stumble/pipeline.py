@@ -140,7 +140,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     muscle_set = (muscle_set_of("network" if sc.controller == "reflex" else sc.controller,
                                 network) if reflex else DEFAULT_MUSCLE_SET)
     base, pb = body_and_walk(sc.height_m, sc.mass_kg, sc.sex, sc.contact, sc.speed_m_per_s,
-                     sc.timestep_s, reflex, muscle_set)
+                             sc.timestep_s, reflex, muscle_set)
     own = sc.start == "own"
     if own:  # the controller takes over at right heel strike and walks to the trip
         t_start = next(t for t in pb.events.heel_strike_s["r"] if t >= WALK_BEFORE_TRIP_S)
@@ -298,7 +298,7 @@ def simulate_walking_step(network=None, trunk_balance: bool = True,
     net = network or default_network("open-loop")  # the identification's Fig. 3
     speed = speed_m_per_s or load_reference().speed_m_per_s
     body, pb = body_and_walk(1.75, 70.0, "male", DEFAULT_CONTACT, round(speed, 4), 0.001, True,
-                     net.muscle_set)
+                             net.muscle_set)
     m = body.model
     t0 = next(t for t in pb.events.heel_strike_s["r"] if t >= WALK_BEFORE_TRIP_S)
     d = mujoco.MjData(m)
@@ -356,7 +356,7 @@ def simulate_walk(controller: str = "gh2010", duration_s: float = 20.0,
     if not 0.5 <= duration_s <= 600.0:
         raise InputError(f"duration {duration_s} s is outside 0.5-600 s")
     body, pb = body_and_walk(1.75, 70.0, "male", DEFAULT_CONTACT, round(float(speed), 4),
-                     timestep_s, True, muscle_set_of(controller, network))
+                             timestep_s, True, muscle_set_of(controller, network))
     m = body.model
     t0 = next(t for t in pb.events.heel_strike_s["r"] if t >= WALK_BEFORE_TRIP_S)
     d = mujoco.MjData(m)

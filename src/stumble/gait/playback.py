@@ -58,7 +58,7 @@ class Playback:
     retarget: dict = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)  # one-line remarks on the input
     # qpos with each touchdown's planting step spread over TOUCHDOWN_BLEND_S, for plots
-    # and video (``shown``); None: qpos (nothing planted, or a walk loaded from the cache)
+    # and video (``shown``); None: qpos (nothing planted)
     shown_qpos: np.ndarray | None = None
 
     def swing_fraction(self, side: str, t: float) -> float | None:

@@ -155,7 +155,7 @@ def collect(net: Network, params: GH2010Params, beta: float, seed: int,
     from stumble.sim import Sensors, run
 
     body, pb = body_and_walk(1.75, 70.0, "male", DEFAULT_CONTACT, round(speed_m_per_s, 4),
-                     FIT_TIMESTEP_S, True, net.muscle_set)
+                             FIT_TIMESTEP_S, True, net.muscle_set)
     import mujoco
 
     t0 = next(t for t in pb.events.heel_strike_s["r"] if t >= WALK_BEFORE_TRIP_S)
