@@ -638,6 +638,81 @@ def sideways_m(rec: Recording, planar: bool) -> float | None:
     return float(rec.qpos[-1, 1] - np.interp(0.0, rec.time_s, rec.qpos[:, 1]))
 
 
+def angular_momentum(m: mujoco.MjModel, qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray:
+    """(T, 3) whole-body angular momentum about the centre of mass (kg·m²/s, world axes;
+    its y component + when the body pitches forward, x forward and z up)."""
+    d = mujoco.MjData(m)
+    root = m.body("pelvis").id  # the skeleton's root: its subtree is the whole body
+    out = np.zeros((len(qpos), 3))
+    for k in range(len(qpos)):
+        d.qpos[:] = qpos[k]
+        d.qvel[:] = qvel[k]
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        mujoco.mj_comVel(m, d)
+        mujoco.mj_subtreeVel(m, d)
+        out[k] = d.subtree_angmom[root]
+    return out
+
+
+# Pijnappels, Bobbert & van Dieën 2004 (J Biomech 37:1811, abstract): twelve young adults
+# tripped over an obstacle in mid-swing all gained a similar forward angular momentum
+# during the foot-obstacle contact, 11.4 on average (kg·m²/s: the abstract's unit is cut
+# in the copy we read; the magnitude is a whole body's)
+PEOPLE_TRIP_ANGMOM_GAIN = 11.4
+
+# the end of the trip's contact: the first time after it starts that the tripped foot has
+# been off the obstacle (or the trip force zero) for this long (ours: a foot that slides
+# along the box's edge loses contact for a sample or two)
+CONTACT_GAP_S = 0.02
+
+
+def trip_contact_s(rec: Recording, side: str, mechanism: str) -> tuple[float, float] | None:
+    """(start, end) of the trip's contact (s from the trip): the tripped foot on the
+    obstacle, or the trip force acting (SCA 2009 eq. 2-3); None if there was none."""
+    t = rec.time_s
+    if mechanism == "obstacle":
+        on = rec.foot_on_obstacle[:, 0 if side == "r" else 1].astype(bool)
+    else:
+        on = np.any(rec.trip_force != 0.0, axis=1)
+    on = on & (t >= -CONTACT_GAP_S)
+    idx = np.flatnonzero(on)
+    if not len(idx):
+        return None
+    end = idx[0]
+    for k in idx[1:]:
+        if t[k] - t[end] > CONTACT_GAP_S:
+            break
+        end = k
+    return float(t[idx[0]]), float(t[end])
+
+
+def trip_angular_momentum(m: mujoco.MjModel, rec: Recording, side: str, mechanism: str,
+                          landing_s: float | None) -> dict | None:
+    """The body's forward-pitch angular momentum about its centre of mass (kg·m²/s, + pitching
+    forward) around the trip: ``at_trip``, ``gained_in_contact`` over the trip's contact
+    (``trip_contact_s``; Pijnappels et al. 2004, J Biomech 37:1811, measured it over the
+    foot-obstacle contact of mid-swing trips), ``contact_s`` (that contact's length),
+    ``peak`` until the recovery foot lands (or 1 s), and ``at_recovery_contact``; None
+    without a trip."""
+    t = rec.time_s
+    span = trip_contact_s(rec, side, mechanism)
+    if span is None or not len(t):
+        return None
+    upto = max(landing_s if landing_s is not None else 1.0, span[1]) + 1e-9
+    keep = t <= upto
+    lp = angular_momentum(m, rec.qpos[keep], rec.qvel[keep])[:, 1]
+    tk = t[keep]
+    a, b = (float(np.interp(s, tk, lp)) for s in span)
+    after = tk >= 0.0
+    r2 = lambda v: None if v is None else round(float(v), 2)  # noqa: E731
+    return {"at_trip": r2(np.interp(0.0, tk, lp)), "gained_in_contact": r2(b - a),
+            "contact_s": round(span[1] - span[0], 4),
+            "peak": r2(lp[after].max()) if after.any() else None,
+            "at_recovery_contact": r2(None if landing_s is None
+                                      else np.interp(landing_s, tk, lp))}
+
+
 SUPPORT_WINDOW_S = 0.3  # the issue's window: the first 300 ms after the trip
 # (servo hinge, exertion of a negative torque, of a positive one): stumble.body.joints
 _EXERTIONS = (("hip_flexion", "hip_extension", "hip_flexion"),
@@ -754,6 +829,8 @@ def trip_summary(sc: Scenario, strategy: str, log: list, rec: Recording, stop: S
         "strength_model": sc.strength_model,
         "population": sc.population,
         "support_peak_moments_nm": support_peak_moments(m, rec, sc.side),
+        "angular_momentum_kg_m2_per_s": trip_angular_momentum(m, rec, sc.side, sc.mechanism,
+                                                              landing),
         "recovery": sc.recovery,
         "steps_after_recovery_step": n_after,
         "walking_stride_s": None if stride_s is None else round(stride_s, 4),

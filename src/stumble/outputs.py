@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from stumble.analysis import angular_momentum, trip_contact_s
 from stumble.jsonio import write_json
 from stumble.outdir import output_dir
 from stumble.pipeline import TripResult
@@ -22,14 +23,17 @@ def write_summary(out: Path, result: TripResult) -> None:
 
 
 def write_timeseries(out: Path, result: TripResult) -> None:
-    """``timeseries.csv``: time, state, joint angles (deg), COM, contacts, trip force."""
+    """``timeseries.csv``: time, state, joint angles (deg), COM, contacts, trip force, the
+    whole-body angular momentum about the COM (``analysis.angular_momentum``)."""
     rec, body = result.recording, result.body
     m = body.model
+    ang = angular_momentum(m, rec.qpos, rec.qvel)
     header = ["time_s", "state", "pelvis_x_m", "pelvis_y_m", "pelvis_z_m",
               *[f"{j}_deg" for j in body.joints],
               "com_x_m", "com_y_m", "com_z_m", "com_vx_m_per_s", "com_vy_m_per_s",
               "com_vz_m_per_s", "foot_r_on_floor", "foot_l_on_floor",
-              "trip_force_x_n", "trip_force_y_n", "trip_force_z_n"]
+              "trip_force_x_n", "trip_force_y_n", "trip_force_z_n",
+              *[f"angular_momentum_{a}_kg_m2_per_s" for a in "xyz"]]
     adr = [m.jnt_qposadr[m.joint(j).id] for j in body.joints]
     with (out / "timeseries.csv").open("w", newline="") as f:
         w = csv.writer(f)
@@ -40,7 +44,7 @@ def write_timeseries(out: Path, result: TripResult) -> None:
                         *np.round(np.degrees(rec.qpos[k, adr]), 3),
                         *np.round(rec.com[k], 5), *np.round(rec.com_vel[k], 4),
                         int(rec.foot_on_floor[k, 0]), int(rec.foot_on_floor[k, 1]),
-                        *np.round(rec.trip_force[k], 3)])
+                        *np.round(rec.trip_force[k], 3), *np.round(ang[k], 4)])
 
 
 def trip_motion(result: TripResult, before_s: float = WALK_SHOWN_S,
@@ -137,8 +141,11 @@ def write_media(out: Path, result: TripResult, video: bool, progress: bool) -> l
     tripped = s["trip_time_s"] is not None
     if not tripped:  # start own: the walk never reached the trip
         title = f"no trip: the {s['controller']} walker {s['stop_reason']}"
+    sc = result.scenario
+    contact = trip_contact_s(rec, sc.side, sc.mechanism) if tripped else None
     plot_trajectories(out / "trajectories.png", result.body.model, rec.time_s, rec.qpos,
-                      result.scenario.side, s["strategy"], result.states, title)
+                      sc.side, s["strategy"], result.states, title, qvel=rec.qvel,
+                      contact=contact)
     written = ["trajectories.png"]
     if result.scenario.controller in ("reflex", "gh2010") and tripped:
         write_muscle_tensions(out, result)

@@ -14,7 +14,7 @@ from stumble.trip import FX_MAX_N, T_TRIP_S, Scenario
 SUMMARY_KEYS = ("controller", "strategy", "variant", "recovered", "fell", "diverged",
                 "swing_fraction", "speed_m_per_s", "mechanism", "trip_time_s", "states",
                 "durations_s", "trunk_tilt_at_recovery_contact_deg", "rmse_deg", "sim_time_s",
-                "wall_time_s", "steps")
+                "wall_time_s", "steps", "angular_momentum_kg_m2_per_s")
 
 
 def test_force_mechanism_applies_eq_2_3_to_the_swing_toe():
@@ -66,7 +66,7 @@ def test_cli_trip_writes_the_named_files(tmp_path, capsys):
     assert s["states"][0] == {"name": "passive_reaction", "start_s": 0.0}
     header = (out / "timeseries.csv").read_text().splitlines()[0].split(",")
     for col in ("time_s", "state", "knee_angle_l_deg", "com_x_m", "com_vz_m_per_s",
-                "foot_l_on_floor", "trip_force_x_n"):
+                "foot_l_on_floor", "trip_force_x_n", "angular_momentum_y_kg_m2_per_s"):
         assert col in header
     assert (out / "trajectories.png").stat().st_size > 10_000
     # OpenSim and BVH: 1 s of walk, then the trip (time 0), at the recording's rate (every

@@ -9,7 +9,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from stumble.analysis import pitch_angles_deg
+from stumble.analysis import PEOPLE_TRIP_ANGMOM_GAIN, angular_momentum, pitch_angles_deg
 
 
 def foot_com_path(model: mujoco.MjModel, qpos: np.ndarray, side: str) -> np.ndarray:
@@ -33,8 +33,11 @@ FOOT_PATH_S = 1.5  # s after the trip: the foot path panel's span (the recovery)
 
 def plot_trajectories(path, model: mujoco.MjModel, time_s: np.ndarray, qpos: np.ndarray,
                       tripped: str, strategy: str, states: list[tuple[str, float]],
-                      title: str = "") -> Path:
-    """Leading foot COM path (x-z), pelvis, leading hip and knee pitch over time.
+                      title: str = "", qvel: np.ndarray | None = None,
+                      contact: tuple[float, float] | None = None) -> Path:
+    """Leading foot COM path (x-z), pelvis, leading hip and knee pitch over time, and with
+    ``qvel`` the whole-body angular momentum about the COM (its forward pitch), the trip's
+    ``contact`` (s, s) marked with its gain beside people's (Pijnappels et al. 2004).
 
     The leading leg is the recovery leg. Time 0 and the dashed line mark the trip;
     dotted lines mark the controller's state changes until it walks on (its ``step_*``
@@ -46,9 +49,15 @@ def plot_trajectories(path, model: mujoco.MjModel, time_s: np.ndarray, qpos: np.
     early = np.asarray(time_s) <= FOOT_PATH_S
     foot = foot_com_path(model, qpos[early] if early.any() else qpos, lead)
     ang = pitch_angles_deg(model, qpos, tripped, strategy)
-    fig = Figure(figsize=(13, 3.6))
+    panels = [("pelvis", "pelvis pitch (+ posterior) [deg]"),
+              ("lead_hip", "leading hip flexion [deg]"),
+              ("lead_knee", "leading knee (flexion −) [deg]")]
+    if qvel is not None:
+        ang["angmom"] = angular_momentum(model, qpos, qvel)[:, 1]
+        panels.append(("angmom", "angular momentum, + fwd [kg·m²/s]"))
+    fig = Figure(figsize=(3.25 * (1 + len(panels)), 3.6))
     FigureCanvasAgg(fig)
-    axes = fig.subplots(1, 4)
+    axes = fig.subplots(1, 1 + len(panels))
     ax = axes[0]
     ax.plot(foot[:, 0] - foot[0, 0], foot[:, 2], color="tab:blue")
     ax.plot(0.0, foot[0, 2], "o", color="tab:red", label="trip")
@@ -60,9 +69,7 @@ def plot_trajectories(path, model: mujoco.MjModel, time_s: np.ndarray, qpos: np.
     ax.set_ylim(min(0.0, float(foot[:, 2].min())) - 0.05, top + 0.25 * max(top, 0.2))
     ax.legend(loc="upper right", fontsize=8)
     walk_on = next((t for name, t in states if name.startswith("step_")), None)
-    for ax, key, label in ((axes[1], "pelvis", "pelvis pitch (+ posterior)"),
-                           (axes[2], "lead_hip", "leading hip flexion"),
-                           (axes[3], "lead_knee", "leading knee (flexion −)")):
+    for ax, (key, label) in zip(axes[1:], panels, strict=True):
         ax.plot(time_s, ang[key], color="tab:blue")
         ax.axvline(0.0, color="tab:red", ls="--", lw=1, label="trip")
         marked = [t for name, t in states[1:] if walk_on is None or t < walk_on]
@@ -73,8 +80,15 @@ def plot_trajectories(path, model: mujoco.MjModel, time_s: np.ndarray, qpos: np.
             ax.axvspan(walk_on, float(time_s[-1]), color="0.92", zorder=0,
                        label="walking on")
         ax.set_xlabel("time since trip [s]")
-        ax.set_title(label + " [deg]")
+        ax.set_title(label, fontsize=10)
         ax.grid(alpha=0.3)
+    if qvel is not None and contact is not None:
+        ax = axes[-1]
+        a, b = (float(np.interp(s, time_s, ang["angmom"])) for s in contact)
+        dots = ax.plot(contact, (a, b), "o", color="tab:orange", ms=4,
+                       label=f"over the trip's contact: {b - a:+.1f}\n"
+                             f"(people: +{PEOPLE_TRIP_ANGMOM_GAIN:g}, mid-swing)")
+        ax.legend(handles=dots, loc="lower right", fontsize=7)
     axes[1].legend(loc="lower right", fontsize=8)
     axes[0].grid(alpha=0.3)
     if title:
