@@ -71,6 +71,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from stumble import __version__
+from stumble.analysis import PEOPLE_TRIP_ANGMOM_GAIN
 from stumble.jsonio import dumps
 from stumble.study.grid import run_key, scenario_fields
 from stumble.trip import Scenario
@@ -144,6 +145,12 @@ PUSH_OFF_FACTOR = 1.5
 # recovery limb within the 300 ms
 PUSH_OFF_SWING = (0.25, 0.45)
 PUSH_OFF_MECHANISM = "obstacle"
+# The trip itself beside people's (Pijnappels et al. 2004, ``analysis.PEOPLE_TRIP_ANGMOM_GAIN``):
+# the forward angular momentum gained over the foot-obstacle contact, on the same
+# mid-swing obstacle trips (the state machines: the grid's nine; the reflex controllers:
+# their strategy map's fifteen at 0.25-0.45 of swing, own gait). Agreement: the median
+# within ANGMOM_TOLERANCE of the published mean (ours)
+ANGMOM_TOLERANCE = 0.25
 # van den Bogert, Pavol & Grabiner 2002 (J Biomech 35:199): recoveries keep the trunk
 # within about 23-26° of vertical at recovery-foot contact
 TRUNK_TILT_MAX_DEG = 26.0
@@ -248,12 +255,15 @@ def map_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
     fig_r = f"own gait: recovered of the {n} obstacle trips (3 s after the trip)"
     pub_s = f"≥ {MAP_STRATEGY_TARGET:.0%} of the window trips (ours; Eng et al. 1994)"
     pub_r = f"≥ {RECOVERY_TARGET:.0%} (our criterion)"
+    lo, hi = PUSH_OFF_SWING
+    mid = [r for s, r in rows if lo - 1e-9 <= s <= hi + 1e-9]
     if not ran:
         why = _why([r for _s, r in rows])
         return [_row(fig_s, "SCA 2009 §3", ctrl, MAP_STRATEGY_TARGET, pub_s, None,
                      "not available", "n/a", keys, why),
                 _row(fig_r, "stumble", ctrl, RECOVERY_TARGET, pub_r, None, "not available",
-                     "n/a", keys, why)]
+                     "n/a", keys, why),
+                angmom_row(ctrl, mid)]
     window = [(s, r) for s, r in ran if human_strategy(s) is not None]
     human = sum(r.get("strategy") == human_strategy(s) for s, r in window)
     share = human / len(window) if window else 0.0
@@ -269,7 +279,31 @@ def map_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
                  "yes" if share >= MAP_STRATEGY_TARGET else "no", keys),
             _row(fig_r, "stumble", ctrl, RECOVERY_TARGET, pub_r, round(rate, 4),
                  f"{k}/{n} ({rate:.0%}; {low} by lowering{left})",
-                 "yes" if rate >= RECOVERY_TARGET else "no", keys)]
+                 "yes" if rate >= RECOVERY_TARGET else "no", keys),
+            angmom_row(ctrl, mid)]
+
+
+def angmom_row(ctrl: str, mid: list[dict]) -> dict:
+    """The forward angular momentum the body gains over the trip's foot-obstacle contact
+    (``summary.json``'s ``angular_momentum_kg_m2_per_s.gained_in_contact``), ``mid`` its
+    mid-swing obstacle trips, beside Pijnappels et al. 2004."""
+    pub = PEOPLE_TRIP_ANGMOM_GAIN
+    lo, hi = PUSH_OFF_SWING
+    figure = "angular momentum gained over the foot-obstacle contact, mid-swing trips"
+    pub_text = f"{pub:g} kg·m²/s (mean; agreement within {ANGMOM_TOLERANCE:.0%})"
+    keys = [r["key"] for r in mid]
+    vals = sorted(v for r in mid if not _failed(r)
+                  and (v := r.get("angular_momentum_kg_m2_per_s.gained_in_contact"))
+                  is not None)
+    if not vals:
+        return _row(figure, "Pijnappels et al. 2004", ctrl, pub, pub_text, None,
+                    "not available", "n/a", keys, _why(mid))
+    med = vals[len(vals) // 2]
+    ok = abs(med - pub) <= ANGMOM_TOLERANCE * pub
+    return _row(figure, "Pijnappels et al. 2004", ctrl, pub, pub_text, med,
+                f"median {med:.1f} kg·m²/s (range {vals[0]:.1f}-{vals[-1]:.1f}; "
+                f"{len(vals)} obstacle trips at {lo:g}-{hi:g} of swing)",
+                "yes" if ok else "no", keys)
 
 
 def strength_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
@@ -301,6 +335,7 @@ def strength_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
                         f"median {med:.0f} N·m (range {vals[0]:.0f}-{vals[-1]:.0f}; "
                         f"{len(vals)} obstacle trips at {lo:g}-{hi:g} of swing)",
                         "yes" if ok else "no", mid_keys))
+    out.append(angmom_row(ctrl, mid))
     tilts = [r.get("trunk_tilt_at_recovery_contact_deg") for r in ran if r.get("recovered")]
     tilts = [t for t in tilts if t is not None]
     figure = "trunk from vertical at recovery-foot contact, recoveries"
@@ -694,6 +729,8 @@ def run_validation(out: Path, workers: int | None = None, progress: bool = True,
                                  "trips",
             "push_off": f"the median over the window trips within ×{PUSH_OFF_FACTOR:g} of "
                         "Pijnappels et al. 2005's mean",
+            "angular_momentum": f"the median over the mid-swing obstacle trips within "
+                                f"{ANGMOM_TOLERANCE:.0%} of Pijnappels et al. 2004's mean",
             "trunk": f"no recovery beyond {TRUNK_TILT_MAX_DEG:g}° at recovery-foot contact",
             "walking": f"{WALK_S:g} s walked, every joint RMSE (the mean of both sides) ≤ "
                        f"{WALK_RMSE_DEG:g}°; stance fraction within "
