@@ -5,7 +5,8 @@
 - ``recovered``: the recovery step has landed, and for ``RECOVERED_AFTER_S`` after it
   the person has not fallen, the trunk is within ``UPRIGHT_DEG`` of vertical and the
   COM's ground projection is over the base of support (the feet on the floor, grown by
-  ``BOS_MARGIN_M``).
+  ``BOS_MARGIN_M``); or, walking on (``StopRule.walk_on_s``), still walking at the
+  verdict and, after an obstacle trip, past the obstacle.
 - ``diverged``: the physics blew up (NaN, or MuJoCo's bad-acceleration warning).
 
 The recovery step is the tripped leg's landing (elevating) or the other leg's landing
@@ -81,7 +82,10 @@ class StopRule:
 
     ``walk_on_s`` (the reflex controllers, which walk on by themselves): recovered
     means still walking that long after the trip: not fallen, upright, and the COM
-    advancing at ``WALKING_MIN_M_PER_S`` or more over the last second.
+    advancing at ``WALKING_MIN_M_PER_S`` or more over the last second; with ``past_x``
+    (obstacle trips, since 2026-12-07) also both ankles past the box's far face. A body
+    that stepped onto the box, went back and walks into it again at the verdict is
+    "still walking" but has not got past what tripped it ("not past the obstacle").
     """
 
     strategy: str | None
@@ -100,6 +104,7 @@ class StopRule:
     _down_x: float = 0.0
     _airborne_since: float | None = 0.0  # the swing foot is in the air at the trip
     walk_on_s: float | None = None
+    past_x: float | None = None  # m, obstacle trips: the box's far face (see _walking_on)
     _com_x: list = field(default_factory=list)
 
     @property
@@ -150,7 +155,10 @@ class StopRule:
         return ""
 
     def _walking_on(self, s: Sensors) -> str:
-        """Recovered once still walking ``walk_on_s`` after the trip (class docstring)."""
+        """Recovered once still walking ``walk_on_s`` after the trip (class docstring)
+        and, with ``past_x``, with both ankles past the obstacle: a body that went back
+        from the box and walks into it again has not recovered ("not past the
+        obstacle")."""
         if self.landing_s is None:
             self.landing_s = self._landing(s)
         self._com_x.append((s.t, float(s.com[0])))
@@ -160,6 +168,8 @@ class StopRule:
         x_back = next(x for t, x in self._com_x if t >= t_back - 1e-9)
         if (tilt_of(s.torso_z) < UPRIGHT_DEG
                 and s.com[0] - x_back >= WALKING_MIN_M_PER_S * 1.0):
+            if self.past_x is not None and float(s.foot_pos[:, 0].min()) <= self.past_x:
+                return "not past the obstacle"
             self.recovered_s = s.t
             return "recovered"
         return "stopped walking"

@@ -245,3 +245,28 @@ def test_a_mid_swing_trip_gains_what_people_gain_and_the_support_leg_takes_it_al
     assert am["peak"] >= am["at_trip"] + am["gained_in_contact"] - 0.5
     assert s["recovery_contact_s"] == pytest.approx(0.42, abs=0.01)
     assert am["at_recovery_contact"] == pytest.approx(-0.2, abs=0.3)
+
+
+def test_a_body_that_walks_back_into_the_box_has_not_recovered():
+    """The network's lowering trip at 0.7 of swing, 1.2 m/s: its tripped foot stands on
+    the box, the body rocks back from it (the COM 0.4 m back by 1.6 s), and at 3 s it
+    walks into the box again, upright and advancing: "still walking", but not past the
+    obstacle, so not recovered (2026-12-07); the fits' rule (``past_obstacle=False``)
+    counts it as they did. An elevating trip that stepped over walks on 3 m past it."""
+    from stumble.pipeline import simulate_trip
+    from stumble.trip import Scenario
+
+    back = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.7,
+                    speed_m_per_s=1.2)
+    now = simulate_trip(back).summary
+    assert not now["recovered"] and not now["fell"]
+    assert now["stop_reason"] == "not past the obstacle"
+    before = simulate_trip(back, past_obstacle=False).summary
+    assert before["recovered"] and before["strategy"] == "lowering"
+    over = simulate_trip(Scenario(controller="reflex", mechanism="obstacle",
+                                  swing_fraction=0.1, speed_m_per_s=1.2))
+    assert over.summary["recovered"]
+    m = over.body.model
+    box = m.geom("obstacle").id
+    far = m.geom_pos[box, 0] + m.geom_size[box, 0]  # the box's far face, world x (m)
+    assert over.recording.com[-1, 0] > far + 2.0

@@ -106,7 +106,8 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
                   reference: dict | None = None, network=None,
                   trunk_balance: bool = True, gh2010=None,
                   log_controls: bool = False,
-                  walk_in_cache: WalkInCache | None = None) -> TripResult:
+                  walk_in_cache: WalkInCache | None = None,
+                  past_obstacle: bool = True) -> TripResult:
     """Walk, trip and recover (or fall): the whole pipeline for one scenario.
 
     Controller ``fsm`` (SCA 2009) drives the 3D human; ``reflex`` (seed 003) the planar
@@ -123,7 +124,9 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
     controls, gains and trip forces in the recording (``stumble.sim.run``), for benchmarks
     that replay them. ``walk_in_cache`` (``gh2010`` or ``reflex``, own start): reuse the
     walk to the trip of an earlier trip whose parameters (GH2010's) or network differed
-    only in the touch's reflexes (the same numbers as walking it again).
+    only in the touch's reflexes (the same numbers as walking it again). ``past_obstacle``
+    (obstacle trips): a recovery needs both ankles past the box at the verdict
+    (``StopRule.past_x``; off only to re-run the fits made before the rule, 2026-12-07).
     """
     from stumble.control.reflex.gh2010 import fitted_timestep
 
@@ -203,7 +206,8 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
         ctx.t0 = float(d.time)
     far_x = front + OBSTACLE_GAP_M + OBSTACLE_DEPTH_M  # force trips: a notional obstacle
     stop = StopRule(strategy, sc.side, fall_height, far_x=far_x,
-                    walk_on_s=_walk_on_s(sc, reflex))
+                    walk_on_s=_walk_on_s(sc, reflex),
+                    past_x=far_x if sc.mechanism == "obstacle" and past_obstacle else None)
     force_kwargs = {}
     if sc.mechanism == "force":
         toe = f"toes_{sc.side}" if not reflex else f"foot_{sc.side}"

@@ -229,6 +229,9 @@ def run_key(sc: Scenario) -> str:
     d = scenario_fields(sc)
     if d["delays"] == "all":  # the default left out, so that the keys of the studies
         del d["delays"]  # made before the field (2026-12-05) stay theirs
+    if d["mechanism"] == "obstacle":  # since 2026-12-07 an obstacle trip's recovery needs
+        d["recovered_past_obstacle"] = True  # the body past the box: a study made before
+        # re-runs those trips rather than keep their verdicts (analysis.StopRule.past_x)
     text = json.dumps(d, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 

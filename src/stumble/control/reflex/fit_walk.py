@@ -737,7 +737,12 @@ def trip_outcome(kind: str, swing: float, speed: float, params=None, network=Non
                   duration_after_trip_s=WALK_ON_TRIP_S,
                   timestep_s=(timestep_s or FIT_TIMESTEP_S) if kind == "network" else None)
     try:
-        r = simulate_trip(sc, network=network, gh2010=params, walk_in_cache=walk_in_cache)
+        # the fits count a recovery as they did when the shipped sets were made: still
+        # walking 3 s after the trip, past the obstacle or not (the trip summaries ask it
+        # past since 2026-12-07, ``StopRule.past_x``), so that their recorded commands
+        # re-run bit for bit (docs/reflex.md)
+        r = simulate_trip(sc, network=network, gh2010=params, walk_in_cache=walk_in_cache,
+                          past_obstacle=False)
     except TripNotSet:  # the toe is over the obstacle at that instant of its own swing
         return 0.0, None
     s = r.summary
