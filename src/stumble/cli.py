@@ -504,7 +504,10 @@ def cmd_trip(args) -> int:
               f"{', '.join(written)} to {out}")
         return 0
     outcome = ("diverged" if s["diverged"] else "recovered" if s["recovered"]
-               else "fell" if s["fell"] else "did not recover within the time")
+               else "fell" if s["fell"]
+               else "did not recover: walking, but not past the obstacle"
+               if s["stop_reason"] == "not past the obstacle"
+               else "did not recover within the time")
     strategy = s["strategy"] or "no"
     variant = f" ({s['variant']})" if s["variant"] else ""  # none if no recovery step
     if s.get("recovery") == "walk_on" and s["controller"] == "fsm" and s.get(

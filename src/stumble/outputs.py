@@ -135,9 +135,12 @@ def write_media(out: Path, result: TripResult, video: bool, progress: bool) -> l
     s = result.summary
     rec = result.recording
     variant = f" ({s['variant']})" if s.get("variant") else ""  # (none: no recovery step)
+    behind = s.get("stop_reason") == "not past the obstacle"
+    outcome = ("recovered" if s["recovered"] else "fell" if s["fell"]
+               else "no recovery (walking, not past the obstacle)" if behind
+               else "no recovery")
     title = (f"{s['strategy']}{variant}, {s['mechanism']} trip at "
-             f"{s['swing_fraction']:.2f} of swing, {s['speed_m_per_s']} m/s: "
-             f"{'recovered' if s['recovered'] else 'fell' if s['fell'] else 'no recovery'}")
+             f"{s['swing_fraction']:.2f} of swing, {s['speed_m_per_s']} m/s: {outcome}")
     tripped = s["trip_time_s"] is not None
     if not tripped:  # start own: the walk never reached the trip
         title = f"no trip: the {s['controller']} walker {s['stop_reason']}"
