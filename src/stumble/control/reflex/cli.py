@@ -279,6 +279,11 @@ def add_reflex_parser(sub, parser_class=argparse.ArgumentParser) -> None:
                    "network's own gait (own, the default here: from the recording a "
                    "network taking over at the trip falls untripped) or from the "
                    "recording at the trip (playback, seed 003's CASE 1 and 2)")
+    f.add_argument("--past-obstacle", action="store_true",
+                   help="gh2010 --trips, network --walk-es --trip-set: a trip recovers "
+                   "only with the body past the box at 3 s, as the trip summaries count "
+                   "since 2026-12-07 (default: still walking 3 s after the trip, as the "
+                   "shipped fits were made, so that their commands re-run bit for bit)")
     f.add_argument("--recovery-cost", type=_weight, default=None, metavar="W",
                    help="gh2010 --trips, network --walk-es --trip-set: each of the "
                    "stage's trips not recovered costs W "
@@ -448,6 +453,7 @@ def cmd_reflex_fit_gh2010(args) -> int:
                         ("--scr-phase", args.scr_phase),
                         ("--strategy-cost", args.strategy_cost),
                         ("--recovery-cost", args.recovery_cost),
+                        ("--past-obstacle", args.past_obstacle or None),
                         ("--crossing", args.crossing or None),
                         ("--touch-only", args.touch_only or None),
                         ("--load-from", args.load_from)):
@@ -523,7 +529,8 @@ def cmd_reflex_fit_gh2010(args) -> int:
                      stance_weight=stance_weight, touch_only=args.touch_only,
                      recovery_cost=recovery_cost, placement=args.placement,
                      pushes=args.pushes, track_weight=track_weight, starts=starts,
-                     knee_weight=knee_weight, timestep_s=args.timestep)
+                     knee_weight=knee_weight, timestep_s=args.timestep,
+                     past_obstacle=args.past_obstacle)
     bar.done()
     written, walk = write_gh2010_fit(out, res)
     s = walk.summary
@@ -609,7 +616,8 @@ def cmd_reflex_fit_network_es(args) -> int:
     costs = {}
     for flag, v in (("--strategy-cost", args.strategy_cost),
                     ("--recovery-cost", args.recovery_cost),
-                    ("--trip-start", args.trip_start)):
+                    ("--trip-start", args.trip_start),
+                    ("--past-obstacle", args.past_obstacle or None)):
         if v is not None and not trips:
             raise InputError(f"{flag} needs --trip-set")
     if args.track_limit is not None and not (math.isfinite(args.track_limit)
@@ -643,6 +651,7 @@ def cmd_reflex_fit_network_es(args) -> int:
                               cross_step=args.cross_step, cross_only=args.cross_only,
                               track_limit_deg=args.track_limit, delay_walks=delay_walks,
                               pushes=args.pushes, trunk_weight=args.trunk_weight or 0.0,
+                              past_obstacle=args.past_obstacle,
                               **costs)
     bar.done()
     walk = simulate_walk("network", 20.0, network=net)
@@ -735,14 +744,15 @@ def cmd_reflex(args) -> int:
                          "--trunk-weight and --track-limit are for --walk-es")
     if (args.trips or args.params is not None or args.trip_set or args.scr_phase
             or args.ta_bound != "wide" or args.strategy_cost is not None or args.crossing
-            or args.recovery_cost is not None or args.placement
+            or args.recovery_cost is not None or args.placement or args.past_obstacle
             or (args.pushes and not args.closed_loop) or args.starts is not None
             or args.timestep is not None
             or args.foot_angle or args.load_from is not None or args.stride_time
             or args.stance_weight is not None or args.touch_only
             or args.track_weight is not None or args.knee_weight is not None):
         raise InputError("--trips, --params, --trip-set, --scr-phase, --strategy-cost, "
-                         "--recovery-cost, --crossing, --touch-only, --load-from, "
+                         "--recovery-cost, --past-obstacle, --crossing, --touch-only, "
+                         "--load-from, "
                          "--foot-angle, --stride-time, --stance-weight, --track-weight, "
                          "--knee-weight, --placement, --pushes, --starts, --timestep and "
                          "--ta-bound are for --controller gh2010 (some also for network "

@@ -450,7 +450,8 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                    timestep_s: float | None = None, trip_start: str | None = None,
                    track_limit_deg: float | None = None,
                    names: tuple[str, ...] | None = None,
-                   delay_walks: tuple = (), trunk_weight: float = 0.0) -> None:
+                   delay_walks: tuple = (), trunk_weight: float = 0.0,
+                   past_obstacle: bool = False) -> None:
     """Worker set-up: what ``evaluate_walk`` simulates: a walk, and the obstacle trips
     ``trips`` ((swing fraction, speed) pairs) the walker must walk on from; GH2010
     candidates in ``gh2010_space(stumble_reflex=...)``; ``strategy_cost``: what a trip in
@@ -470,7 +471,9 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
     ``track_limit_deg``: ``walk_cost``'s; ``names``: a network candidate's parameters
     (``network_space``'s names; default inferred from its length); ``delay_walks``: each
     candidate also walks ``PUSH_WALK_S`` from the same start with its delays × each of
-    these (``push_term``); ``trunk_weight``: ``walk_cost``'s."""
+    these (``push_term``); ``trunk_weight``: ``walk_cost``'s; ``past_obstacle``: a trip
+    recovers only past the box (``trip_outcome``; the summaries' rule since 2026-12-07,
+    off for the fits made before it)."""
     from stumble.pipeline import WalkInCache
 
     _EVAL.pop("walk", None)
@@ -487,7 +490,7 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                  timestep_s=timestep_s, trip_start=trip_start,
                  track_limit_deg=track_limit_deg, names=names,
                  delay_walks=tuple(map(float, delay_walks)),
-                 trunk_weight=float(trunk_weight))
+                 trunk_weight=float(trunk_weight), past_obstacle=bool(past_obstacle))
 
 
 def _candidate(theta) -> tuple:
@@ -575,7 +578,8 @@ def _trip_part(theta, swing: float, speed: float) -> tuple[float, str | None]:
     params, net = _candidate(theta)
     return trip_outcome(_EVAL["kind"], swing, speed, params, net,
                         walk_in_cache=_EVAL.get("walk_ins"), start=_EVAL.get("trip_start"),
-                        timestep_s=_EVAL.get("timestep_s"))
+                        timestep_s=_EVAL.get("timestep_s"),
+                        past_obstacle=_EVAL.get("past_obstacle", False))
 
 
 def _with_trips(cost: float, terms: dict, trips: tuple, outcomes) -> tuple[float, dict]:
@@ -722,12 +726,17 @@ def trip_walked_s(kind: str, swing: float, speed: float, params=None, network=No
 
 def trip_outcome(kind: str, swing: float, speed: float, params=None, network=None,
                  start: str | None = None, walk_in_cache=None,
-                 timestep_s: float | None = None) -> tuple[float, str | None]:
+                 timestep_s: float | None = None,
+                 past_obstacle: bool = False) -> tuple[float, str | None]:
     """``trip_walked_s`` and the strategy read from the motion (the trip summary's
     ``strategy``: elevating, lowering, or None when the tripped foot never came down, the
     trip could not be set or the walker fell before it). ``walk_in_cache``: a
     ``pipeline.WalkInCache`` (fits of the touch's reflexes alone); ``timestep_s``: the
-    network's step (default ``FIT_TIMESTEP_S``; a GH2010 set runs at its own)."""
+    network's step (default ``FIT_TIMESTEP_S``; a GH2010 set runs at its own);
+    ``past_obstacle``: a recovery needs the body past the box, as the trip summaries ask
+    since 2026-12-07 (``--past-obstacle``); without it a trip counts as the fits made
+    before counted it, still walking 3 s after the trip, so that their recorded commands
+    re-run bit for bit (docs/reflex.md)."""
     from stumble.errors import TripNotSet
     from stumble.pipeline import simulate_trip
     from stumble.trip import Scenario
@@ -737,12 +746,8 @@ def trip_outcome(kind: str, swing: float, speed: float, params=None, network=Non
                   duration_after_trip_s=WALK_ON_TRIP_S,
                   timestep_s=(timestep_s or FIT_TIMESTEP_S) if kind == "network" else None)
     try:
-        # the fits count a recovery as they did when the shipped sets were made: still
-        # walking 3 s after the trip, past the obstacle or not (the trip summaries ask it
-        # past since 2026-12-07, ``StopRule.past_x``), so that their recorded commands
-        # re-run bit for bit (docs/reflex.md)
         r = simulate_trip(sc, network=network, gh2010=params, walk_in_cache=walk_in_cache,
-                          past_obstacle=False)
+                          past_obstacle=past_obstacle)
     except TripNotSet:  # the toe is over the obstacle at that instant of its own swing
         return 0.0, None
     s = r.summary
@@ -806,7 +811,7 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                recovery_cost: float = 0.0, placement: bool = False,
                pushes: bool = False, track_weight: float = W_TRACK,
                knee_weight: float = W_KNEE, starts: tuple = (),
-               timestep_s: float | None = None) -> FitResult:
+               timestep_s: float | None = None, past_obstacle: bool = False) -> FitResult:
     """Optimise the GH2010 gains in closed loop: per stage (generations, walk s, obstacle
     trips), CMA-ES on ``walk_cost`` plus, for each trip, ``W_TRIP`` times the part of the
     3 s after it not walked on. ``wiring`` ``gh2010`` starts from the paper's values
@@ -850,7 +855,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     in the others); ``starts``: every candidate also walks from the walks played back at
     these speeds (m/s; ``init_walk_eval``), in every stage; ``timestep_s``: the physics
     step of every walk and trip of the fit, recorded in the result
-    (``GH2010Params.timestep_s``; default ``start``'s, 1 ms for the paper's). Writes
+    (``GH2010Params.timestep_s``; default ``start``'s, 1 ms for the paper's);
+    ``past_obstacle``: the trips recover only past the box (``trip_outcome``). Writes
     ``gh2010.json`` to ``out`` (the best parameters and the fit's figures) when given."""
     if strategy_cost < 0 or not math.isfinite(strategy_cost):
         raise ValueError(f"strategy_cost must be a finite number >= 0, got {strategy_cost}")
@@ -926,7 +932,8 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
         res = cma_fit(evaluate_walk, space, seed=seed + k, generations=gens,
                       popsize=popsize, sigma=sigma,
                       workers=workers, out=out, progress=progress,
-                      initializer=init_walk_eval,
+                      initializer=functools.partial(init_walk_eval,
+                                                    past_obstacle=past_obstacle),
                       initargs=("gh2010", walk_s, GH2010_SPEED_M_PER_S,
                                 fixed if with_trips or start is not None
                                 else {"wiring": wiring, "timestep_s": params.timestep_s},
@@ -984,13 +991,15 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
                     "pushes": [list(q) for q in PUSHES] if pushes else [],
                     "starts": [float(v) for v in starts],
                     "timestep_s": params.timestep_s,
+                    **({"past_obstacle": True} if past_obstacle else {}),
                     "command": _fit_command(wiring, with_trips, stages, scr_phase, seed,
                                             ta_bound, strategy_cost, crossing,
                                             foot_angle, load_from, stride_time,
                                             stance_weight, touch_only, recovery_cost,
                                             placement, pushes, track_weight,
                                             (start_from or {}).get("params"),
-                                            knee_weight, starts, timestep_s)}})
+                                            knee_weight, starts, timestep_s,
+                                            past_obstacle)}})
     return res
 
 
@@ -1002,7 +1011,8 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
                  recovery_cost: float = 0.0, placement: bool = False,
                  pushes: bool = False, track_weight: float = W_TRACK,
                  params: str | None = None, knee_weight: float = W_KNEE,
-                 starts: tuple = (), timestep_s: float | None = None) -> str:
+                 starts: tuple = (), timestep_s: float | None = None,
+                 past_obstacle: bool = False) -> str:
     """The ``stumble reflex fit`` command of a GH2010 fit (``params``: what ``--params``
     named, None: none given)."""
     opts = ["--trips"] if trips else []
@@ -1037,6 +1047,8 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
             opts.append("--touch-only")
         if load_from is not None:
             opts.append(f"--load-from {load_from}")
+        if past_obstacle:
+            opts.append("--past-obstacle")
     default = (TRIP_STAGES if trips else GH2010_STAGES if wiring == "gh2010"
                else SEED003_STAGES)
     total = sum(g for g, _w, _t in stages)
@@ -1254,7 +1266,7 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    ahead_from: tuple | None = None, trip_sample: int | None = None,
                    cross_step: bool = False, cross_only: bool = False,
                    delay_walks: tuple = (), pushes: bool = False,
-                   trunk_weight: float = 0.0):
+                   trunk_weight: float = 0.0, past_obstacle: bool = False):
     """CMA-ES on ``network_space(start, interneuron_biases, touch_only, touch_response)``:
     each candidate walks
     ``NETWORK_ES_WALK_S`` from the 1.2 m/s recording (and 10 s from each of ``starts``) at
@@ -1292,6 +1304,7 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
     each candidate also walks 10 s from it through the pelvis pushes ``PUSHES``
     (``init_walk_eval``'s, as Geyer & Herr's ``--pushes``; not with ``touch_only``);
     ``trunk_weight``: ``walk_cost``'s trunk term (0, none; not with ``touch_only``);
+    ``past_obstacle``: the trips recover only past the box (``trip_outcome``);
     writes ``network.npz``,
     ``history.jsonl`` and ``best.json`` to ``out`` when given."""
     import tempfile
@@ -1356,7 +1369,7 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                           trip_start=trip_start, track_limit_deg=track_limit_deg,
                           touch_only=touch_only, names=tuple(space.names),
                           delay_walks=tuple(delay_walks), pushes=pushes,
-                          trunk_weight=trunk_weight),
+                          trunk_weight=trunk_weight, past_obstacle=past_obstacle),
                       stage="walk+trips" if trips else "walk", sample=sample,
                       split=WALK_SPLIT)
     net = network_with(start, res.best_theta, space.names)
@@ -1398,6 +1411,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
             opts.append(f"--trip-start {trip_start}")
         if trip_sample is not None:
             opts.append(f"--trip-sample {trip_sample}")
+        if past_obstacle:
+            opts.append("--past-obstacle")
     command = " ".join(["stumble reflex fit --controller network --walk-es",
                         str(start_from.get("network")), *opts, f"--seed {seed} --out DIR"])
     info = dict(net.info)
@@ -1426,6 +1441,7 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                        "end, judged on the whole trip set"} if trip_sample else {}),
                    "track_limit_deg": track_limit_deg,
                    **({"trunk_weight": trunk_weight} if trunk_weight else {}),
+                   **({"past_obstacle": True} if past_obstacle else {}),
                    "cost": res.best_cost, "terms": res.best_terms,
                    "wall_time_s": round(res.wall_time_s, 1), "command": command}
     from dataclasses import replace as _replace

@@ -1161,3 +1161,28 @@ def test_network_pushes_cost_what_the_pushed_network_does_not_walk(capsys, tmp_p
     assert "--pushes" in fit["command"] and fit["pushes"] == [[3.0, 0.2, -200.0],
                                                               [6.5, 0.2, -200.0]]
     assert fit["terms"]["push"] > 0.4 * W_FALL  # the start falls after the first push
+
+
+def test_a_trip_stage_counts_a_recovery_past_the_box_only_when_asked():
+    """``trip_outcome``: the default network's lowering trip at 0.7 of swing (1.2 m/s),
+    which at 3 s walks into the box again, counts as walked on 3 s by the rule the shipped
+    fits were made under (its touch stages' 2 ms step), and short of it with
+    ``past_obstacle`` (``--past-obstacle``,
+    written into the fit's command)."""
+    from stumble.control.reflex.fit_walk import (
+        TRIP_STAGES,
+        WALK_ON_TRIP_S,
+        _fit_command,
+        trip_outcome,
+    )
+    from stumble.control.reflex.identify import default_network
+
+    net = default_network("placement-both")
+    before = trip_outcome("network", 0.7, 1.2, network=net, start="own", timestep_s=0.002)
+    now = trip_outcome("network", 0.7, 1.2, network=net, start="own", timestep_s=0.002,
+                       past_obstacle=True)
+    assert before == (WALK_ON_TRIP_S, "lowering")
+    assert now[1] == "lowering" and now[0] < WALK_ON_TRIP_S
+    cmd = _fit_command("seed003", True, TRIP_STAGES, None, 0, past_obstacle=True)
+    assert "--past-obstacle" in cmd
+    assert "--past-obstacle" not in _fit_command("seed003", True, TRIP_STAGES, None, 0)
