@@ -348,7 +348,8 @@ def add_reflex_parser(sub, parser_class=argparse.ArgumentParser) -> None:
                     "placing expert), placement-es (placement refined by CMA-ES), "
                     "placement-walk (within 10 deg at every joint), placement-touch "
                     "(placement-walk with a touch response), placement-foot (the "
-                    "response by the foot's place) or "
+                    "response by the foot's place), past-foot (the same fitted with a "
+                    "recovery past the box) or "
                     "open-loop (seed 003's identification alone, which "
                     "falls after 0.8 s)")
     rw.add_argument("--params", type=Path, metavar="FILE",
