@@ -134,10 +134,10 @@ SHIPPED_CROSS_ENTROPY_S1_FOOT = "network_cross_entropy_s1_foot.npz"
 # ``placement-foot``'s two touch stages (the response by the foot's place) re-run on
 # ``placement-walk`` with ``--past-obstacle``, a trip counted recovered only past the
 # box (2026-12-07, twenty-second session; each command in the file's record: the dense
-# thirty, 70 generations, seed 0, 11 min on 2 workers; then the wide twelve, 40
-# generations, seed 1, 2.5 min): 19 of the 45 own-gait trips, 1 by lowering past the
-# box, 12 of the 28 held out (``placement-both``: 18 and 9); its walk placement-walk's
-# (docs/reflex-network.md)
+# thirty, 70 generations, seed 0, 9.1 min on 2 workers; then the wide twelve, 40
+# generations, seed 3, the best of seeds 1-3 on the 45, 2.6 min): 23 of the 45 own-gait
+# trips, 1 by lowering past the box, 14 of the 28 held out (``placement-both``: 18 and
+# 9); its walk placement-walk's (docs/reflex-network.md)
 SHIPPED_PAST_FOOT = "network_past_foot.npz"
 NETWORK_NAMES = {"open-loop": SHIPPED, "closed-loop": SHIPPED_CLOSED_LOOP,
                  "placement": SHIPPED_PLACEMENT, "placement-es": SHIPPED_PLACEMENT_ES,
