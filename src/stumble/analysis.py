@@ -34,6 +34,7 @@ WALKING_MIN_M_PER_S = 0.5  # "walking": the COM advanced at least this fast over
 UPRIGHT_DEG = 35.0  # trunk tilt from vertical still called upright (ours)
 BOS_MARGIN_M = 0.05  # base of support grown by this (ours)
 SIDES = ("r", "l")
+NOT_PAST = "not past the obstacle"  # the stop reason of a walk on that did not pass the box
 TOUCHDOWN_SAMPLES = 3  # a touch-down lasts this many recorded samples (15 ms), not a scuff
 MIN_AIRBORNE_S = 0.1  # the recovery foot was in the air this long before it lands: a
 # touch right after the trip is the trip's own scuff (ours)
@@ -169,7 +170,7 @@ class StopRule:
         if (tilt_of(s.torso_z) < UPRIGHT_DEG
                 and s.com[0] - x_back >= WALKING_MIN_M_PER_S * 1.0):
             if self.past_x is not None and float(s.foot_pos[:, 0].min()) <= self.past_x:
-                return "not past the obstacle"
+                return NOT_PAST
             self.recovered_s = s.t
             return "recovered"
         return "stopped walking"

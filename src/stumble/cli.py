@@ -422,6 +422,7 @@ def cmd_trip(args) -> int:
     import time
 
     t_command = time.perf_counter()
+    from stumble.analysis import NOT_PAST
     from stumble.outputs import (
         prepare_dir,
         trip_motion,
@@ -506,7 +507,7 @@ def cmd_trip(args) -> int:
     outcome = ("diverged" if s["diverged"] else "recovered" if s["recovered"]
                else "fell" if s["fell"]
                else "did not recover: walking, but not past the obstacle"
-               if s["stop_reason"] == "not past the obstacle"
+               if s["stop_reason"] == NOT_PAST
                else "did not recover within the time")
     strategy = s["strategy"] or "no"
     variant = f" ({s['variant']})" if s["variant"] else ""  # none if no recovery step

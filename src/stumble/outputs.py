@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from stumble.analysis import angular_momentum, trip_contact_s
+from stumble.analysis import NOT_PAST, trip_contact_s
 from stumble.jsonio import write_json
 from stumble.outdir import output_dir
 from stumble.pipeline import TripResult
@@ -27,7 +27,7 @@ def write_timeseries(out: Path, result: TripResult) -> None:
     whole-body angular momentum about the COM (``analysis.angular_momentum``)."""
     rec, body = result.recording, result.body
     m = body.model
-    ang = angular_momentum(m, rec.qpos, rec.qvel)
+    ang = result.angular_momentum()
     header = ["time_s", "state", "pelvis_x_m", "pelvis_y_m", "pelvis_z_m",
               *[f"{j}_deg" for j in body.joints],
               "com_x_m", "com_y_m", "com_z_m", "com_vx_m_per_s", "com_vy_m_per_s",
@@ -135,7 +135,7 @@ def write_media(out: Path, result: TripResult, video: bool, progress: bool) -> l
     s = result.summary
     rec = result.recording
     variant = f" ({s['variant']})" if s.get("variant") else ""  # (none: no recovery step)
-    behind = s.get("stop_reason") == "not past the obstacle"
+    behind = s.get("stop_reason") == NOT_PAST
     outcome = ("recovered" if s["recovered"] else "fell" if s["fell"]
                else "no recovery (walking, not past the obstacle)" if behind
                else "no recovery")
@@ -147,8 +147,8 @@ def write_media(out: Path, result: TripResult, video: bool, progress: bool) -> l
     sc = result.scenario
     contact = trip_contact_s(rec, sc.side, sc.mechanism) if tripped else None
     plot_trajectories(out / "trajectories.png", result.body.model, rec.time_s, rec.qpos,
-                      sc.side, s["strategy"], result.states, title, qvel=rec.qvel,
-                      contact=contact)
+                      sc.side, s["strategy"], result.states, title,
+                      angmom=result.angular_momentum()[:, 1], contact=contact)
     written = ["trajectories.png"]
     if result.scenario.controller in ("reflex", "gh2010") and tripped:
         write_muscle_tensions(out, result)

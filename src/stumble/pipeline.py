@@ -17,6 +17,7 @@ from stumble.analysis import (
     WALK_ON_S,
     StopRule,
     TripTimer,
+    angular_momentum,
     fall_height_m,
     reference_stride,
     trip_summary,
@@ -70,6 +71,15 @@ class TripResult:
     states: list[tuple[str, float]] = field(default_factory=list)
     network: object = None  # the reflex network that ran (reflex controller only)
     walk_recording: Recording | None = None  # start own: the controller's walk to the trip
+    _angmom: np.ndarray | None = field(default=None, repr=False)
+
+    def angular_momentum(self) -> np.ndarray:
+        """(T, 3) whole-body angular momentum about the COM over the recording (kg·m²/s,
+        ``analysis.angular_momentum``), computed once for every file that shows it."""
+        if self._angmom is None:
+            rec = self.recording
+            self._angmom = angular_momentum(self.body.model, rec.qpos, rec.qvel)
+        return self._angmom
 
 
 class WalkInCache:

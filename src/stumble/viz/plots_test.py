@@ -154,7 +154,13 @@ def test_trip_plot_draws_the_foot_path_of_the_recovery_not_the_walk_on(tmp_path,
     out = tp.plot_trajectories(tmp_path / "t.png", model, t, qpos, "l", "elevating",
                                [("passive_reaction", 0.0)])
     assert tp.FOOT_PATH_S == 1.5 and seen == [int(np.sum(t <= 1.5))] and seen[0] < len(t)
-    assert mpimg.imread(out).shape[1] > 1000
+    width = mpimg.imread(out).shape[1]
+    assert width > 1000
+    # with the body's angular momentum, a fifth panel (the figure a quarter wider)
+    out = tp.plot_trajectories(tmp_path / "a.png", model, t, qpos, "l", "elevating",
+                               [("passive_reaction", 0.0)], angmom=np.sin(t),
+                               contact=(0.0, 0.06))
+    assert mpimg.imread(out).shape[1] == pytest.approx(1.25 * width, rel=0.02)
 
 
 def test_fall_rate_plots_a_scale_where_every_run_falls_and_one_where_none_does(tmp_path):

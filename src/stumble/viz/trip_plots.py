@@ -9,7 +9,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from stumble.analysis import PEOPLE_TRIP_ANGMOM_GAIN, angular_momentum, pitch_angles_deg
+from stumble.analysis import PEOPLE_TRIP_ANGMOM_GAIN, pitch_angles_deg
 
 
 def foot_com_path(model: mujoco.MjModel, qpos: np.ndarray, side: str) -> np.ndarray:
@@ -33,11 +33,12 @@ FOOT_PATH_S = 1.5  # s after the trip: the foot path panel's span (the recovery)
 
 def plot_trajectories(path, model: mujoco.MjModel, time_s: np.ndarray, qpos: np.ndarray,
                       tripped: str, strategy: str, states: list[tuple[str, float]],
-                      title: str = "", qvel: np.ndarray | None = None,
+                      title: str = "", angmom: np.ndarray | None = None,
                       contact: tuple[float, float] | None = None) -> Path:
     """Leading foot COM path (x-z), pelvis, leading hip and knee pitch over time, and with
-    ``qvel`` the whole-body angular momentum about the COM (its forward pitch), the trip's
-    ``contact`` (s, s) marked with its gain beside people's (Pijnappels et al. 2004).
+    ``angmom`` (T,) the whole-body forward angular momentum about the COM (kg·m²/s,
+    ``TripResult.angular_momentum``'s y), the trip's ``contact`` (s, s) marked with its
+    gain beside people's (Pijnappels et al. 2004).
 
     The leading leg is the recovery leg. Time 0 and the dashed line mark the trip;
     dotted lines mark the controller's state changes until it walks on (its ``step_*``
@@ -52,8 +53,8 @@ def plot_trajectories(path, model: mujoco.MjModel, time_s: np.ndarray, qpos: np.
     panels = [("pelvis", "pelvis pitch (+ posterior) [deg]"),
               ("lead_hip", "leading hip flexion [deg]"),
               ("lead_knee", "leading knee (flexion −) [deg]")]
-    if qvel is not None:
-        ang["angmom"] = angular_momentum(model, qpos, qvel)[:, 1]
+    if angmom is not None:
+        ang["angmom"] = np.asarray(angmom)
         panels.append(("angmom", "angular momentum, + fwd [kg·m²/s]"))
     fig = Figure(figsize=(3.25 * (1 + len(panels)), 3.6))
     FigureCanvasAgg(fig)
@@ -82,7 +83,7 @@ def plot_trajectories(path, model: mujoco.MjModel, time_s: np.ndarray, qpos: np.
         ax.set_xlabel("time since trip [s]")
         ax.set_title(label, fontsize=10)
         ax.grid(alpha=0.3)
-    if qvel is not None and contact is not None:
+    if angmom is not None and contact is not None:
         ax = axes[-1]
         a, b = (float(np.interp(s, time_s, ang["angmom"])) for s in contact)
         dots = ax.plot(contact, (a, b), "o", color="tab:orange", ms=4,
