@@ -166,12 +166,16 @@ def test_walk_on_steps_counts_both_feet_striking_at_one_sample_as_one_step():
 def test_fallen_rows_read_as_sensors_do():
     """``sim.fallen`` over a falling trip's sensor rows: per row what ``Sensors`` reads
     (a segment on the floor, or the pelvis below the height), and true at its end."""
+    from stumble.control.reflex.identify import default_network
     from stumble.pipeline import simulate_trip
     from stumble.sim import Sensors, fallen
     from stumble.trip import Scenario
 
+    # CASE 1 from the recording: placement-both falls (past-swing, the default since
+    # 2026-12-07, recovers)
     r = simulate_trip(Scenario(controller="reflex", start="playback", mechanism="obstacle",
-                               swing_fraction=0.13, speed_m_per_s=1.2))
+                               swing_fraction=0.13, speed_m_per_s=1.2),
+                      network=default_network("placement-both"))
     rec, lay = r.recording, r.body.sensors
     h = 0.8 * float(np.median(rec.sensordata[:20, lay.decode_index[13]]))
     got = fallen(lay, rec.sensordata, h)
@@ -248,20 +252,23 @@ def test_a_mid_swing_trip_gains_what_people_gain_and_the_support_leg_takes_it_al
 
 
 def test_a_body_that_walks_back_into_the_box_has_not_recovered():
-    """The network's lowering trip at 0.7 of swing, 1.2 m/s: its tripped foot stands on
-    the box, the body rocks back from it (the COM 0.4 m back by 1.6 s), and at 3 s it
-    walks into the box again, upright and advancing: "still walking", but not past the
-    obstacle, so not recovered (2026-12-07); the fits' rule (``past_obstacle=False``)
-    counts it as they did. An elevating trip that stepped over walks on 3 m past it."""
+    """The network ``placement-both``'s lowering trip at 0.7 of swing, 1.2 m/s: its
+    tripped foot stands on the box, the body rocks back from it (the COM 0.4 m back by
+    1.6 s), and at 3 s it walks into the box again, upright and advancing: "still
+    walking", but not past the obstacle, so not recovered (2026-12-07); the fits' rule
+    (``past_obstacle=False``) counts it as they did. An elevating trip that stepped over
+    walks on 3 m past it."""
+    from stumble.control.reflex.identify import default_network
     from stumble.pipeline import simulate_trip
     from stumble.trip import Scenario
 
+    net = default_network("placement-both")
     back = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.7,
                     speed_m_per_s=1.2)
-    now = simulate_trip(back).summary
+    now = simulate_trip(back, network=net).summary
     assert not now["recovered"] and not now["fell"]
     assert now["stop_reason"] == "not past the obstacle"
-    before = simulate_trip(back, past_obstacle=False).summary
+    before = simulate_trip(back, network=net, past_obstacle=False).summary
     assert before["recovered"] and before["strategy"] == "lowering"
     over = simulate_trip(Scenario(controller="reflex", mechanism="obstacle",
                                   swing_fraction=0.1, speed_m_per_s=1.2))

@@ -160,16 +160,18 @@ def _parser() -> argparse.ArgumentParser:
                    "recovery hip capped at 60 N·m in the push-off)")
     t.add_argument("--network", type=Path, metavar="FILE",
                    help="reflex controller: a network.npz from `stumble reflex fit`, or a "
-                   "shipped network: placement-both (the default: placement-touch's "
-                   "response for the foot behind, placement-foot's for the foot ahead; "
-                   "walks within 10 deg and recovers trips of both strategies), "
+                   "shipped network: past-swing (the default: walks within 10 deg and "
+                   "recovers trips of both strategies past the box), placement-both "
+                   "(the default before 2026-12-07: placement-touch's "
+                   "response for the foot behind, placement-foot's for the foot ahead), "
                    "closed-loop (the identification refined by DAgger), placement "
                    "(refined from a placing "
                    "expert: walks closer to the recording), placement-es (placement refined "
                    "by CMA-ES), placement-walk (placement-es held within 10 deg at every "
                    "joint: closest to the recording), placement-touch (placement-walk with "
                    "a touch response: recovers early-swing trips), placement-foot (its "
-                   "response by the foot's place: also lowers and recovers) or open-loop "
+                   "response by the foot's place), past-foot (the same fitted with a "
+                   "recovery past the box) or open-loop "
                    "(seed 003's "
                    "identification alone)")
     t.add_argument("--no-trunk-balance", action="store_true",

@@ -451,11 +451,13 @@ def test_an_option_the_subcommand_lacks_points_to_its_own_help(argv, words, caps
 
 
 def test_trip_says_when_a_walk_on_never_got_past_the_obstacle(tmp_path, capsys):
-    """The network's lowering trip at 0.7 of swing (1.2 m/s) walks on 3 s behind the box:
-    the command says why it did not recover, and summary.json's stop reason names it."""
+    """The network ``placement-both``'s lowering trip at 0.7 of swing (1.2 m/s) walks on
+    3 s behind the box: the command says why it did not recover, and summary.json's stop
+    reason names it."""
     out = tmp_path / "n"
-    assert main(["trip", "--controller", "reflex", "--mechanism", "obstacle", "--swing",
-                 "0.7", "--speed", "1.2", "--no-video", "--out", str(out)]) == 0
+    assert main(["trip", "--controller", "reflex", "--network", "placement-both",
+                 "--mechanism", "obstacle", "--swing", "0.7", "--speed", "1.2", "--no-video",
+                 "--out", str(out)]) == 0
     assert "did not recover: walking, but not past the obstacle" in capsys.readouterr().out
     s = json.loads((out / "summary.json").read_text())
     assert s["stop_reason"] == "not past the obstacle" and not s["recovered"]

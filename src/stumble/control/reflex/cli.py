@@ -197,6 +197,11 @@ def add_reflex_parser(sub, parser_class=argparse.ArgumentParser) -> None:
                    "response for a touch of the foot ahead from this network's (the same "
                    "walk, its response by the foot's place), the foot behind's from the "
                    "start's")
+    f.add_argument("--set-response", default=None, metavar="SET.MUSCLE=GAIN[,...]",
+                   help="network, --walk-es --touch-response: set these gains of the touch "
+                   "response by hand first (-1 to 1; e.g. contra_ahead.HFL=1: the other "
+                   "leg's hip flexor after a touch of the foot ahead); with --generations "
+                   "0, the result (ours)")
     f.add_argument("--sigma", type=float, default=None, metavar="S",
                    help="network, --walk-es: CMA-ES's first step in units of each "
                    "parameter's scale (default 0.3; smaller for a second stage)")
@@ -342,14 +347,16 @@ def add_reflex_parser(sub, parser_class=argparse.ArgumentParser) -> None:
                     "trip names it, is the same); gh2010: Geyer & Herr 2010's reflexes")
     rw.add_argument("--network", type=Path, metavar="FILE",
                     help="network controller: a network.npz, or a shipped network: "
-                    "placement-both (the default: walks within 10 deg and recovers "
-                    "trips of both strategies), closed-loop (refined by DAgger), "
+                    "past-swing (the default: walks within 10 deg and recovers "
+                    "trips of both strategies past the box), placement-both (the default "
+                    "before 2026-12-07), closed-loop (refined by DAgger), "
                     "placement (refined from a "
                     "placing expert), placement-es (placement refined by CMA-ES), "
                     "placement-walk (within 10 deg at every joint), placement-touch "
                     "(placement-walk with a touch response), placement-foot (the "
                     "response by the foot's place), past-foot (the same fitted with a "
-                    "recovery past the box) or "
+                    "recovery past the box), past-swing (past-foot with the other leg "
+                    "swung through after a touch of the foot ahead) or "
                     "open-loop (seed 003's identification alone, which "
                     "falls after 0.8 s)")
     rw.add_argument("--params", type=Path, metavar="FILE",
@@ -377,9 +384,9 @@ def add_reflex_parser(sub, parser_class=argparse.ArgumentParser) -> None:
     rp.add_argument("name", metavar="NAME",
                     help="a shipped set (e.g. knee-2ms-dense-wide-s3, the Geyer & Herr "
                     "default: five fits from the paper's gains, about 16-32 min on 2 "
-                    "workers) or network (e.g. placement-both, the default: fourteen fits "
+                    "workers) or network (e.g. past-swing, the default: twelve fits "
                     "from the paper's gains through its expert and DAgger, about "
-                    "72-120 min)")
+                    "67-110 min)")
     rp.add_argument("--out", required=True, type=out_dir_arg, metavar="DIR",
                     help="output directory")
     rp.add_argument("--from", dest="start_after", metavar="NAME",
@@ -579,6 +586,13 @@ def cmd_reflex_fit_network_es(args) -> int:
             raise InputError("--ahead-from is for --touch-response --scr-phase foot")
         ahead_from = _network_record(args.ahead_from)
         start.with_touch_response(by_foot=True).with_ahead_response(ahead_from[0])  # checked
+    set_response = None
+    if args.set_response is not None:
+        from stumble.control.reflex.fit_walk import parse_set_response
+
+        set_response = parse_set_response(args.set_response)
+        start.with_touch_response(by_foot=args.scr_phase == "foot").with_response_gains(
+            set_response)  # checked
     knee = W_KNEE if args.knee_weight is None else args.knee_weight  # within 0-MAX_WEIGHT
     track = W_TRACK if args.track_weight is None else args.track_weight
     gens = NETWORK_ES_GENERATIONS if args.generations is None else args.generations
@@ -653,7 +667,7 @@ def cmd_reflex_fit_network_es(args) -> int:
                               track_limit_deg=args.track_limit, delay_walks=delay_walks,
                               pushes=args.pushes, trunk_weight=args.trunk_weight or 0.0,
                               past_obstacle=args.past_obstacle,
-                              **costs)
+                              set_response=set_response, **costs)
     bar.done()
     walk = simulate_walk("network", 20.0, network=net)
     report = dict(net.info["fit"])
@@ -728,6 +742,10 @@ def cmd_reflex(args) -> int:
     if args.ahead_from is not None and (args.walk_es is None or args.controller == "gh2010"):
         raise InputError("--ahead-from is for --controller network --walk-es "
                          "--touch-response --scr-phase foot")
+    if args.set_response is not None and (args.walk_es is None or args.controller == "gh2010"
+                                          or not args.touch_response):
+        raise InputError("--set-response is for --controller network --walk-es "
+                         "--touch-response")
     if args.controller == "gh2010":
         if (args.walk_es is not None or args.interneuron_biases or args.sigma is not None
                 or args.touch_afferent or args.track_limit is not None

@@ -75,6 +75,28 @@ def test_reflex_trip_with_a_fitted_network(tmp_path):
      "strength model anderson2007 is for the state machines' servos"),
     (["trip", "--controller", "gh2010", "--recovery", "step"],
      "recovery rule step is for the state machines"),
+    # the touch response's gains set by hand: named, within -1 to 1, with a response
+    (["reflex", "fit", "--walk-es", "past-foot", "--touch-only", "--trip-set", "wide",
+      "--set-response", "contra_ahead.HFL=1"], "--set-response is for --controller network "
+     "--walk-es --touch-response"),
+    (["reflex", "fit", "--walk-es", "past-foot", "--touch-only", "--touch-response",
+      "--scr-phase", "foot", "--trip-set", "wide", "--set-response", "contra_ahead.HFL"],
+     "'contra_ahead.HFL' is not SET.MUSCLE=GAIN"),
+    (["reflex", "fit", "--walk-es", "past-foot", "--touch-only", "--touch-response",
+      "--scr-phase", "foot", "--trip-set", "wide", "--set-response", "contra_ahead.HFL=nan"],
+     "'contra_ahead.HFL=nan' is not SET.MUSCLE=GAIN"),
+    (["reflex", "fit", "--walk-es", "past-foot", "--touch-only", "--touch-response",
+      "--scr-phase", "foot", "--trip-set", "wide", "--set-response", "contra_ahead.HFL=1.5"],
+     "contra_ahead.HFL = 1.5 is not within -1 to 1"),
+    (["reflex", "fit", "--walk-es", "past-foot", "--touch-only", "--touch-response",
+      "--scr-phase", "foot", "--trip-set", "wide", "--set-response", "swing.HFL=1"],
+     "the response has no set 'swing'"),
+    (["reflex", "fit", "--walk-es", "past-foot", "--touch-only", "--touch-response",
+      "--scr-phase", "foot", "--trip-set", "wide", "--set-response", "contra.ILIO=1"],
+     "contra.ILIO: the network drives HAMS"),
+    (["reflex", "fit", "--walk-es", "past-foot", "--touch-only", "--touch-response",
+      "--scr-phase", "foot", "--trip-set", "wide", "--set-response",
+      "contra.HFL=1,contra.HFL=0"], "contra.HFL is given twice"),
 ])
 def test_reflex_errors_are_one_line(tmp_path, capsys, argv, message):
     assert main([*argv, "--out", str(tmp_path / "o")]) == 2

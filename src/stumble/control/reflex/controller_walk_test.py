@@ -218,11 +218,11 @@ def test_cli_names_the_closed_loop_network(tmp_path):
                  "--duration", "1", "--no-video", "--out", str(tmp_path / "w")]) == 0
 
 
-def test_the_default_network_is_placement_both_and_walks(tmp_path):
-    """Since 2026-12-05 a reflex trip or walk given no network runs ``placement-both``
-    (``identify.DEFAULT_NETWORK``), which walks; the open-loop identification, seed 003's
-    own method, stays ``--network open-loop`` and falls within a second; the
-    identification's figures stay the open-loop network's."""
+def test_the_default_network_is_past_swing_and_walks(tmp_path):
+    """Since 2026-12-07 a reflex trip or walk given no network runs ``past-swing``
+    (``identify.DEFAULT_NETWORK``; ``placement-both`` from 2026-12-05), which walks; the
+    open-loop identification, seed 003's own method, stays ``--network open-loop`` and
+    falls within a second; the identification's figures stay the open-loop network's."""
     import json
 
     from stumble.cli import main
@@ -232,8 +232,8 @@ def test_the_default_network_is_placement_both_and_walks(tmp_path):
         fit_summary,
     )
 
-    assert DEFAULT_NETWORK == "placement-both" and default_network() is default_network(
-        "placement-both")
+    assert DEFAULT_NETWORK == "past-swing" and default_network() is default_network(
+        "past-swing")
     assert fit_summary() == dict(default_network("open-loop").info)
     assert main(["reflex", "walk", "--duration", "3", "--no-video",
                  "--out", str(tmp_path / "d")]) == 0
@@ -496,3 +496,56 @@ def test_the_network_fitted_past_the_box_lowers_and_gets_past_it():
     box = m.geom("obstacle").id
     assert r.summary["stop_reason"] == "recovered"
     assert r.recording.com[-1, 0] > m.geom_pos[box, 0] + m.geom_size[box, 0]
+
+
+def test_the_network_that_swings_the_other_leg_recovers_lowering_trips_past_foot_does_not():
+    """``--network past-swing`` (the default since 2026-12-07): ``past-foot`` with its
+    response to a touch of the foot ahead swinging the other leg through (``contra_ahead``:
+    HFL 1, GLU -1, HAMS -1, VAS -1, set by hand, ``reflex fit --set-response``, recorded;
+    the fit had braced that leg, GLU 1 and HFL -1), every other gain ``past-foot``'s and
+    its walk ``placement-walk``'s bit for bit. Tripped in its own gait at 0.70 of swing,
+    1.2 m/s, ``past-foot`` does not recover; ``past-swing`` lowers and walks on 3 s past
+    the box (docs/reflex-network.md: 30 of the 45, 8 by lowering; ``past-foot`` 23, 1)."""
+    from stumble.control.reflex.identify import default_network
+
+    net, before = default_network("past-swing"), default_network("past-foot")
+    fit = net.info["fit"]
+    assert ("--set-response contra_ahead.GLU=-1,contra_ahead.HFL=1,contra_ahead.HAMS=-1,"
+            "contra_ahead.VAS=-1 --generations 0") in fit["command"]
+    assert fit["from"]["network"] == "past-foot" and fit["generations"] == 0
+    mine, theirs = net.info["touch_response"], before.info["touch_response"]
+    assert {k: mine["contra_ahead"][k] for k in ("HFL", "GLU", "HAMS", "VAS")} == {
+        "HFL": 1.0, "GLU": -1.0, "HAMS": -1.0, "VAS": -1.0}
+    assert (theirs["contra_ahead"]["GLU"], theirs["contra_ahead"]["HFL"]) == (1.0, -1.0)
+    assert {k: v for k, v in mine.items() if k != "contra_ahead"} == {
+        k: v for k, v in theirs.items() if k != "contra_ahead"}
+    a, b = (simulate_walk("network", 2.0, network=n).recording.qpos
+            for n in (net, default_network("placement-walk")))
+    assert np.array_equal(a, b)
+    sc = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=0.7,
+                  speed_m_per_s=1.2, start="own")
+    assert not simulate_trip(sc, network=before).summary["recovered"]
+    r = simulate_trip(sc, network=net)
+    assert r.summary["strategy"] == "lowering" and r.summary["stop_reason"] == "recovered"
+    m = r.body.model
+    box = m.geom("obstacle").id
+    assert r.recording.com[-1, 0] > m.geom_pos[box, 0] + m.geom_size[box, 0]
+
+
+def test_the_recorded_set_response_stage_remakes_past_swing(tmp_path):
+    """``past-swing``'s recorded command (``--set-response ... --generations 0`` from
+    ``past-foot``), run again, writes the shipped network: weights and response equal."""
+    import shlex
+
+    from stumble.cli import main
+    from stumble.control.reflex.identify import default_network
+    from stumble.control.reflex.network import Network
+
+    shipped = default_network("past-swing")
+    argv = shlex.split(shipped.info["fit"]["command"].replace("DIR", str(tmp_path / "o")))
+    assert argv[:3] == ["stumble", "reflex", "fit"]
+    assert main([*argv[1:], "--no-video", "--workers", "1"]) == 0
+    made = Network.load(tmp_path / "o" / "network.npz")
+    assert made.info["touch_response"] == shipped.info["touch_response"]
+    for k in ("w", "b", "v", "c", "mean", "std"):
+        assert np.array_equal(getattr(made, k), getattr(shipped, k))

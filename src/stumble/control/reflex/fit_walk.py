@@ -55,6 +55,8 @@ from pathlib import Path
 
 import numpy as np
 
+from stumble.errors import InputError
+
 # the physics step (s) of the network's closed-loop fits and DAgger's judging (every
 # shipped network was refined at it; runs default to 2 ms, ``trip.DEFAULT_TIMESTEP_S``);
 # GH2010 fits take their set's (``GH2010Params.timestep_s``, ``--timestep``)
@@ -1253,6 +1255,31 @@ NETWORK_ES_WALK_S = 15.0
 NETWORK_ES_SIGMA = 0.3
 
 
+def parse_set_response(text: str) -> dict:
+    """``reflex fit --set-response``'s ``SET.MUSCLE=GAIN[,...]`` as ``{set: {muscle:
+    gain}}`` (checked against a network by ``Network.with_response_gains``)."""
+    out: dict = {}
+    for item in (text or "").split(","):
+        key, eq, value = item.strip().partition("=")
+        k, dot, m = key.strip().partition(".")
+        try:
+            v = float(value)
+        except ValueError:
+            v = None
+        if not (eq and dot and k and m and v is not None and math.isfinite(v)):
+            raise InputError(f"--set-response: {item.strip()!r} is not SET.MUSCLE=GAIN "
+                             "(e.g. contra_ahead.HFL=1)")
+        if m.strip() in out.get(k.strip(), {}):
+            raise InputError(f"--set-response: {k.strip()}.{m.strip()} is given twice")
+        out.setdefault(k.strip(), {})[m.strip()] = v
+    return out
+
+
+def set_response_text(gains: dict) -> str:
+    """``parse_set_response``'s text of ``{set: {muscle: gain}}``, in their order."""
+    return ",".join(f"{k}.{m}={v:g}" for k, g in gains.items() for m, v in g.items())
+
+
 def fit_network_es(start, start_from: dict, seed: int = 0,
                    generations: int = NETWORK_ES_GENERATIONS, workers: int = 1,
                    out: Path | None = None, progress=None, knee_weight: float = W_KNEE,
@@ -1266,7 +1293,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    ahead_from: tuple | None = None, trip_sample: int | None = None,
                    cross_step: bool = False, cross_only: bool = False,
                    delay_walks: tuple = (), pushes: bool = False,
-                   trunk_weight: float = 0.0, past_obstacle: bool = False):
+                   trunk_weight: float = 0.0, past_obstacle: bool = False,
+                   set_response: dict | None = None):
     """CMA-ES on ``network_space(start, interneuron_biases, touch_only, touch_response)``:
     each candidate walks
     ``NETWORK_ES_WALK_S`` from the 1.2 m/s recording (and 10 s from each of ``starts``) at
@@ -1305,6 +1333,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
     (``init_walk_eval``'s, as Geyer & Herr's ``--pushes``; not with ``touch_only``);
     ``trunk_weight``: ``walk_cost``'s trunk term (0, none; not with ``touch_only``);
     ``past_obstacle``: the trips recover only past the box (``trip_outcome``);
+    ``set_response``: ``{set: {muscle: gain}}`` of the touch response set by hand first
+    (``Network.with_response_gains``; with ``generations`` 0, the result);
     writes ``network.npz``,
     ``history.jsonl`` and ``best.json`` to ``out`` when given."""
     import tempfile
@@ -1340,6 +1370,10 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
         start = start.with_cross_step()
     if cross_only and not (touch_only and cross_step):
         raise ValueError("cross_only is for touch_only with cross_step")
+    if set_response:
+        if not touch_response:
+            raise ValueError("set_response is for touch_response")
+        start = start.with_response_gains(set_response)
     space = network_space(start, interneuron_biases=interneuron_biases,
                           touch_only=touch_only, touch_response=touch_response,
                           cross_only=cross_only)
@@ -1395,6 +1429,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
         opts.append("--cross-step")
     if cross_only:
         opts.append("--cross-only")
+    if set_response:
+        opts.append(f"--set-response {set_response_text(set_response)}")
     if track_limit_deg is not None:
         opts.append(f"--track-limit {track_limit_deg:g}")
     if trunk_weight:
@@ -1437,6 +1473,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    "touch_afferent": bool(start.topology.touch), "touch_only": touch_only,
                    "touch_response": touch_response,
                    **({"ahead_from": ahead_from[1]} if ahead_from is not None else {}),
+                   **({"set_response": set_response_text(set_response)}
+                      if set_response else {}),
                    **({"trip_sample": trip_sample, "result": "the search's mean at the "
                        "end, judged on the whole trip set"} if trip_sample else {}),
                    "track_limit_deg": track_limit_deg,

@@ -139,6 +139,13 @@ SHIPPED_CROSS_ENTROPY_S1_FOOT = "network_cross_entropy_s1_foot.npz"
 # trips, 1 by lowering past the box, 14 of the 28 held out (``placement-both``: 18 and
 # 9); its walk placement-walk's (docs/reflex-network.md)
 SHIPPED_PAST_FOOT = "network_past_foot.npz"
+# ``past-foot`` with the other leg swung through after a touch of the foot ahead (its
+# ``contra_ahead`` hip set by hand, ``reflex fit --set-response``: HFL 1, GLU -1, HAMS -1,
+# VAS -1, where the fit had left GLU 1 and HFL -1, bracing that leg while the tripped
+# foot is lowered; 2026-12-07, twenty-third session, read from the lowering trips): 30
+# of the 45 own-gait trips, 8 by lowering, 18 of the 28 held out, 76 of the 116 of the
+# pool (``past-foot``: 23, 14, 57); its walk placement-walk's (docs/reflex-network.md)
+SHIPPED_PAST_SWING = "network_past_swing.npz"
 NETWORK_NAMES = {"open-loop": SHIPPED, "closed-loop": SHIPPED_CLOSED_LOOP,
                  "placement": SHIPPED_PLACEMENT, "placement-es": SHIPPED_PLACEMENT_ES,
                  "placement-walk": SHIPPED_PLACEMENT_WALK,
@@ -149,15 +156,16 @@ NETWORK_NAMES = {"open-loop": SHIPPED, "closed-loop": SHIPPED_CLOSED_LOOP,
                  "cross-entropy-foot": SHIPPED_CROSS_ENTROPY_FOOT,
                  "cross-entropy-s1": SHIPPED_CROSS_ENTROPY_S1,
                  "cross-entropy-s1-foot": SHIPPED_CROSS_ENTROPY_S1_FOOT,
-                 "past-foot": SHIPPED_PAST_FOOT}
-# the network a reflex controller runs when none is given: ``placement-both`` since
-# 2026-12-05, which walks within 10 deg of the recorded stride at every joint and
-# recovers 18 of the 45 own-gait trips past the box, both strategies among them (before it,
-# ``closed-loop``, DAgger's refinement: 15.5/21.9/9.2 deg, 9 of 45; the open-loop
-# identification, seed 003's own method, falls after 0.8 s and stays ``--network
-# open-loop`` for comparison). The identification's own figures (``fit_summary``, seed 003
-# Figs. 2 and 3) stay the open-loop network's.
-DEFAULT_NETWORK = "placement-both"
+                 "past-foot": SHIPPED_PAST_FOOT, "past-swing": SHIPPED_PAST_SWING}
+# the network a reflex controller runs when none is given: ``past-swing`` since
+# 2026-12-07, which walks within 10 deg of the recorded stride at every joint and
+# recovers 30 of the 45 own-gait trips past the box, 8 by lowering (before it,
+# ``placement-both`` from 2026-12-05: 18 of 45, 1 by lowering; ``closed-loop``, DAgger's
+# refinement: 15.5/21.9/9.2 deg, 9 of 45; the open-loop identification, seed 003's own
+# method, falls after 0.8 s and stays ``--network open-loop`` for comparison). The
+# identification's own figures (``fit_summary``, seed 003 Figs. 2 and 3) stay the
+# open-loop network's.
+DEFAULT_NETWORK = "past-swing"
 
 
 @dataclass
@@ -418,7 +426,7 @@ def fit(seed: int = 0, iterations: int = ITERATIONS,
 
 def default_network(name: str | None = None) -> Network:
     """A network shipped with the package, by name (``NETWORK_NAMES``; None: the default,
-    ``DEFAULT_NETWORK``, ``placement-both``): ``open-loop`` (seed 003's identification
+    ``DEFAULT_NETWORK``, ``past-swing``): ``open-loop`` (seed 003's identification
     alone, ``stumble reflex fit``, seed 0), ``closed-loop`` (``--closed-loop``, seed 0),
     ``placement`` (DAgger from the placing expert), its CMA-ES refinements
     ``placement-es`` and ``placement-walk``, and the latter with touch responses,
@@ -426,7 +434,8 @@ def default_network(name: str | None = None) -> Network:
     cross-entropy, ``cross-entropy``, and it with a touch response by the foot's place,
     ``cross-entropy-foot``; the same DAgger by seed 1, ``cross-entropy-s1``, and
     ``cross-entropy-s1-foot``; ``past-foot``, ``placement-foot``'s touch stages fitted
-    with a recovery past the box; loaded once."""
+    with a recovery past the box, and ``past-swing``, it with the other leg swung through
+    after a touch of the foot ahead; loaded once."""
     return _shipped_network(name or DEFAULT_NETWORK)
 
 

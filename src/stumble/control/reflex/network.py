@@ -335,6 +335,32 @@ class Network:
         return self._with_response({**have, "cross_hold_s": float(hold_s),
                                     TouchResponse.CROSS: {}})
 
+    def with_response_gains(self, gains: dict) -> Network:
+        """A copy whose touch response has these gains set by hand (``{set: {muscle:
+        gain}}``, each within -1 to 1, as the fitted ones; ``reflex fit --set-response``),
+        the rest as it was."""
+        from stumble.control.reflex.controller import TouchResponse
+
+        have = (self.info or {}).get("touch_response")
+        if have is None:
+            raise InputError("--set-response: the network has no touch response "
+                             "(--touch-response)")
+        sets = TouchResponse.from_info({"touch_response": have}, self.topology.muscles,
+                                       self.topology.rate_hz).sets
+        resp = dict(have)
+        for k, g in gains.items():
+            if k not in sets:
+                raise InputError(f"--set-response: the response has no set {k!r} (it has "
+                                 f"{', '.join(sets)})")
+            for m, v in g.items():
+                if m not in self.topology.muscles:
+                    raise InputError(f"--set-response: {k}.{m}: the network drives "
+                                     f"{', '.join(self.topology.muscles)}")
+                if not (isinstance(v, (int, float)) and math.isfinite(v) and -1 <= v <= 1):
+                    raise InputError(f"--set-response: {k}.{m} = {v!r} is not within -1 to 1")
+            resp[k] = {**(have.get(k) or {}), **{m: float(v) for m, v in g.items()}}
+        return self._with_response(resp)
+
     def _with_response(self, resp: dict) -> Network:
         """A copy with the touch response ``resp`` (``info['touch_response']``), checked."""
         from stumble.control.reflex.controller import TouchResponse
