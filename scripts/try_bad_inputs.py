@@ -164,6 +164,12 @@ def cases(work: Path) -> list[tuple[str, str, list[str], bool]]:
         add("network", f"--network: {name}", ["trip", "--controller", "reflex", "--network",
                                                str(p), "--no-video", "--duration", "0.5",
                                                "--out", "o"])
+    # touch-response gains set by hand (reflex fit --set-response)
+    for spec in ["", "contra.HFL", "contra.HFL=inf", "contra.HFL=-2", "contra.XYZ=1",
+                 "nope.HFL=1", "contra.HFL=1,,", "contra=1"]:
+        add("set response", f"reflex fit --set-response {spec!r}",
+            ["reflex", "fit", "--walk-es", "past-foot", "--touch-only", "--touch-response",
+             "--trip-set", "wide", "--set-response", spec, "--out", "o"])
     # study seeds, grid sizes, time steps, time limits
     for s in [str(2**63), str(2**64), "-1", "1e30", "0:18446744073709551615:2"]:
         add("study seed", f"study --seed {s}", ["study", "--seed", s, "--out", "s"], True)

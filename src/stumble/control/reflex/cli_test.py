@@ -57,6 +57,11 @@ def test_reflex_trip_with_a_fitted_network(tmp_path):
     assert max(sto.columns["/forceset/soleus_r|tendon_force"]) > 100.0  # N
 
 
+# a touch stage on past-foot whose --set-response each case below completes
+_SET_RESPONSE = ["reflex", "fit", "--walk-es", "past-foot", "--touch-only", "--touch-response",
+                 "--scr-phase", "foot", "--trip-set", "wide", "--set-response"]
+
+
 @pytest.mark.parametrize("argv, message", [
     (["trip", "--controller", "reflex", "--strategy", "lowering"], "emerges"),
     (["trip", "--network", "x.npz"], "for --controller reflex"),
@@ -79,24 +84,13 @@ def test_reflex_trip_with_a_fitted_network(tmp_path):
     (["reflex", "fit", "--walk-es", "past-foot", "--touch-only", "--trip-set", "wide",
       "--set-response", "contra_ahead.HFL=1"], "--set-response is for --controller network "
      "--walk-es --touch-response"),
-    (["reflex", "fit", "--walk-es", "past-foot", "--touch-only", "--touch-response",
-      "--scr-phase", "foot", "--trip-set", "wide", "--set-response", "contra_ahead.HFL"],
-     "'contra_ahead.HFL' is not SET.MUSCLE=GAIN"),
-    (["reflex", "fit", "--walk-es", "past-foot", "--touch-only", "--touch-response",
-      "--scr-phase", "foot", "--trip-set", "wide", "--set-response", "contra_ahead.HFL=nan"],
-     "'contra_ahead.HFL=nan' is not SET.MUSCLE=GAIN"),
-    (["reflex", "fit", "--walk-es", "past-foot", "--touch-only", "--touch-response",
-      "--scr-phase", "foot", "--trip-set", "wide", "--set-response", "contra_ahead.HFL=1.5"],
-     "contra_ahead.HFL = 1.5 is not within -1 to 1"),
-    (["reflex", "fit", "--walk-es", "past-foot", "--touch-only", "--touch-response",
-      "--scr-phase", "foot", "--trip-set", "wide", "--set-response", "swing.HFL=1"],
-     "the response has no set 'swing'"),
-    (["reflex", "fit", "--walk-es", "past-foot", "--touch-only", "--touch-response",
-      "--scr-phase", "foot", "--trip-set", "wide", "--set-response", "contra.ILIO=1"],
-     "contra.ILIO: the network drives HAMS"),
-    (["reflex", "fit", "--walk-es", "past-foot", "--touch-only", "--touch-response",
-      "--scr-phase", "foot", "--trip-set", "wide", "--set-response",
-      "contra.HFL=1,contra.HFL=0"], "contra.HFL is given twice"),
+    *[([*_SET_RESPONSE, spec], words) for spec, words in (
+        ("contra_ahead.HFL", "'contra_ahead.HFL' is not SET.MUSCLE=GAIN"),
+        ("contra_ahead.HFL=nan", "'contra_ahead.HFL=nan' is not SET.MUSCLE=GAIN"),
+        ("contra_ahead.HFL=1.5", "contra_ahead.HFL = 1.5 is not within -1 to 1"),
+        ("swing.HFL=1", "the response has no set 'swing'"),
+        ("contra.ILIO=1", "contra.ILIO: the network drives HAMS"),
+        ("contra.HFL=1,contra.HFL=0", "contra.HFL is given twice"))],
 ])
 def test_reflex_errors_are_one_line(tmp_path, capsys, argv, message):
     assert main([*argv, "--out", str(tmp_path / "o")]) == 2
