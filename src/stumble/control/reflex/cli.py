@@ -289,6 +289,11 @@ def add_reflex_parser(sub, parser_class=argparse.ArgumentParser) -> None:
                    "only with the body past the box at 3 s, as the trip summaries count "
                    "since 2026-12-07 (default: still walking 3 s after the trip, as the "
                    "shipped fits were made, so that their commands re-run bit for bit)")
+    f.add_argument("--max-tilt", type=float, default=None, metavar="DEG",
+                   help="network --walk-es --trip-set: a trip recovers only with the trunk "
+                   "within DEG of vertical when the recovery foot lands (5-90; people "
+                   "recover within about 23-26, the limit issue 11 sets the state "
+                   "machines; ours, off by default)")
     f.add_argument("--recovery-cost", type=_weight, default=None, metavar="W",
                    help="gh2010 --trips, network --walk-es --trip-set: each of the "
                    "stage's trips not recovered costs W "
@@ -632,9 +637,13 @@ def cmd_reflex_fit_network_es(args) -> int:
     for flag, v in (("--strategy-cost", args.strategy_cost),
                     ("--recovery-cost", args.recovery_cost),
                     ("--trip-start", args.trip_start),
-                    ("--past-obstacle", args.past_obstacle or None)):
+                    ("--past-obstacle", args.past_obstacle or None),
+                    ("--max-tilt", args.max_tilt)):
         if v is not None and not trips:
             raise InputError(f"{flag} needs --trip-set")
+    if args.max_tilt is not None and not (math.isfinite(args.max_tilt)
+                                          and 5.0 <= args.max_tilt <= 90.0):
+        raise InputError(f"--max-tilt must be 5-90 degrees, got {args.max_tilt}")
     if args.track_limit is not None and not (math.isfinite(args.track_limit)
                                              and args.track_limit > 0):
         raise InputError(f"--track-limit must be a number of degrees > 0, got "
@@ -667,7 +676,8 @@ def cmd_reflex_fit_network_es(args) -> int:
                               track_limit_deg=args.track_limit, delay_walks=delay_walks,
                               pushes=args.pushes, trunk_weight=args.trunk_weight or 0.0,
                               past_obstacle=args.past_obstacle,
-                              set_response=set_response, **costs)
+                              set_response=set_response, max_tilt_deg=args.max_tilt,
+                              **costs)
     bar.done()
     walk = simulate_walk("network", 20.0, network=net)
     report = dict(net.info["fit"])
@@ -742,6 +752,8 @@ def cmd_reflex(args) -> int:
     if args.ahead_from is not None and (args.walk_es is None or args.controller == "gh2010"):
         raise InputError("--ahead-from is for --controller network --walk-es "
                          "--touch-response --scr-phase foot")
+    if args.max_tilt is not None and (args.walk_es is None or args.controller == "gh2010"):
+        raise InputError("--max-tilt is for --controller network --walk-es --trip-set")
     if args.set_response is not None and (args.walk_es is None or args.controller == "gh2010"
                                           or not args.touch_response):
         raise InputError("--set-response is for --controller network --walk-es "

@@ -91,6 +91,15 @@ _SET_RESPONSE = ["reflex", "fit", "--walk-es", "past-foot", "--touch-only", "--t
         ("swing.HFL=1", "the response has no set 'swing'"),
         ("contra.ILIO=1", "contra.ILIO: the network drives HAMS"),
         ("contra.HFL=1,contra.HFL=0", "contra.HFL is given twice"))],
+    # a trip stage's trunk limit: network --walk-es with trips, 5-90 degrees
+    (["reflex", "fit", "--walk-es", "past-swing", "--max-tilt", "26"],
+     "--max-tilt needs --trip-set"),
+    (["reflex", "fit", "--walk-es", "past-swing", "--trip-set", "wide", "--max-tilt", "nan"],
+     "--max-tilt must be 5-90 degrees, got nan"),
+    (["reflex", "fit", "--walk-es", "past-swing", "--trip-set", "wide", "--max-tilt", "2"],
+     "--max-tilt must be 5-90 degrees, got 2.0"),
+    (["reflex", "fit", "--controller", "gh2010", "--trips", "--max-tilt", "26"],
+     "--max-tilt is for --controller network --walk-es --trip-set"),
 ])
 def test_reflex_errors_are_one_line(tmp_path, capsys, argv, message):
     assert main([*argv, "--out", str(tmp_path / "o")]) == 2

@@ -453,7 +453,7 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                    track_limit_deg: float | None = None,
                    names: tuple[str, ...] | None = None,
                    delay_walks: tuple = (), trunk_weight: float = 0.0,
-                   past_obstacle: bool = False) -> None:
+                   past_obstacle: bool = False, max_tilt_deg: float | None = None) -> None:
     """Worker set-up: what ``evaluate_walk`` simulates: a walk, and the obstacle trips
     ``trips`` ((swing fraction, speed) pairs) the walker must walk on from; GH2010
     candidates in ``gh2010_space(stumble_reflex=...)``; ``strategy_cost``: what a trip in
@@ -475,7 +475,8 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
     candidate also walks ``PUSH_WALK_S`` from the same start with its delays × each of
     these (``push_term``); ``trunk_weight``: ``walk_cost``'s; ``past_obstacle``: a trip
     recovers only past the box (``trip_outcome``; the summaries' rule since 2026-12-07,
-    off for the fits made before it)."""
+    off for the fits made before it); ``max_tilt_deg``: nor with the trunk further than
+    this from vertical at recovery-foot contact (``trip_outcome``)."""
     from stumble.pipeline import WalkInCache
 
     _EVAL.pop("walk", None)
@@ -492,7 +493,8 @@ def init_walk_eval(kind: str, duration_s: float, speed_m_per_s: float, base: dic
                  timestep_s=timestep_s, trip_start=trip_start,
                  track_limit_deg=track_limit_deg, names=names,
                  delay_walks=tuple(map(float, delay_walks)),
-                 trunk_weight=float(trunk_weight), past_obstacle=bool(past_obstacle))
+                 trunk_weight=float(trunk_weight), past_obstacle=bool(past_obstacle),
+                 max_tilt_deg=max_tilt_deg)
 
 
 def _candidate(theta) -> tuple:
@@ -581,7 +583,8 @@ def _trip_part(theta, swing: float, speed: float) -> tuple[float, str | None]:
     return trip_outcome(_EVAL["kind"], swing, speed, params, net,
                         walk_in_cache=_EVAL.get("walk_ins"), start=_EVAL.get("trip_start"),
                         timestep_s=_EVAL.get("timestep_s"),
-                        past_obstacle=_EVAL.get("past_obstacle", False))
+                        past_obstacle=_EVAL.get("past_obstacle", False),
+                        max_tilt_deg=_EVAL.get("max_tilt_deg"))
 
 
 def _with_trips(cost: float, terms: dict, trips: tuple, outcomes) -> tuple[float, dict]:
@@ -729,7 +732,8 @@ def trip_walked_s(kind: str, swing: float, speed: float, params=None, network=No
 def trip_outcome(kind: str, swing: float, speed: float, params=None, network=None,
                  start: str | None = None, walk_in_cache=None,
                  timestep_s: float | None = None,
-                 past_obstacle: bool = False) -> tuple[float, str | None]:
+                 past_obstacle: bool = False,
+                 max_tilt_deg: float | None = None) -> tuple[float, str | None]:
     """``trip_walked_s`` and the strategy read from the motion (the trip summary's
     ``strategy``: elevating, lowering, or None when the tripped foot never came down, the
     trip could not be set or the walker fell before it). ``walk_in_cache``: a
@@ -738,7 +742,10 @@ def trip_outcome(kind: str, swing: float, speed: float, params=None, network=Non
     ``past_obstacle``: a recovery needs the body past the box, as the trip summaries ask
     since 2026-12-07 (``--past-obstacle``); without it a trip counts as the fits made
     before counted it, still walking 3 s after the trip, so that their recorded commands
-    re-run bit for bit (docs/reflex.md)."""
+    re-run bit for bit (docs/reflex.md); ``max_tilt_deg``: nor a recovery whose trunk was
+    further than this from vertical when the recovery foot landed (``--max-tilt``; people
+    recover within about 23-26 deg, van den Bogert et al. 2002, the limit issue 11 sets
+    the state machines): it costs as a trip walked on but not recovered."""
     from stumble.errors import TripNotSet
     from stumble.pipeline import simulate_trip
     from stumble.trip import Scenario
@@ -756,6 +763,10 @@ def trip_outcome(kind: str, swing: float, speed: float, params=None, network=Non
     if s.get("trip_time_s") is None:  # fell before the trip
         return 0.0, None
     strategy = s.get("strategy")
+    tilt = s.get("trunk_tilt_at_recovery_contact_deg")
+    if (s["recovered"] and max_tilt_deg is not None and tilt is not None
+            and tilt > max_tilt_deg):
+        return float(min(s["sim_time_s"], WALK_ON_TRIP_S - 1e-3)), strategy
     if s["recovered"]:
         return WALK_ON_TRIP_S, strategy
     if s["stop_reason"] == "stopped walking":  # upright but not walking on: half
@@ -1294,7 +1305,7 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    cross_step: bool = False, cross_only: bool = False,
                    delay_walks: tuple = (), pushes: bool = False,
                    trunk_weight: float = 0.0, past_obstacle: bool = False,
-                   set_response: dict | None = None):
+                   set_response: dict | None = None, max_tilt_deg: float | None = None):
     """CMA-ES on ``network_space(start, interneuron_biases, touch_only, touch_response)``:
     each candidate walks
     ``NETWORK_ES_WALK_S`` from the 1.2 m/s recording (and 10 s from each of ``starts``) at
@@ -1335,6 +1346,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
     ``past_obstacle``: the trips recover only past the box (``trip_outcome``);
     ``set_response``: ``{set: {muscle: gain}}`` of the touch response set by hand first
     (``Network.with_response_gains``; with ``generations`` 0, the result);
+    ``max_tilt_deg``: a trip's recovery counts only with the trunk within this of vertical
+    at recovery-foot contact (``trip_outcome``);
     writes ``network.npz``,
     ``history.jsonl`` and ``best.json`` to ``out`` when given."""
     import tempfile
@@ -1403,7 +1416,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                           trip_start=trip_start, track_limit_deg=track_limit_deg,
                           touch_only=touch_only, names=tuple(space.names),
                           delay_walks=tuple(delay_walks), pushes=pushes,
-                          trunk_weight=trunk_weight, past_obstacle=past_obstacle),
+                          trunk_weight=trunk_weight, past_obstacle=past_obstacle,
+                          max_tilt_deg=max_tilt_deg),
                       stage="walk+trips" if trips else "walk", sample=sample,
                       split=WALK_SPLIT)
     net = network_with(start, res.best_theta, space.names)
@@ -1449,6 +1463,8 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
             opts.append(f"--trip-sample {trip_sample}")
         if past_obstacle:
             opts.append("--past-obstacle")
+        if max_tilt_deg is not None:
+            opts.append(f"--max-tilt {max_tilt_deg:g}")
     command = " ".join(["stumble reflex fit --controller network --walk-es",
                         str(start_from.get("network")), *opts, f"--seed {seed} --out DIR"])
     info = dict(net.info)
@@ -1480,6 +1496,7 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                    "track_limit_deg": track_limit_deg,
                    **({"trunk_weight": trunk_weight} if trunk_weight else {}),
                    **({"past_obstacle": True} if past_obstacle else {}),
+                   **({"max_tilt_deg": max_tilt_deg} if max_tilt_deg is not None else {}),
                    "cost": res.best_cost, "terms": res.best_terms,
                    "wall_time_s": round(res.wall_time_s, 1), "command": command}
     from dataclasses import replace as _replace

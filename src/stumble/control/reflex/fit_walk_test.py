@@ -1186,3 +1186,20 @@ def test_a_trip_stage_counts_a_recovery_past_the_box_only_when_asked():
     cmd = _fit_command("seed003", True, TRIP_STAGES, None, 0, past_obstacle=True)
     assert "--past-obstacle" in cmd
     assert "--past-obstacle" not in _fit_command("seed003", True, TRIP_STAGES, None, 0)
+
+
+def test_a_recovery_with_the_trunk_past_the_limit_is_not_one_for_a_tilt_limited_stage():
+    """``trip_outcome(max_tilt_deg=...)`` (``reflex fit --max-tilt``): ``past-swing``'s
+    lowering trip at 0.70 of swing, 1.2 m/s recovers with the trunk 30.3 deg from vertical
+    at recovery-foot contact: a recovery without a limit and within 35 deg, not within
+    26 deg (people's, van den Bogert et al. 2002), where it costs as walked on 3 s but
+    not recovered."""
+    from stumble.control.reflex.fit_walk import WALK_ON_TRIP_S, trip_outcome
+    from stumble.control.reflex.identify import default_network
+
+    net = default_network("past-swing")
+    kw = {"network": net, "start": "own", "timestep_s": 0.002, "past_obstacle": True}
+    assert trip_outcome("network", 0.7, 1.2, **kw) == (WALK_ON_TRIP_S, "lowering")
+    assert trip_outcome("network", 0.7, 1.2, max_tilt_deg=35.0, **kw)[0] == WALK_ON_TRIP_S
+    walked, strategy = trip_outcome("network", 0.7, 1.2, max_tilt_deg=26.0, **kw)
+    assert strategy == "lowering" and WALK_ON_TRIP_S - 0.01 < walked < WALK_ON_TRIP_S
