@@ -170,6 +170,10 @@ def cases(work: Path) -> list[tuple[str, str, list[str], bool]]:
         add("set response", f"reflex fit --set-response {spec!r}",
             ["reflex", "fit", "--walk-es", "past-foot", "--touch-only", "--touch-response",
              "--trip-set", "wide", "--set-response", spec, "--out", "o"])
+    for t in ["nan", "2", "abc", "1e9"]:  # a trip stage's trunk limit (reflex fit --max-tilt)
+        add("set response", f"reflex fit --max-tilt {t!r}",
+            ["reflex", "fit", "--walk-es", "past-swing", "--touch-only", "--touch-response",
+             "--trip-set", "wide", "--max-tilt", t, "--out", "o"])
     # study seeds, grid sizes, time steps, time limits
     for s in [str(2**63), str(2**64), "-1", "1e30", "0:18446744073709551615:2"]:
         add("study seed", f"study --seed {s}", ["study", "--seed", s, "--out", "s"], True)
