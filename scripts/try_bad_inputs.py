@@ -164,14 +164,14 @@ def cases(work: Path) -> list[tuple[str, str, list[str], bool]]:
         add("network", f"--network: {name}", ["trip", "--controller", "reflex", "--network",
                                                str(p), "--no-video", "--duration", "0.5",
                                                "--out", "o"])
-    # touch-response gains set by hand (reflex fit --set-response)
+    # touch stages: gains set by hand (reflex fit --set-response), a trunk limit (--max-tilt)
     for spec in ["", "contra.HFL", "contra.HFL=inf", "contra.HFL=-2", "contra.XYZ=1",
                  "nope.HFL=1", "contra.HFL=1,,", "contra=1"]:
-        add("set response", f"reflex fit --set-response {spec!r}",
+        add("touch stage", f"reflex fit --set-response {spec!r}",
             ["reflex", "fit", "--walk-es", "past-foot", "--touch-only", "--touch-response",
              "--trip-set", "wide", "--set-response", spec, "--out", "o"])
-    for t in ["nan", "2", "abc", "1e9"]:  # a trip stage's trunk limit (reflex fit --max-tilt)
-        add("set response", f"reflex fit --max-tilt {t!r}",
+    for t in ["nan", "2", "abc", "1e9"]:
+        add("touch stage", f"reflex fit --max-tilt {t!r}",
             ["reflex", "fit", "--walk-es", "past-swing", "--touch-only", "--touch-response",
              "--trip-set", "wide", "--max-tilt", t, "--out", "o"])
     # study seeds, grid sizes, time steps, time limits
