@@ -360,8 +360,8 @@ def add_reflex_parser(sub, parser_class=argparse.ArgumentParser) -> None:
                     "placement-walk (within 10 deg at every joint), placement-touch "
                     "(placement-walk with a touch response), placement-foot (the "
                     "response by the foot's place), past-foot (the same fitted with a "
-                    "recovery past the box), past-swing (past-foot with the other leg "
-                    "swung through after a touch of the foot ahead) or "
+                    "recovery past the box; past-swing is it with the other leg swung "
+                    "through after a touch of the foot ahead) or "
                     "open-loop (seed 003's identification alone, which "
                     "falls after 0.8 s)")
     rw.add_argument("--params", type=Path, metavar="FILE",
@@ -596,8 +596,12 @@ def cmd_reflex_fit_network_es(args) -> int:
         from stumble.control.reflex.fit_walk import parse_set_response
 
         set_response = parse_set_response(args.set_response)
-        start.with_touch_response(by_foot=args.scr_phase == "foot").with_response_gains(
-            set_response)  # checked
+        check = start.with_touch_response(by_foot=args.scr_phase == "foot")
+        if ahead_from is not None:  # in fit_network_es's order
+            check = check.with_ahead_response(ahead_from[0])
+        if args.cross_step:
+            check = check.with_cross_step()
+        check.with_response_gains(set_response)  # checked
     knee = W_KNEE if args.knee_weight is None else args.knee_weight  # within 0-MAX_WEIGHT
     track = W_TRACK if args.track_weight is None else args.track_weight
     gens = NETWORK_ES_GENERATIONS if args.generations is None else args.generations
@@ -644,6 +648,9 @@ def cmd_reflex_fit_network_es(args) -> int:
     if args.max_tilt is not None and not (math.isfinite(args.max_tilt)
                                           and 5.0 <= args.max_tilt <= 90.0):
         raise InputError(f"--max-tilt must be 5-90 degrees, got {args.max_tilt}")
+    if args.max_tilt is not None and not args.recovery_cost:
+        raise InputError("--max-tilt needs --recovery-cost W > 0: a recovery past the "
+                         "limit costs as one not recovered")
     if args.track_limit is not None and not (math.isfinite(args.track_limit)
                                              and args.track_limit > 0):
         raise InputError(f"--track-limit must be a number of degrees > 0, got "

@@ -94,6 +94,8 @@ _SET_RESPONSE = ["reflex", "fit", "--walk-es", "past-foot", "--touch-only", "--t
     # a trip stage's trunk limit: network --walk-es with trips, 5-90 degrees
     (["reflex", "fit", "--walk-es", "past-swing", "--max-tilt", "26"],
      "--max-tilt needs --trip-set"),
+    (["reflex", "fit", "--walk-es", "past-swing", "--trip-set", "wide", "--max-tilt", "26"],
+     "--max-tilt needs --recovery-cost W > 0"),
     (["reflex", "fit", "--walk-es", "past-swing", "--trip-set", "wide", "--max-tilt", "nan"],
      "--max-tilt must be 5-90 degrees, got nan"),
     (["reflex", "fit", "--walk-es", "past-swing", "--trip-set", "wide", "--max-tilt", "2"],

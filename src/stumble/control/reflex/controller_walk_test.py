@@ -344,11 +344,12 @@ def test_the_network_with_a_response_by_the_foots_place_lowers_a_late_trip():
 
 @pytest.mark.parametrize(("swing", "speed", "strategy"),
                          [(0.10, 1.2, "elevating"), (0.70, 1.0, "lowering")])
-def test_the_default_network_recovers_early_and_late_trips_with_both_strategies(
+def test_placement_both_recovers_early_and_late_trips_with_both_strategies(
         swing, speed, strategy):
-    """``--network placement-both`` (the default): ``placement-touch``'s response for a
-    touch of the foot behind, ``placement-foot``'s sets and durations for the foot ahead,
-    nothing fitted (``--generations 0``), its walk ``placement-walk``'s bit for bit.
+    """``--network placement-both`` (the default until 2026-12-07): ``placement-touch``'s
+    response for a touch of the foot behind, ``placement-foot``'s sets and durations for
+    the foot ahead, nothing fitted (``--generations 0``), its walk ``placement-walk``'s
+    bit for bit.
     Tripped in its own gait at 0.10 of swing (1.2 m/s) it elevates and at 0.70 (1.0 m/s)
     it lowers, each time walking on 3 s past the box (docs/reflex-network.md: 18 of the
     45, 1 by lowering)."""
@@ -365,11 +366,11 @@ def test_the_default_network_recovers_early_and_late_trips_with_both_strategies(
     assert fit["generations"] == 0 and fit["ahead_from"]["network"] == "placement-foot"
     assert "--ahead-from placement-foot --generations 0" in fit["command"]
     s = simulate_trip(Scenario(controller="reflex", mechanism="obstacle", swing_fraction=swing,
-                               speed_m_per_s=speed, start="own")).summary
+                               speed_m_per_s=speed, start="own"), network=net).summary
     assert s["strategy"] == strategy and s["recovered"] and not s["fell"]
 
 
-def test_the_default_networks_chain_of_commands_is_read_from_its_file():
+def test_placement_boths_chain_of_commands_is_read_from_its_file():
     """``scripts/network_chain.py`` (``reproduce.stages``): the commands that made
     ``placement-both``, oldest
     first, from ``placement`` (shipped) through six CMA-ES stages, each ``--out`` the next
@@ -549,3 +550,33 @@ def test_the_recorded_set_response_stage_remakes_past_swing(tmp_path):
     assert made.info["touch_response"] == shipped.info["touch_response"]
     for k in ("w", "b", "v", "c", "mean", "std"):
         assert np.array_equal(getattr(made, k), getattr(shipped, k))
+
+
+def test_a_touch_stage_records_its_hand_set_gains_and_trunk_limit_exactly(tmp_path):
+    """``reflex fit --set-response`` on a response given a recovery step first
+    (``--cross-step``: its ``cross`` set, checked in the order the fit builds it) and
+    ``--max-tilt``: the command records each value exactly (a gain of 0.123456789, a limit
+    of 26.5 deg), the fit's record holds them, the workers' objective was given the limit,
+    and the recorded gains parse back to the same numbers."""
+    import shlex
+
+    from stumble.cli import main
+    from stumble.control.reflex import fit_walk
+    from stumble.control.reflex.network import Network
+
+    assert main(["reflex", "fit", "--walk-es", "past-swing", "--touch-only",
+                 "--touch-response", "--scr-phase", "foot", "--cross-step",
+                 "--set-response", "cross.HFL=0.123456789,contra.GLU=-1", "--generations", "0",
+                 "--trip-set", "wide", "--recovery-cost", "10", "--past-obstacle",
+                 "--max-tilt", "26.5", "--workers", "1", "--no-video",
+                 "--out", str(tmp_path / "o")]) == 0
+    net = Network.load(tmp_path / "o" / "network.npz")
+    fit = net.info["fit"]
+    assert "--set-response cross.HFL=0.123456789,contra.GLU=-1 " in fit["command"]
+    assert "--past-obstacle --max-tilt 26.5 " in fit["command"]
+    assert fit["max_tilt_deg"] == 26.5 and fit_walk._EVAL["max_tilt_deg"] == 26.5
+    resp = net.info["touch_response"]
+    assert resp["cross"]["HFL"] == 0.123456789 and resp["contra"]["GLU"] == -1.0
+    argv = shlex.split(fit["command"])
+    got = fit_walk.parse_set_response(argv[argv.index("--set-response") + 1])
+    assert got == {"cross": {"HFL": 0.123456789}, "contra": {"GLU": -1.0}}

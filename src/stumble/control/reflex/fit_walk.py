@@ -745,7 +745,9 @@ def trip_outcome(kind: str, swing: float, speed: float, params=None, network=Non
     re-run bit for bit (docs/reflex.md); ``max_tilt_deg``: nor a recovery whose trunk was
     further than this from vertical when the recovery foot landed (``--max-tilt``; people
     recover within about 23-26 deg, van den Bogert et al. 2002, the limit issue 11 sets
-    the state machines): it costs as a trip walked on but not recovered."""
+    the state machines): it costs as a trip walked on but not recovered (so a stage with
+    it needs ``recovery_cost``); a recovery whose recovery foot's landing was not read
+    (no tilt) still counts."""
     from stumble.errors import TripNotSet
     from stumble.pipeline import simulate_trip
     from stumble.trip import Scenario
@@ -1278,17 +1280,25 @@ def parse_set_response(text: str) -> dict:
         except ValueError:
             v = None
         if not (eq and dot and k and m and v is not None and math.isfinite(v)):
-            raise InputError(f"--set-response: {item.strip()!r} is not SET.MUSCLE=GAIN "
-                             "(e.g. contra_ahead.HFL=1)")
+            raise InputError(f"--set-response {text!r}: {item.strip()!r} is not "
+                             "SET.MUSCLE=GAIN (e.g. contra_ahead.HFL=1)")
         if m.strip() in out.get(k.strip(), {}):
             raise InputError(f"--set-response: {k.strip()}.{m.strip()} is given twice")
         out.setdefault(k.strip(), {})[m.strip()] = v
     return out
 
 
+def exact_text(v: float) -> str:
+    """A number as a command records it: whole ones short (-1), others exactly (repr)."""
+    v = float(v)
+    return f"{v:g}" if v.is_integer() and abs(v) < 1e15 else repr(v)
+
+
 def set_response_text(gains: dict) -> str:
-    """``parse_set_response``'s text of ``{set: {muscle: gain}}``, in their order."""
-    return ",".join(f"{k}.{m}={v:g}" for k, g in gains.items() for m, v in g.items())
+    """``parse_set_response``'s text of ``{set: {muscle: gain}}``, in their order, each
+    gain exactly (``exact_text``), so that the recorded command re-runs bit for bit."""
+    return ",".join(f"{k}.{m}={exact_text(v)}" for k, g in gains.items()
+                    for m, v in g.items())
 
 
 def fit_network_es(start, start_from: dict, seed: int = 0,
@@ -1464,7 +1474,7 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
         if past_obstacle:
             opts.append("--past-obstacle")
         if max_tilt_deg is not None:
-            opts.append(f"--max-tilt {max_tilt_deg:g}")
+            opts.append(f"--max-tilt {exact_text(max_tilt_deg)}")
     command = " ".join(["stumble reflex fit --controller network --walk-es",
                         str(start_from.get("network")), *opts, f"--seed {seed} --out DIR"])
     info = dict(net.info)
