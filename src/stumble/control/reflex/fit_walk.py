@@ -1018,6 +1018,14 @@ def fit_gh2010(seed: int = 0, stages=None, popsize: int = GH2010_POPSIZE,
     return res
 
 
+def number_text(v: float) -> str:
+    """A number as a fit's recorded command writes it: whole ones short (-1, 5), others
+    exactly (``repr``: 0.123456789, not ``:g``'s 0.123457), so that the command re-runs
+    bit for bit; the values of every shipped command read the same either way."""
+    v = float(v)
+    return f"{v:g}" if v.is_integer() and abs(v) < 1e15 else repr(v)
+
+
 def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: int,
                  ta_bound: str = "wide", strategy_cost: float = 0.0,
                  crossing: bool = False, foot_angle: float = 0.0,
@@ -1038,17 +1046,18 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
     if stride_time:
         opts.append("--stride-time")
     if stance_weight != W_STANCE:
-        opts.append(f"--stance-weight {stance_weight:g}")
+        opts.append(f"--stance-weight {number_text(stance_weight)}")
     opts += _weight_opts(track_weight, knee_weight)
     if foot_angle:
-        opts.append("--foot-angle" if foot_angle == W_FOOT else f"--foot-angle {foot_angle:g}")
+        opts.append("--foot-angle" if foot_angle == W_FOOT
+                    else f"--foot-angle {number_text(foot_angle)}")
     if placement:
         opts.append("--placement")
     if pushes:
         opts.append("--pushes")
     opts += _starts_opts(starts)
     if timestep_s is not None:
-        opts.append(f"--timestep {timestep_s:g}")
+        opts.append(f"--timestep {number_text(timestep_s)}")
     if trips:
         named = [k for k, v in TRIP_SETS.items() if all(t == v for _g, _w, t in stages)]
         if named and named[0] != "four":
@@ -1075,22 +1084,23 @@ def _fit_command(wiring: str, trips: bool, stages, scr_phase: str | None, seed: 
 
 def _trip_cost_opts(strategy_cost: float, recovery_cost: float) -> list[str]:
     """The command-line options of a trip stage's strategy and recovery costs (0: none)."""
-    return ([f"--strategy-cost {strategy_cost:g}"] if strategy_cost else []) + (
-        [f"--recovery-cost {recovery_cost:g}"] if recovery_cost else [])
+    return ([f"--strategy-cost {number_text(strategy_cost)}"] if strategy_cost else []) + (
+        [f"--recovery-cost {number_text(recovery_cost)}"] if recovery_cost else [])
 
 
 def _weight_opts(track_weight: float, knee_weight: float,
                  knee_first: bool = False) -> list[str]:
     """The command-line options of the objective's tracking and knee weights that differ
     from their defaults (in the order each command has always written them)."""
-    opts = [*([f"--track-weight {track_weight:g}"] if track_weight != W_TRACK else []),
-            *([f"--knee-weight {knee_weight:g}"] if knee_weight != W_KNEE else [])]
+    opts = [*([f"--track-weight {number_text(track_weight)}"]
+              if track_weight != W_TRACK else []),
+            *([f"--knee-weight {number_text(knee_weight)}"] if knee_weight != W_KNEE else [])]
     return opts[::-1] if knee_first else opts
 
 
 def _starts_opts(starts: tuple) -> list[str]:
     """``--starts V,...`` when other starts are given."""
-    return ["--starts " + ",".join(f"{v:g}" for v in starts)] if starts else []
+    return ["--starts " + ",".join(number_text(v) for v in starts)] if starts else []
 
 
 # ---- the seed's network: a documented subset of its weights ---------------------------
@@ -1288,16 +1298,10 @@ def parse_set_response(text: str) -> dict:
     return out
 
 
-def exact_text(v: float) -> str:
-    """A number as a command records it: whole ones short (-1), others exactly (repr)."""
-    v = float(v)
-    return f"{v:g}" if v.is_integer() and abs(v) < 1e15 else repr(v)
-
-
 def set_response_text(gains: dict) -> str:
     """``parse_set_response``'s text of ``{set: {muscle: gain}}``, in their order, each
     gain exactly (``exact_text``), so that the recorded command re-runs bit for bit."""
-    return ",".join(f"{k}.{m}={exact_text(v)}" for k, g in gains.items()
+    return ",".join(f"{k}.{m}={number_text(v)}" for k, g in gains.items()
                     for m, v in g.items())
 
 
@@ -1432,9 +1436,9 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
                       split=WALK_SPLIT)
     net = network_with(start, res.best_theta, space.names)
     opts = [*_weight_opts(track_weight, knee_weight, knee_first=True), *_starts_opts(starts),
-            f"--timestep {step:g}"]  # the step always: the default step may change
+            f"--timestep {number_text(step)}"]  # always: the default step may change
     if delay_walks:
-        opts.append("--delay-walks " + ",".join(f"{k:g}" for k in delay_walks))
+        opts.append("--delay-walks " + ",".join(number_text(k) for k in delay_walks))
     if pushes:
         opts.append("--pushes")
     if interneuron_biases:
@@ -1456,13 +1460,13 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
     if set_response:
         opts.append(f"--set-response {set_response_text(set_response)}")
     if track_limit_deg is not None:
-        opts.append(f"--track-limit {track_limit_deg:g}")
+        opts.append(f"--track-limit {number_text(track_limit_deg)}")
     if trunk_weight:
-        opts.append(f"--trunk-weight {trunk_weight:g}")
+        opts.append(f"--trunk-weight {number_text(trunk_weight)}")
     if generations != NETWORK_ES_GENERATIONS:
         opts.append(f"--generations {generations}")
     if sigma != NETWORK_ES_SIGMA:
-        opts.append(f"--sigma {sigma:g}")
+        opts.append(f"--sigma {number_text(sigma)}")
     if trips:
         name = next((k for k, v in TRIP_SETS.items() if tuple(v) == tuple(trips)), None)
         opts.append(f"--trip-set {name}" if name else f"(trips {list(trips)})")
@@ -1474,7 +1478,7 @@ def fit_network_es(start, start_from: dict, seed: int = 0,
         if past_obstacle:
             opts.append("--past-obstacle")
         if max_tilt_deg is not None:
-            opts.append(f"--max-tilt {exact_text(max_tilt_deg)}")
+            opts.append(f"--max-tilt {number_text(max_tilt_deg)}")
     command = " ".join(["stumble reflex fit --controller network --walk-es",
                         str(start_from.get("network")), *opts, f"--seed {seed} --out DIR"])
     info = dict(net.info)
