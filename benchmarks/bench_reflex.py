@@ -3,12 +3,12 @@
 Run:  python benchmarks/bench_reflex.py [--repeats N] [--parts]
 
 For a reflex trip (CASE 1 of seed 003: obstacle at 0.13 of swing, 1.2 m/s; the network
-the default one, ``past-swing`` since 2026-12-07 (``placement-both`` before, the same
-walk), and the open-loop one for comparison with the figures before 2026-12-04) and a
-10 s and a 20 s walk of each reflex controller (``network``: the default one, from the
-1.2 m/s walk, and the closed-loop one, the default before, for comparison; ``gh2010``,
-the default set, ``knee-2ms-dense-wide-s3`` at its 2 ms since 2026-12-05, and ``knee``,
-the default before, at its 1 ms), it
+the default one, ``past-support`` since 2026-12-07 (``past-swing`` and
+``placement-both`` before, the same walk), and the open-loop one for comparison with the figures
+before 2026-12-04) and a 10 s and a 20 s walk of each reflex controller (``network``:
+the default one, from the 1.2 m/s walk, and the closed-loop one, the default before, for
+comparison; ``gh2010``, the default set, ``knee-2ms-dense-wide-s3`` at its 2 ms since
+2026-12-05, and ``knee``, the default before, at its 1 ms), it
 times the whole ``sim.run`` loop and a bare loop that replays the recorded controls on
 the same model from the same state after the controller's start, doing nothing else
 (``mj_step`` per control row): the physical limit of this engine for that motion. CPU

@@ -160,10 +160,11 @@ def _parser() -> argparse.ArgumentParser:
                    "recovery hip capped at 60 N·m in the push-off)")
     t.add_argument("--network", type=Path, metavar="FILE",
                    help="reflex controller: a network.npz from `stumble reflex fit`, or a "
-                   "shipped network: past-swing (the default: past-foot with the other "
-                   "leg swung through after a touch of the foot ahead; walks within 10 "
-                   "deg and recovers trips of both strategies past the box), "
-                   "placement-both "
+                   "shipped network: past-support (the default: past-swing with the "
+                   "support leg's GLU on after a touch of the foot behind; walks within "
+                   "10 deg and recovers trips of both strategies past the box), "
+                   "past-swing (past-foot with the other leg swung through after a touch "
+                   "of the foot ahead), placement-both "
                    "(the default before 2026-12-07: placement-touch's "
                    "response for the foot behind, placement-foot's for the foot ahead), "
                    "closed-loop (the identification refined by DAgger), placement "

@@ -59,7 +59,7 @@ def network_controller(network, pb: Playback, t: float, delay_scale: float,
         if (net.info or {}).get("touch_response") is None and delay_scale != 1.0:
             raise InputError("--delays response slows the touch response, and this "
                              "network has none (the placement-touch, placement-foot, "
-                             "placement-both, past-foot and past-swing networks have one)")
+                             "placement-both and past-* networks have one)")
         net = net.with_delay_scale(delay_scale, response_only=True)
         delay_scale = 1.0  # the nerves and the trunk balance at their own
     else:

@@ -352,7 +352,7 @@ def add_reflex_parser(sub, parser_class=argparse.ArgumentParser) -> None:
                     "trip names it, is the same); gh2010: Geyer & Herr 2010's reflexes")
     rw.add_argument("--network", type=Path, metavar="FILE",
                     help="network controller: a network.npz, or a shipped network: "
-                    "past-swing (the default: walks within 10 deg and recovers "
+                    "past-support (the default: walks within 10 deg and recovers "
                     "trips of both strategies past the box), placement-both (the default "
                     "before 2026-12-07), closed-loop (refined by DAgger), "
                     "placement (refined from a "
@@ -361,7 +361,8 @@ def add_reflex_parser(sub, parser_class=argparse.ArgumentParser) -> None:
                     "(placement-walk with a touch response), placement-foot (the "
                     "response by the foot's place), past-foot (the same fitted with a "
                     "recovery past the box; past-swing is it with the other leg swung "
-                    "through after a touch of the foot ahead) or "
+                    "through after a touch of the foot ahead, past-support it with the "
+                    "support leg's GLU on after a touch of the foot behind) or "
                     "open-loop (seed 003's identification alone, which "
                     "falls after 0.8 s)")
     rw.add_argument("--params", type=Path, metavar="FILE",
@@ -389,7 +390,7 @@ def add_reflex_parser(sub, parser_class=argparse.ArgumentParser) -> None:
     rp.add_argument("name", metavar="NAME",
                     help="a shipped set (e.g. knee-2ms-dense-wide-s3, the Geyer & Herr "
                     "default: five fits from the paper's gains, about 16-32 min on 2 "
-                    "workers) or network (e.g. past-swing, the default: twelve fits "
+                    "workers) or network (e.g. past-support, the default: thirteen fits "
                     "from the paper's gains through its expert and DAgger, about "
                     "67-110 min)")
     rp.add_argument("--out", required=True, type=out_dir_arg, metavar="DIR",

@@ -218,9 +218,10 @@ def test_cli_names_the_closed_loop_network(tmp_path):
                  "--duration", "1", "--no-video", "--out", str(tmp_path / "w")]) == 0
 
 
-def test_the_default_network_is_past_swing_and_walks(tmp_path):
-    """Since 2026-12-07 a reflex trip or walk given no network runs ``past-swing``
-    (``identify.DEFAULT_NETWORK``; ``placement-both`` from 2026-12-05), which walks; the
+def test_the_default_network_is_past_support_and_walks(tmp_path):
+    """Since 2026-12-07 a reflex trip or walk given no network runs ``past-support``
+    (``identify.DEFAULT_NETWORK``; ``past-swing`` earlier that day, ``placement-both``
+    from 2026-12-05), which walks; the
     open-loop identification, seed 003's own method, stays ``--network open-loop`` and
     falls within a second; the identification's figures stay the open-loop network's."""
     import json
@@ -232,8 +233,8 @@ def test_the_default_network_is_past_swing_and_walks(tmp_path):
         fit_summary,
     )
 
-    assert DEFAULT_NETWORK == "past-swing" and default_network() is default_network(
-        "past-swing")
+    assert DEFAULT_NETWORK == "past-support" and default_network() is default_network(
+        "past-support")
     assert fit_summary() == dict(default_network("open-loop").info)
     assert main(["reflex", "walk", "--duration", "3", "--no-video",
                  "--out", str(tmp_path / "d")]) == 0
@@ -500,7 +501,7 @@ def test_the_network_fitted_past_the_box_lowers_and_gets_past_it():
 
 
 def test_the_network_that_swings_the_other_leg_recovers_lowering_trips_past_foot_does_not():
-    """``--network past-swing`` (the default since 2026-12-07): ``past-foot`` with its
+    """``--network past-swing`` (the default for part of 2026-12-07): ``past-foot`` with its
     response to a touch of the foot ahead swinging the other leg through (``contra_ahead``:
     HFL 1, GLU -1, HAMS -1, VAS -1, set by hand, ``reflex fit --set-response``, recorded;
     the fit had braced that leg, GLU 1 and HFL -1), every other gain ``past-foot``'s and
@@ -533,16 +534,54 @@ def test_the_network_that_swings_the_other_leg_recovers_lowering_trips_past_foot
     assert r.recording.com[-1, 0] > m.geom_pos[box, 0] + m.geom_size[box, 0]
 
 
-def test_the_recorded_set_response_stage_remakes_past_swing(tmp_path):
-    """``past-swing``'s recorded command (``--set-response ... --generations 0`` from
-    ``past-foot``), run again, writes the shipped network: weights and response equal."""
+def test_the_support_legs_hip_extensor_recovers_trips_past_swing_loses():
+    """``--network past-support`` (the default since 2026-12-07, twenty-fourth session):
+    ``past-swing`` with, after a touch of the foot behind, the support leg's GLU on
+    (``contra``: 1, fitted 0.07) and the tripped leg's VAS off (``ipsi``: 0, fitted -0.46),
+    set by hand and recorded; every other gain ``past-swing``'s, its walk
+    ``placement-walk``'s bit for bit. Of the 45 it gains two trips and loses none
+    (docs/reflex-network.md: 32, 9 by lowering): 0.40 of swing at 1.2 m/s, which
+    ``past-swing`` elevates and falls from, and 0.75 at 1.0 m/s, lowered; each recovers
+    past the box."""
+    from stumble.control.reflex.identify import default_network
+
+    net, before = default_network("past-support"), default_network("past-swing")
+    fit = net.info["fit"]
+    assert "--set-response contra.GLU=1,ipsi.VAS=0 --generations 0" in fit["command"]
+    assert fit["from"]["network"] == "past-swing" and fit["generations"] == 0
+    mine, theirs = net.info["touch_response"], before.info["touch_response"]
+    assert (mine["contra"]["GLU"], mine["ipsi"]["VAS"]) == (1.0, 0.0)
+    assert theirs["contra"]["GLU"] == pytest.approx(0.0736, abs=1e-4)
+    assert theirs["ipsi"]["VAS"] == pytest.approx(-0.4635, abs=1e-4)
+    assert {k: v for k, v in mine.items() if k not in ("contra", "ipsi")} == {
+        k: v for k, v in theirs.items() if k not in ("contra", "ipsi")}
+    a, b = (simulate_walk("network", 2.0, network=n).recording.qpos
+            for n in (net, default_network("placement-walk")))
+    assert np.array_equal(a, b)
+    for swing, speed, strategy in ((0.4, 1.2, "elevating"), (0.75, 1.0, "lowering")):
+        sc = Scenario(controller="reflex", mechanism="obstacle", swing_fraction=swing,
+                      speed_m_per_s=speed, start="own")
+        assert simulate_trip(sc, network=before).summary["stop_reason"] == "fell"
+        r = simulate_trip(sc, network=net)
+        assert r.summary["strategy"] == strategy
+        assert r.summary["stop_reason"] == "recovered"
+        m = r.body.model
+        box = m.geom("obstacle").id
+        assert r.recording.com[-1, 0] > m.geom_pos[box, 0] + m.geom_size[box, 0]
+
+
+@pytest.mark.parametrize("name", ["past-swing", "past-support"])
+def test_the_recorded_set_response_stage_remakes_the_shipped_network(name, tmp_path):
+    """A network's recorded command (``--set-response ... --generations 0`` from the one
+    before: ``past-foot`` for ``past-swing``, ``past-swing`` for ``past-support``), run
+    again, writes the shipped network: weights and response equal."""
     import shlex
 
     from stumble.cli import main
     from stumble.control.reflex.identify import default_network
     from stumble.control.reflex.network import Network
 
-    shipped = default_network("past-swing")
+    shipped = default_network(name)
     argv = shlex.split(shipped.info["fit"]["command"].replace("DIR", str(tmp_path / "o")))
     assert argv[:3] == ["stumble", "reflex", "fit"]
     assert main([*argv[1:], "--no-video", "--workers", "1"]) == 0
