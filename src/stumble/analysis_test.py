@@ -171,8 +171,8 @@ def test_fallen_rows_read_as_sensors_do():
     from stumble.sim import Sensors, fallen
     from stumble.trip import Scenario
 
-    # CASE 1 from the recording: placement-both falls (past-swing, the default since
-    # 2026-12-07, recovers)
+    # CASE 1 from the recording: placement-both falls (past-support, the default since
+    # 2026-12-07, recovers, as past-swing did)
     r = simulate_trip(Scenario(controller="reflex", start="playback", mechanism="obstacle",
                                swing_fraction=0.13, speed_m_per_s=1.2),
                       network=default_network("placement-both"))

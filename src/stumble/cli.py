@@ -161,8 +161,9 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--network", type=Path, metavar="FILE",
                    help="reflex controller: a network.npz from `stumble reflex fit`, or a "
                    "shipped network: past-support (the default: past-swing with the "
-                   "support leg's GLU on after a touch of the foot behind; walks within "
-                   "10 deg and recovers trips of both strategies past the box), "
+                   "support leg's GLU on and the tripped leg's VAS off after a touch of "
+                   "the foot behind; walks within 10 deg and recovers trips of both "
+                   "strategies past the box), "
                    "past-swing (past-foot with the other leg swung through after a touch "
                    "of the foot ahead), placement-both "
                    "(the default before 2026-12-07: placement-touch's "

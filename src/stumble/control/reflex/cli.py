@@ -362,7 +362,8 @@ def add_reflex_parser(sub, parser_class=argparse.ArgumentParser) -> None:
                     "response by the foot's place), past-foot (the same fitted with a "
                     "recovery past the box; past-swing is it with the other leg swung "
                     "through after a touch of the foot ahead, past-support it with the "
-                    "support leg's GLU on after a touch of the foot behind) or "
+                    "support leg's GLU on and the tripped leg's VAS off after a touch of "
+                    "the foot behind) or "
                     "open-loop (seed 003's identification alone, which "
                     "falls after 0.8 s)")
     rw.add_argument("--params", type=Path, metavar="FILE",
