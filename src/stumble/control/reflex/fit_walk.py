@@ -1300,7 +1300,7 @@ def parse_set_response(text: str) -> dict:
 
 def set_response_text(gains: dict) -> str:
     """``parse_set_response``'s text of ``{set: {muscle: gain}}``, in their order, each
-    gain exactly (``exact_text``), so that the recorded command re-runs bit for bit."""
+    gain exactly (``number_text``), so that the recorded command re-runs bit for bit."""
     return ",".join(f"{k}.{m}={number_text(v)}" for k, g in gains.items()
                     for m, v in g.items())
 
