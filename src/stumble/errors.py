@@ -13,7 +13,3 @@ class TripNotSet(InputError):
     """A trip that cannot be set at that instant: the tripped toe is already over the
     obstacle's height, or the obstacle would stand under the stance foot. Alone it is bad
     input; in a study it is an outcome of its own (``not set``: the foot passes over)."""
-
-
-class SimulationDiverged(StumbleError):
-    """The physics blew up (NaN/Inf state or a MuJoCo instability warning)."""

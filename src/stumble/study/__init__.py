@@ -6,7 +6,8 @@
 - ``cli``: ``stumble study``.
 
 A package rather than one ``study.py``: the grid, the store and the executors are three
-separate concerns with their own tests.
+separate concerns. The grid's tests are ``grid_test.py``; the store's and the executors'
+run through ``run_study`` and the command line, in ``runner_test.py``.
 """
 
 from stumble.study.grid import AXES, Grid, load_toml, parse_values, run_key

@@ -43,7 +43,7 @@ import numpy as np
 
 from stumble import __version__
 from stumble.control.fsm_params import FSMParams, ParamsFile
-from stumble.errors import SimulationDiverged, StumbleError, TripNotSet
+from stumble.errors import StumbleError, TripNotSet
 from stumble.jsonio import dumps, strict
 from stumble.study.grid import Grid, check_scenario, run_key, scenario_fields
 from stumble.study.store import (
@@ -245,9 +245,6 @@ def run_one(sc: Scenario, timeout_s: float | None = None,
         try:
             summary = pipeline.simulate_trip(sc, params=params).summary
             error = None
-        except SimulationDiverged as e:
-            summary = {**NO_OUTCOME, "diverged": True}
-            error = one_line(e)
         except TripNotSet as e:  # an outcome, not an error: the foot passes over the box
             summary = {**NO_OUTCOME, "not_set": True, "not_set_reason": str(e)}
             error = None
@@ -663,18 +660,7 @@ def run_study(scenarios: Grid | Iterable[Scenario], out: Path, workers: int | No
     try:
         with Store(out, warn) as store:
             _check_same_params(out, params, bool(len(store.done)))
-            if params is not None:
-                metadata = {**(metadata or {}), "params": params.record()}
-            elif source.has_fsm:  # the sets this version's state machines run by default
-                defaults = default_params_record()
-                _check_same_defaults(out, defaults, bool(len(store.done)))
-                metadata = {**(metadata or {}), "fsm_default_params": defaults}
-            reflex = sorted(source.controllers & set(REFLEX_DEFAULTS))
-            if reflex:  # the network and GH2010 set a reflex trip runs by default
-                defaults = reflex_defaults_record(reflex)
-                _check_same_defaults(out, defaults, bool(len(store.done)),
-                                     "reflex_default_params", "reflex")
-                metadata = {**(metadata or {}), "reflex_default_params": defaults}
+            metadata = {**(metadata or {}), **_defaults_metadata(out, store, source, params)}
             _write_study_json(out, n_runs, metadata)
             stored_any = contains(store.done, keys)
             finished = contains(store.done_ok, keys) if retry_errors else stored_any
@@ -797,16 +783,12 @@ def reflex_defaults_record(controllers) -> dict:
     return out
 
 
-def _check_same_defaults(out: Path, defaults: dict, has_runs: bool,
-                         key: str = "fsm_default_params",
-                         what: str = "state-machine") -> None:
-    """StumbleError when ``out`` holds runs made without ``--params`` by a version whose
-    default sets (``key`` in ``study.json``: the state machines', or the reflex
-    controllers' network and GH2010 set) differ from ``defaults`` (or were not recorded):
-    run keys name scenarios, not parameters, so the runs must not mix."""
+def _study_record(out: Path) -> dict | None:
+    """``out``'s study.json as read (None: there is none); StumbleError when it cannot
+    be read or is not a JSON object (the runs beside it cannot be resumed without it)."""
     path = out / "study.json"
-    if not has_runs or not path.exists():
-        return
+    if not path.exists():
+        return None
     try:
         doc = json.loads(path.read_text())
     except (OSError, ValueError) as e:
@@ -815,11 +797,49 @@ def _check_same_defaults(out: Path, defaults: dict, has_runs: bool,
     if not isinstance(doc, dict):
         raise StumbleError(f"{path} is not a study record (a JSON object); the runs in "
                            f"{out} cannot be resumed without it: give another --out")
-    if doc.get(key) == defaults:
-        return
-    raise StumbleError(f"{out} holds runs made with other default {what} "
-                       "parameters (an earlier version's); it cannot be resumed: give "
-                       "another --out")
+    return doc
+
+
+def _defaults_metadata(out: Path, store, source, params: ParamsFile | None) -> dict:
+    """study.json's records of the default sets (``fsm_default_params``: the state
+    machines' without ``--params``; ``reflex_default_params``: the network and GH2010 set,
+    by controller) for this grid's controllers and for those with runs in ``out``;
+    StumbleError when ``out`` holds runs of a controller made with other default sets
+    (or none recorded): run keys name scenarios, not parameters, so the runs must not
+    mix. A controller without runs there is never a reason to refuse the directory."""
+    prev = _study_record(out) if len(store.done) else None
+    stored = store.controllers  # None: some part does not say: assume every controller
+    checked = prev is not None  # runs, and a record of how they were made
+
+    def has_runs(controller: str) -> bool:
+        return checked and (stored is None or controller in stored)
+
+    def check(before, now, controller: str, what: str) -> None:
+        if has_runs(controller) and before != now:
+            raise StumbleError(f"{out} holds {controller} runs made with other default "
+                               f"{what} parameters (another version's); it cannot be "
+                               "resumed: give another --out")
+
+    prev = prev or {}
+    meta = {}
+    fsm = prev.get("fsm_default_params")
+    if params is not None:
+        meta["params"] = params.record()
+    elif source.has_fsm:  # the sets this version's state machines run by default
+        check(fsm, fsm := default_params_record(), "fsm", "state-machine")
+    if fsm is not None and params is None and (source.has_fsm or has_runs("fsm")):
+        meta["fsm_default_params"] = fsm
+    before = prev.get("reflex_default_params")
+    reflex = dict(before) if isinstance(before, dict) else {}
+    grid = sorted(source.controllers & set(REFLEX_DEFAULTS))
+    now = reflex_defaults_record(grid) if grid else {}
+    for c in grid:  # the network and GH2010 set a reflex trip runs by default
+        check(reflex.get(c), now[c], c, "reflex")
+    reflex.update(now)
+    reflex = {c: v for c, v in reflex.items() if c in now or has_runs(c)}
+    if reflex:
+        meta["reflex_default_params"] = reflex
+    return meta
 
 
 def _write_study_json(out: Path, runs: int, metadata: dict | None) -> None:

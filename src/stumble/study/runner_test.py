@@ -1,4 +1,4 @@
-"""Studies: grid parsing and its errors, the crash-safe store, resumption, error rows,
+"""Studies: the crash-safe store, resumption, error rows, the default sets recorded,
 executors (in process, local processes, Dask), plots, and real trips through the CLI."""
 
 import json
@@ -16,10 +16,10 @@ import pytest
 
 from stumble import pipeline
 from stumble.cli import main
-from stumble.errors import InputError, SimulationDiverged, StumbleError
+from stumble.errors import InputError, StumbleError
 from stumble.study import runner
 from stumble.study.grid import Grid, load_toml, parse_values, run_key
-from stumble.study.runner import StudyInterrupted, flatten, run_study, summary_table
+from stumble.study.runner import StudyInterrupted, flatten, outcome, run_study, summary_table
 from stumble.study.store import Store, load_results
 from stumble.trip import Scenario
 
@@ -50,8 +50,10 @@ def fake(monkeypatch):
         calls.append(sc)
         if sc.controller == "reflex":
             raise InputError("controller 'reflex' is not available (fsm)")
-        if sc.swing_fraction == 0.85:
-            raise SimulationDiverged("the physics diverged at 0.41 s")
+        if sc.swing_fraction == 0.85:  # as sim.run reports it: a summary, not a raise
+            return SimpleNamespace(summary={**fake_summary(sc), "diverged": True,
+                                            "recovered": False, "fell": False,
+                                            "stop_reason": "diverged"})
         return SimpleNamespace(summary=fake_summary(sc))
 
     monkeypatch.setattr(pipeline, "simulate_trip", simulate_trip)
@@ -67,36 +69,6 @@ def strip(rows):
 
 
 # ---------------------------------------------------------------- parsing
-
-
-def test_values_ranges_lists_and_singles():
-    swing = parse_values("swing", "0.05:0.75:15")
-    assert len(swing) == 15 and swing[0] == 0.05 and swing[-1] == 0.75
-    assert swing[1] == 0.1 and swing[2] == 0.15  # rounded: keys match typed values
-    assert parse_values("speed", "0.8,1.1,1.4") == [0.8, 1.1, 1.4]
-    assert parse_values("speed", "1.2") == [1.2]
-    assert parse_values("seed", "0:4:5") == [0, 1, 2, 3, 4]
-    assert parse_values("controller", "fsm, reflex") == ["fsm", "reflex"]
-    assert parse_values("speed", [0.8, 1.1, 0.8]) == [0.8, 1.1]  # TOML list, duplicate
-    assert parse_values("speed", "1.1:1.1:1") == [1.1]
-
-
-@pytest.mark.parametrize("axis, spec, words", [
-    ("swing", "0.05:0.75", "not a range start:stop:count"),
-    ("swing", "a:0.7:3", "'a' is not a number"),
-    ("swing", "0.1:0.5:x", "count 'x'"),
-    ("swing", "0.1:0.5:1", "makes no sense"),
-    ("speed", "1.1,,1.4", "empty item"),
-    ("speed", "nan", "not a finite number"),
-    ("seed", "0.5", "not an integer"),
-    ("seed", "0:1:3", "not an integer"),
-    ("strategy", "auto:lowering:2", "takes names, not a range"),
-])
-def test_value_errors_are_one_line(axis, spec, words):
-    with pytest.raises(InputError) as e:
-        parse_values(axis, spec)
-    assert words in str(e.value) and "\n" not in str(e.value)
-    assert str(e.value).startswith(f"--{axis}")
 
 
 @pytest.mark.parametrize("args, words", [
@@ -120,68 +92,6 @@ def test_bad_grid_is_one_line_before_anything_runs(tmp_path, capsys, fake, args,
     err = capsys.readouterr().err
     assert words in err and err.startswith("stumble: ") and err.count("\n") == 1
     assert not out.exists() and not fake
-
-
-def test_toml_grid_and_its_errors(tmp_path):
-    f = tmp_path / "s.toml"
-    f.write_text(textwrap.dedent("""\
-        description = "obstacle heights"
-        swing = "0.1:0.7:4"
-        speed = [1.0, 1.3]
-        mechanism = ["force", "obstacle"]
-        obstacle-height = [0.08, 0.14]
-        repeats = 2
-        """))
-    g = load_toml(f)
-    assert g.values("seed") == [1, 2] and g.varying() == [
-        "speed", "mechanism", "obstacle_height", "swing", "seed"]
-    scs = g.scenarios()
-    # force trips ignore the obstacle height: 4 swings x 2 speeds x 2 seeds x (1 + 2)
-    assert len(scs) == 4 * 2 * 2 * 3
-    assert {s.obstacle_height_m for s in scs if s.mechanism == "force"} == {0.10}
-    assert len({run_key(s) for s in scs}) == len(scs)
-    # the command line replaces the file's axes
-    g2 = g.merged(Grid({"speed": [1.2]}, None))
-    assert g2.values("speed") == [1.2] and g2.values("swing") == g.values("swing")
-
-    for text, words in [("swingg = 0.2", "unknown key 'swingg'"),
-                        ("swing = 0.2\nspeed = [", "not valid TOML"),
-                        ("swing = \"0.1:0.2\"", "swing: '0.1:0.2' is not a range"),
-                        ("seed = [1]\nrepeats = 2", "seed or repeats, not both"),
-                        ("speed = {a = 1}", "a table is not a value"),
-                        ("repeats = 1.5", "not a whole number"),
-                        # TOML dates and times are no axis values
-                        ("swing = 1979-05-27", "swing: 1979-05-27 is not a value for swing"),
-                        ("swing = [07:32:00]", "07:32:00 is not a value for swing"),
-                        ("seed = 1979-05-27", "seed: 1979-05-27 is not a value for seed")]:
-        f.write_text(text)
-        with pytest.raises(InputError) as e:
-            load_toml(f)
-        assert words in str(e.value) and "\n" not in str(e.value), text
-    with pytest.raises(InputError, match="no such study file"):
-        load_toml(tmp_path / "missing.toml")
-
-
-def test_run_keys_are_stable_and_distinct():
-    a = Scenario(swing_fraction=parse_values("swing", "0.05:0.75:15")[2])
-    b = Scenario(swing_fraction=0.15)
-    assert run_key(a) == run_key(b) and len(run_key(a)) == 16
-    assert run_key(b) != run_key(b.with_(seed=1))
-    assert run_key(b) != run_key(b.with_(delay_scale=1.5))
-    g = b.with_(controller="gh2010", mechanism="obstacle", delay_scale=1.5)
-    assert run_key(g) != run_key(g.with_(delays="response"))
-    # the default delays are left out of the key: a study made before the field
-    # (2026-12-05) resumes (this scenario's key then, recorded)
-    assert run_key(b) == "1b87e27aaa405adf"
-    # every delay of the state machines is its response's: one scenario, one key
-    from stumble.study.grid import normalised
-
-    assert normalised(b.with_(delays="response")) == normalised(b)
-    # the key is a pure function of the fields: the same in a fresh interpreter
-    code = "from stumble.study.grid import run_key; from stumble.trip import Scenario; " \
-           "print(run_key(Scenario(swing_fraction=0.15)))"
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert r.stdout.strip() == run_key(b)
 
 
 def test_flatten_nested_and_lists():
@@ -218,7 +128,8 @@ def test_study_rows_table_and_rerun(tmp_path, fake, capsys):
     assert r["durations_s.recovery_step"] == pytest.approx(0.7)
     assert r["obstacle_height_m"] is None  # a force trip
     div = [r for r in rows if r["swing_fraction"] == 0.85]
-    assert all(r["diverged"] and "diverged" in r["error"] for r in div)
+    assert div and all(r["diverged"] and r["error"] is None and outcome(r) == "diverged"
+                       for r in div)
     # the same study again: nothing to run, same table
     fake.clear()
     res2 = run_study(small_grid(), out, workers=1, progress=False)
@@ -568,11 +479,12 @@ def test_params_go_to_every_run_and_are_recorded(tmp_path, monkeypatch, capsys):
     assert rec["path"] == str(p) and rec["file"] == str(p.resolve())
     assert rec["sha256"] == hashlib.sha256(p.read_bytes()).hexdigest()
     # the values of SPACE, GAINS and WALK_ON
-    assert rec["values"]["elev_sup_ankle"] == -60.0 and len(rec["values"]) == len(TUNABLE) == 60
+    assert rec["values"]["elev_sup_ankle"] == -60.0 and len(rec["values"]) == len(TUNABLE) == 65
     assert rec["settings"] == {"trunk_attitude": 1.0, "attitude_damping": "joint",
                                "push_off_hip_limit_nm": None,
                                "push_off_rec_hip_limit_nm": None,
-                               "push_off_sup_knee_limit_nm": None}
+                               "push_off_sup_knee_limit_nm": None,
+                               "flight_from_fall": False}
     table = pq.read_table(tmp_path / "a" / "results.parquet").to_pydict()
     assert table["params_sha256"] == [rec["sha256"]] * 2  # every row names its parameters
     # without --params: no parameters passed, nothing recorded as given (as before
@@ -922,6 +834,41 @@ def test_a_reflex_study_is_not_resumed_with_other_default_reflex_sets(tmp_path, 
         err = capsys.readouterr().err
         assert "other default reflex parameters" in err and err.count("\n") == 1
     assert len(got) == 2
+
+
+def test_a_directory_grows_by_a_controller_and_keeps_each_ones_defaults(tmp_path, capsys,
+                                                                        monkeypatch):
+    """Runs of one controller do not stop a grid of another from using the directory
+    (it once refused, blaming an earlier version's defaults): study.json keeps the
+    default sets of every controller with runs there, and a changed set still refuses
+    the directory for that controller's grid, naming it."""
+    got = []
+
+    def simulate_trip(sc, **kw):
+        got.append(sc.controller)
+        return SimpleNamespace(summary=fake_summary(sc))
+
+    monkeypatch.setattr(pipeline, "simulate_trip", simulate_trip)
+    out = tmp_path / "mix"
+    argv = ["study", "--swing", "0.2", "--workers", "1", "--quiet", "--no-plots",
+            "--out", str(out), "--controller"]
+    assert main([*argv, "gh2010"]) == 0
+    assert main([*argv, "fsm"]) == 0  # refused before 2026-12-07
+    assert main([*argv, "gh2010"]) == 0 and got == ["gh2010", "fsm"]  # nothing re-run
+    meta = json.loads((out / "study.json").read_text())
+    assert set(meta["reflex_default_params"]) == {"gh2010"}
+    assert meta["fsm_default_params"]  # kept by a gh2010 grid: the fsm runs are there
+    assert main([*argv, "fsm,gh2010,reflex"]) == 0 and got[2:] == ["reflex"]
+    capsys.readouterr()
+    meta = json.loads((out / "study.json").read_text())
+    meta["reflex_default_params"]["reflex"]["sha256"] = "0" * 64
+    (out / "study.json").write_text(json.dumps(meta))
+    assert main([*argv, "gh2010"]) == 0  # the network's record is not gh2010's
+    capsys.readouterr()
+    assert main([*argv, "reflex"]) == 2
+    err = capsys.readouterr().err
+    assert "holds reflex runs made with other default reflex parameters" in err
+    assert err.count("\n") == 1 and len(got) == 3
 
 
 @pytest.mark.parametrize("name", ["results.parquet", "study.json"])

@@ -343,8 +343,9 @@ class Store:
     """The finished runs of a study directory by key; ``add`` makes a row durable at once.
 
     Use as a context manager: entering locks the directory and indexes what is there
-    (``done``: keys as uint64, sorted; ``done_ok``: those whose row has no error),
-    leaving moves the journal into a part and unlocks.
+    (``done``: keys as uint64, sorted; ``done_ok``: those whose row has no error;
+    ``controllers``: the controllers of its rows, None when a part does not say), leaving
+    moves the journal into a part and unlocks.
     """
 
     def __init__(self, out: Path, warn: Warn | None = None):
@@ -353,6 +354,7 @@ class Store:
         self.warn = warn or warn_stderr
         self.done = np.zeros(0, np.uint64)
         self.done_ok = np.zeros(0, np.uint64)
+        self.controllers: set[str] | None = set()
         self._lock = _Lock(self.out / ".lock")
         self._journal: Path | None = None
         self._file = None
@@ -403,7 +405,7 @@ class Store:
         for part in sorted(self.runs.glob("part-*.parquet")):
             try:
                 names = pq.read_schema(part).names
-                cols = ["key", "error"] if "error" in names else ["key"]
+                cols = ["key", *(c for c in ("error", "controller") if c in names)]
                 t = pq.read_table(part, columns=cols)
             except Exception as e:  # not written by us (parts are renamed whole)
                 self._set_aside(part, f"unreadable result part ({type(e).__name__})")
@@ -411,6 +413,8 @@ class Store:
             keys.append(keys_to_ints(t.column("key").to_pylist()))
             errs.append(np.asarray(t.column("error").is_valid()) if "error" in cols
                         else np.zeros(t.num_rows, bool))
+            self._note_controllers(t.column("controller").to_pylist()
+                                   if "controller" in cols else None)
         leftovers = sorted(self.runs.glob("journal-*.jsonl"), key=lambda p: p.stat().st_mtime)
         rescued = []
         for j in leftovers:
@@ -423,12 +427,20 @@ class Store:
             write_parquet(self._part_name(), rescued)
             keys.append(keys_to_ints(r["key"] for r in rescued))
             errs.append(np.array([bool(r.get("error")) for r in rescued], bool))
+            self._note_controllers([r.get("controller") for r in rescued])
         for j in leftovers:
             j.unlink(missing_ok=True)
         k = np.concatenate(keys) if keys else np.zeros(0, np.uint64)
         e = np.concatenate(errs) if errs else np.zeros(0, bool)
         self.done = np.unique(k)
         self.done_ok = np.unique(k[~e])
+
+    def _note_controllers(self, names: list | None) -> None:
+        """Add a part's controllers to ``controllers`` (None: a part without them)."""
+        if names is None or any(not isinstance(n, str) for n in names):
+            self.controllers = None
+        elif self.controllers is not None:
+            self.controllers |= set(names)
 
     def _part_name(self) -> Path:
         return self.runs / f"part-{time.time_ns():020d}-{uuid.uuid4().hex[:8]}.parquet"
