@@ -15,8 +15,9 @@ The study (``validation_scenarios``), for each controller (``fsm``, ``reflex``,
   or whose trip could not be set, counted in the text) took the published strategy; in
   between, any strategy agrees, but a run whose strategy could not be classified does
   not.
-- **Recovery durations** (SCA 2009 §5.1–5.2): force trips (the paper's model of the
-  trip, eq. 2–3) at 0.2 of swing (elevating) and 0.65 of swing (lowering), at the
+- **Recovery durations** (SCA 2009 §5.1–5.2): force trips for the state machines (the
+  paper's model of the trip, eq. 2–3), obstacle trips for the reflex controllers, at 0.2
+  of swing (elevating) and 0.65 of swing (lowering), at the
   walking speed of the paper's input motion for each case: elevating with double
   support 1.0 m/s, with flight 1.4 m/s; lowering with double support 0.75 m/s, with
   flight 1.1 m/s. Elevating: toe-off to heel contact of the recovery step
@@ -452,10 +453,10 @@ def walking_rows(ctrl: str, open_loop: bool = False) -> list[dict]:
     rm = s["rmse_deg"]
     rm_text = ("/".join(f"{rm[j]:.1f}" for j in ("hip_flexion", "knee_angle", "ankle_angle"))
                + " deg") if rm else "no stride"
-    walked = s["walked_s"] >= WALK_S - 1e-6
+    walked = s["walked_s"] >= WALK_S - 1e-6 and not s.get("diverged")
     ok = walked and rm and max(rm.values()) <= WALK_RMSE_DEG
-    text = (f"walked {s['walked_s']:.1f} s at {s['speed_m_per_s']:.2f} m/s; RMSE hip/knee/"
-            f"ankle {rm_text}")
+    text = (f"{'diverged at' if s.get('diverged') else 'walked'} {s['walked_s']:.1f} s at "
+            f"{s['speed_m_per_s']:.2f} m/s; RMSE hip/knee/ankle {rm_text}")
     out = [_row("walking 20 s: RMSE against the recorded stride", "Murai & Yamane 2011 §V.A",
                 ctrl, WALK_RMSE_DEG, f"walks, close to the recording (≤ {WALK_RMSE_DEG:g}° "
                 "per joint, ours)", rm, text, "yes" if ok else "no")]
@@ -502,12 +503,15 @@ def _failed(r: dict) -> bool:
 
 
 def _left_out(rows: list[dict], reasons: bool = False) -> str:
-    """What a figure left out, as text to append: "; 1 not set" (a trip that could not be
-    set at its instant, ``not_set``; with ``reasons``, its ``not_set_reason`` as the trip
-    gave it) and "; 1 raised" (``error``); empty when every run ran."""
+    """What a figure left out or could not read, as text to append: "; 1 diverged" (its
+    physics blew up: counted as not recovered, its strategy not counted), "; 1 not set"
+    (a trip that could not be set at its instant, ``not_set``; with ``reasons``, its
+    ``not_set_reason`` as the trip gave it) and "; 1 raised" (``error``); empty when every
+    run ran."""
     raised = [r for r in rows if r.get("error")]
     unset = [r for r in rows if r.get("not_set") and not r.get("error")]
-    out = ""
+    diverged = [r for r in rows if r.get("diverged") and not _failed(r)]
+    out = f"; {len(diverged)} diverged" if diverged else ""
     if unset:
         why = "; ".join(dict.fromkeys(str(r.get("not_set_reason")) for r in unset))
         out += f"; {len(unset)} not set" + (f" ({why})" if reasons else "")
@@ -560,12 +564,14 @@ def window_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
             out.append(_row(figure, "SCA 2009 §3", ctrl, published, pub_text, None,
                             "not available", "n/a", keys, _why(rows)))
             continue
-        taken = [r.get("strategy") or "unclassified" for r in ran]
+        # a diverged run counts as not recovered; its strategy is not read
+        read = [r for r in ran if not r.get("diverged")]
+        taken = [r.get("strategy") or "unclassified" for r in read]
         counts = {s: taken.count(s) for s in dict.fromkeys(taken)}
         recovered = sum(bool(r.get("recovered")) for r in ran)
-        text = ", ".join(f"{s} {n}/{len(ran)}" for s, n in counts.items())
+        text = ", ".join(f"{s} {n}/{len(read)}" for s, n in counts.items()) or "no strategy"
         text += f" (recovered {recovered}/{len(ran)})" + _left_out(rows, reasons=True)
-        agrees = ("unclassified" not in counts
+        agrees = (bool(taken) and "unclassified" not in counts
                   and (published == "either" or set(taken) == {published}))
         out.append(_row(figure, "SCA 2009 §3", ctrl, published, pub_text, counts, text,
                         "yes" if agrees else "no", keys))
@@ -684,17 +690,24 @@ def identification_rows() -> list[dict]:
 
 
 def run_validation(out: Path, workers: int | None = None, progress: bool = True,
-                   controllers=CONTROLLERS, params=None) -> list[dict]:
+                   controllers=CONTROLLERS, params=None, retry_errors: bool = False,
+                   run_timeout_s: float | None = None) -> list[dict]:
     """Run the fixed study in ``out`` (what is missing), compare, write validation.json.
     ``params``: the state machines' parameter set (``fsm_params.read_params``; None:
-    the default set), recorded in validation.json; a directory holds one set's runs."""
+    the default set), recorded in validation.json; a directory holds one set's runs.
+    ``retry_errors`` runs again the stored runs that raised or timed out;
+    ``run_timeout_s``: a run's wall-time limit (s; None: the study's default)."""
     from stumble.control.fsm_params import DEFAULT_SET, read_params
     from stumble.study.runner import run_study
 
     cases = validation_scenarios(controllers)
     meta = {"validation": {case: scenario_fields(sc) for case, sc in cases}}
+    from stumble.study.runner import RUN_TIMEOUT_S
+
     res = run_study([sc for _, sc in cases], out, workers=workers, progress=progress,
-                    metadata=meta, params=params)
+                    metadata=meta, params=params, retry_errors=retry_errors,
+                    run_timeout_s=(RUN_TIMEOUT_S if run_timeout_s is None
+                                   else run_timeout_s or None))
     by_key = {r["key"]: r for r in res.rows}
     by_case = {case: by_key[run_key(sc)] for case, sc in cases}
     swing = normal_swing_s()
@@ -727,8 +740,9 @@ def run_validation(out: Path, workers: int | None = None, progress: bool = True,
             "own_gait_strategy": f"the human strategy in at least "
                                  f"{MAP_STRATEGY_TARGET:.0%} of the strategy map's window "
                                  "trips",
-            "push_off": f"the median over the window trips within ×{PUSH_OFF_FACTOR:g} of "
-                        "Pijnappels et al. 2005's mean",
+            "push_off": f"the median over the young grid's {PUSH_OFF_MECHANISM} trips at "
+                        f"{PUSH_OFF_SWING[0]:g}-{PUSH_OFF_SWING[-1]:g} of swing within "
+                        f"×{PUSH_OFF_FACTOR:g} of Pijnappels et al. 2005's mean",
             "angular_momentum": f"the median over the mid-swing obstacle trips within "
                                 f"{ANGMOM_TOLERANCE:.0%} of Pijnappels et al. 2004's mean",
             "trunk": f"no recovery beyond {TRUNK_TILT_MAX_DEG:g}° at recovery-foot contact",
@@ -799,6 +813,14 @@ def add_validate_parser(sub) -> None:
                    "anderson2007; hip_cap); a "
                    "directory "
                    "holds the runs of one set")
+    from stumble.study.cli import timeout_arg
+    from stumble.study.runner import RUN_TIMEOUT_S
+
+    p.add_argument("--retry-errors", action="store_true",
+                   help="run again the stored runs that raised or timed out")
+    p.add_argument("--run-timeout", type=timeout_arg, default=RUN_TIMEOUT_S, metavar="S",
+                   help=f"wall-time limit of one run in s; a run past it is stopped and "
+                   f"recorded as a timeout row (default {RUN_TIMEOUT_S:g}; 0: no limit)")
 
 
 def run_validate_cli(args) -> int:
@@ -812,7 +834,8 @@ def run_validate_cli(args) -> int:
 
             params = read_params(args.params)
         rows = run_validation(args.out, workers=args.workers, progress=not args.quiet,
-                              params=params)
+                              params=params, retry_errors=args.retry_errors,
+                              run_timeout_s=args.run_timeout)
     except StudyInterrupted as e:
         print(f"stumble: {e}", file=sys.stderr)
         return 130

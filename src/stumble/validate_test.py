@@ -298,6 +298,25 @@ def test_window_rows_count_unclassified_and_failed_runs():
     assert late["stumble"] == {"elevating": 2, "lowering": 1} and late["agreement"] == "no"
 
 
+def test_a_diverged_run_is_not_recovered_and_its_strategy_is_not_read():
+    """A window trip whose physics diverged (``diverged``, no ``error``, as sim.run
+    reports it): not recovered in the rate, left out of the strategy counts, named in
+    both rows (it once counted as the human strategy, unnamed)."""
+    from stumble.validate import WINDOW_SWINGS, recovery_rows, window_rows
+
+    ok = {"strategy": "elevating", "recovered": True, "error": None}
+    by_case = {f"fsm/window/{sw}": {**ok, "key": f"k{sw}"} for sw in WINDOW_SWINGS}
+    by_case["fsm/window/0.05"] = {"key": "d", "strategy": "elevating", "recovered": False,
+                                  "diverged": True, "error": None}
+    early = window_rows("fsm", by_case)[0]
+    n_early = sum(1 for sw in WINDOW_SWINGS if sw <= 0.25 + 1e-9)
+    assert early["stumble"] == {"elevating": n_early - 1}
+    assert early["stumble_text"].endswith(f"(recovered {n_early - 1}/{n_early}); 1 diverged")
+    (row,) = recovery_rows("fsm", by_case)
+    n = len(WINDOW_SWINGS)
+    assert row["stumble_text"] == f"{n - 1}/{n} ({(n - 1) / n:.0%}; 1 diverged)"
+
+
 def test_a_trip_not_set_counts_as_no_run_in_the_figures():
     """A window trip that could not be set (``not_set``) is no trip to read: the figure
     says why, as for a run that raised, and the recovery rate leaves it out."""
