@@ -17,7 +17,20 @@ Each design is a JSON object of:
 - ``states``: ``"pre_landing"`` applies the caps in every state before the recovery foot
   lands (``fsm.PRE_LANDING_STATES``: the push-off's, Flight and Fall), not only the
   push-off's;
-- ``set``: the shipped parameter set the design starts from (default ``flight``).
+- ``set``: the shipped parameter set the design starts from (default ``flight``);
+- ``targets``: ``{state: {joint: degrees}}`` merged into the set's ``targets_deg`` (e.g.
+  ``{"clearance_elevating": {"rec.hip_flexion": 60}}``; ``"sup.hip_flexion": 0`` is
+  SCA 2009 §4.5's literal push-off target instead of the pelvis attitude);
+- ``fields``: ``{FSMParams field: value}`` replaced in the set (e.g. ``{"kc_fast": 45}``);
+- ``ankle_k``: N·m per rad of the pelvis's forward tilt past its reference added to the
+  support ankle's plantarflexion in the push-off states (negative: dorsiflexion), in
+  every state before the recovery foot lands with ``"ankle_states": "pre_landing"``, of
+  the torso's forward pitch past its tilt at the trip with ``"ankle_torso": true``;
+- ``ext_only``: the support hip's cap (``sup_cap``) limits extension only, flexion free;
+- ``lumbar_deg``: the walk before the trip played with the lumbar extended this many
+  degrees more than the recording (the trunk more upright; its walks cached apart, in
+  ``$STUMBLE_CACHE_DIR``'s ``lumbar_<deg>`` directory). One value per invocation: the
+  designs of one run must share it.
 
 Runs the 48-trip grid (force and obstacle, 0.05-0.75 of swing, 1.0/1.2/1.4 m/s; the
 ``flight`` set unless ``set`` names another, walking on 6 s) on 2 processes and prints
@@ -31,16 +44,18 @@ Run:  python scripts/probe_push_off.py DESIGN [DESIGN ...]
 
 from __future__ import annotations
 
+import copy
 import json
 import math
 import multiprocessing as mp
+import os
 import sys
 from dataclasses import replace
 
 import numpy as np
 
 from stumble.control import fsm as F
-from stumble.control.fsm_params import load_params
+from stumble.control.fsm_params import FSMParams, load_params
 from stumble.errors import InputError
 from stumble.pipeline import simulate_trip
 from stumble.trip import Scenario
@@ -48,9 +63,11 @@ from stumble.trip import Scenario
 SWINGS = (0.05, 0.15, 0.25, 0.35, 0.45, 0.55, 0.65, 0.75)
 GRID = [(mech, f, v) for mech in ("force", "obstacle") for f in SWINGS
         for v in (1.0, 1.2, 1.4)]
-KEYS = {"gain", "window", "rec_cap", "ref_deg", "knee_cap", "sup_cap", "states", "set"}
+KEYS = {"gain", "window", "rec_cap", "ref_deg", "knee_cap", "sup_cap", "states", "set",
+        "targets", "fields", "ankle_k", "ankle_states", "ankle_torso", "ext_only",
+        "lumbar_deg"}
 DESIGN: dict = {}
-_start, _write = F.TripFSM.start, F.TripFSM._write
+_start, _write, _cap = F.TripFSM.start, F.TripFSM._write, F.TripFSM._cap_servo
 PUSH_OFF = F.PUSH_OFF_STATES
 
 
@@ -73,6 +90,47 @@ def write(self, ctx) -> None:
         if self.kp[i] != want:
             self.kp[i], self._gains_dirty = want, True
     _write(self, ctx)
+    k = DESIGN.get("ankle_k")
+    states = F.PRE_LANDING_STATES if DESIGN.get("ankle_states") == "pre_landing" else PUSH_OFF
+    if k and st in states:
+        if DESIGN.get("ankle_torso"):
+            ahead = self.torso_ref - F.attitude_of(self._torso_xmat)[0]
+        else:
+            ahead = self.att_ref[0] - F.attitude_of(self._pelvis_xmat)[0]
+        i = self.bank.index[f"ankle_angle_{self.roles['sup']}"]
+        self._ctrl[i] -= k * max(0.0, ahead) / max(self.kp[i], 1e-6)  # + plantarflexion
+
+
+def cap_servo(self, target, name, cap_nm, attitude_only=False) -> None:
+    if not (DESIGN.get("ext_only") and attitude_only):
+        _cap(self, target, name, cap_nm, attitude_only)
+        return
+    i, b = self.bank.index[name], self.bank
+    kp = b.gain_scale * self.kp[i]
+    if self.mode[i] != F.ATT_PITCH or kp <= 0.0:
+        return
+    kd = b.kd_over_kp * kp
+    q, qd = float(self._qpos[b.qadr[i]]), float(self._qvel[b.vadr[i]])
+    c = cap_nm * b.gain_scale
+    if kp * (target[i] - q) - kd * qd < -c:  # extension past the cap
+        target[i] = q + (-c + kd * qd) / kp
+
+
+def lumbar_walk(deg: float) -> None:
+    """Play the walk before the trip with the lumbar ``deg`` more extended, cached apart."""
+    from stumble.gait import reference, walk_cache
+
+    base = walk_cache.cache_dir()
+    if base is not None:
+        os.environ[walk_cache.CACHE_ENV] = str(base / f"lumbar_{deg:g}")
+    angles = reference.ReferenceGait.angles
+
+    def extended(self, phase, names=None, hip_scale=1.0):
+        out = angles(self, phase, names, hip_scale)
+        if "lumbar_extension" in out:
+            out["lumbar_extension"] = out["lumbar_extension"] + math.radians(deg)
+        return out
+    reference.ReferenceGait.angles = extended
 
 
 def run(job):
@@ -82,6 +140,13 @@ def run(job):
     F.PUSH_OFF_STATES = (F.PRE_LANDING_STATES if design.get("states") == "pre_landing"
                          else PUSH_OFF)
     params = load_params(design.get("set", "flight"))
+    if design.get("targets"):
+        targets = copy.deepcopy(params.targets_deg)
+        for state, joints in design["targets"].items():
+            targets.setdefault(state, {}).update(joints)
+        params = replace(params, targets_deg=targets)
+    if design.get("fields"):
+        params = replace(params, **design["fields"])
     for key, field in (("rec_cap", "push_off_rec_hip_limit_nm"),
                        ("knee_cap", "push_off_sup_knee_limit_nm"),
                        ("sup_cap", "push_off_hip_limit_nm")):
@@ -103,8 +168,20 @@ def main(argv: list[str]) -> int:
             raise InputError(f"design {arg!r} is not JSON: {e.msg}") from None
         if not isinstance(d, dict) or set(d) - KEYS:
             raise InputError(f"design {arg!r}: a JSON object of {', '.join(sorted(KEYS))}")
+        fields = d.get("fields", {})
+        if not isinstance(fields, dict) or set(fields) - set(FSMParams.__dataclass_fields__):
+            raise InputError(f"design {arg!r}: fields must name FSMParams fields")
+        targets = d.get("targets", {})
+        if not (isinstance(targets, dict)
+                and all(isinstance(v, dict) for v in targets.values())):
+            raise InputError(f"design {arg!r}: targets is {{state: {{joint: degrees}}}}")
         designs.append(d)
-    F.TripFSM.start, F.TripFSM._write = start, write
+    lumbar = {d.get("lumbar_deg", 0.0) for d in designs}
+    if len(lumbar) > 1:
+        raise InputError("the designs of one run must share lumbar_deg")
+    if lumbar and (deg := lumbar.pop()):
+        lumbar_walk(float(deg))
+    F.TripFSM.start, F.TripFSM._write, F.TripFSM._cap_servo = start, write, cap_servo
     with mp.get_context("fork").Pool(2) as pool:
         for d in designs:
             out = pool.map(run, [(d, g) for g in GRID])
