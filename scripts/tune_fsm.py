@@ -13,7 +13,7 @@ Run:  python scripts/tune_fsm.py [--candidates N] [--workers N] [--seed S]
       [--strength anderson2007|fixed] [--trunk-attitude K] [--max-tilt DEG]
       [--grid-floor N] [--walk-on S] [--walk-on-gait W] [--flight W]
       [--rec-hip-cap NM] [--sup-hip-cap NM] [--sup-knee-cap NM] [--push-off W]
-      [--push-off-knee K] [--bodies-floor N]
+      [--push-off-knee K] [--bodies-floor N] [--flight-from-fall] [--flight-targets]
 ``--method cma``: CMA-ES (the ``cmaes`` package, seeded) over the targets scaled to
 their ranges, from the defaults, maximising recoveries + the fraction of the grid's
 time survived; the best so far is written to ``--out`` as it goes, and every
@@ -28,6 +28,10 @@ extension and knee flexion moments in the first 300 ms exceed 1.5 times Pijnappe
 al. 2005's means (52 and 54 N·m): max(0, hip/78 − 1) + K·max(0, knee/81 − 1), K 1
 unless ``--push-off-knee K``. ``--bodies-floor N`` (``full+bodies``): the objective
 loses 2 per body trip recovered below N, as ``--grid-floor`` does for the grid's.
+``--flight-from-fall``: every candidate enters Flight when its support foot leaves the
+floor in Fall (``FSMParams.flight_from_fall``, written to the ``--out`` file's settings);
+``--flight-targets`` searches both Flight tables' targets too (``ELEV_FLIGHT`` and the
+lowering's ``fl_low_*``).
 ``--max-tilt DEG``: a recovery counts only with the trunk within DEG of vertical at
 recovery-foot contact; ``--grid-floor N``: the objective loses 2 per trip of the first
 48 (the full grid; with ``full+bodies`` the bodies follow) recovered below N.
@@ -64,6 +68,7 @@ import numpy as np
 
 # name: (path in FSMParams, lo, hi)
 from stumble.control.fsm_params import (
+    ELEV_FLIGHT,
     FLIGHT,
     GAINS,
     LATERAL,
@@ -100,9 +105,10 @@ BODY_GRID = [(f, 1.2, mech, *body) for body in BODIES for mech in ("force", "obs
 ONLY = ("all", "lowering", "lowering_fast", "lowering_flight", "walk_on", "all+walk_on")
 
 
-def search_space(only: str, gains: bool, lateral: bool = False) -> dict:
-    """The values a search varies (name: (path, low, high)) for ``--only``, ``--gains``
-    and ``--lateral``."""
+def search_space(only: str, gains: bool, lateral: bool = False,
+                 flight_targets: bool = False) -> dict:
+    """The values a search varies (name: (path, low, high)) for ``--only``, ``--gains``,
+    ``--lateral`` and ``--flight-targets``."""
     if only == "walk_on":
         space = {k: TUNABLE[k] for k in WALK_ON_NAMES}
     elif only == "lowering_fast":
@@ -117,6 +123,9 @@ def search_space(only: str, gains: bool, lateral: bool = False) -> dict:
         space.update(GAINS)
     if lateral:
         space.update(LATERAL)
+    if flight_targets:  # both Flight tables' targets
+        space.update(ELEV_FLIGHT)
+        space.update({k: v for k, v in LOWERING_FLIGHT.items() if k.startswith("fl_low_")})
     return space
 
 
@@ -124,6 +133,7 @@ ATTITUDE_DAMPING = "joint"  # --attitude-damping (FSMParams.attitude_damping)
 REC_HIP_CAP = None  # --rec-hip-cap (FSMParams.push_off_rec_hip_limit_nm)
 SUP_HIP_CAP = None  # --sup-hip-cap (FSMParams.push_off_hip_limit_nm)
 SUP_KNEE_CAP = None  # --sup-knee-cap (FSMParams.push_off_sup_knee_limit_nm)
+FLIGHT_FROM_FALL = False  # --flight-from-fall (FSMParams.flight_from_fall)
 TRUNK_ATTITUDE = 0.0  # --trunk-attitude (FSMParams.trunk_attitude)
 
 
@@ -181,7 +191,7 @@ def settings() -> dict:
     """The settings every candidate runs with (a parameter file's ``"settings"``)."""
     return {"trunk_attitude": TRUNK_ATTITUDE, "attitude_damping": ATTITUDE_DAMPING,
             "push_off_rec_hip_limit_nm": REC_HIP_CAP, "push_off_hip_limit_nm": SUP_HIP_CAP,
-            "push_off_sup_knee_limit_nm": SUP_KNEE_CAP}
+            "push_off_sup_knee_limit_nm": SUP_KNEE_CAP, "flight_from_fall": FLIGHT_FROM_FALL}
 
 
 def out_record(best: tuple, generation: int, argv: list[str]) -> dict:
@@ -206,7 +216,8 @@ def params_from(x: dict):
                    trunk_attitude=TRUNK_ATTITUDE,
                    push_off_rec_hip_limit_nm=REC_HIP_CAP,
                    push_off_hip_limit_nm=SUP_HIP_CAP,
-                   push_off_sup_knee_limit_nm=SUP_KNEE_CAP).with_values(x)
+                   push_off_sup_knee_limit_nm=SUP_KNEE_CAP,
+                   flight_from_fall=FLIGHT_FROM_FALL).with_values(x)
 
 
 STRENGTH = "fixed"  # the servos' torque limits (Scenario.strength_model, --strength)
@@ -407,6 +418,12 @@ def main() -> None:
                     "is refused)")
     ap.add_argument("--gains", action="store_true",
                     help="search the servo gains too (GAINS) as well as the targets")
+    ap.add_argument("--flight-targets", action="store_true",
+                    help="search both Flight tables' targets too (ELEV_FLIGHT and the "
+                    "lowering's fl_low_*)")
+    ap.add_argument("--flight-from-fall", action="store_true", default=None,
+                    help="every candidate enters Flight when its support foot leaves the "
+                    "floor in Fall (FSMParams.flight_from_fall; a setting of the file)")
     ap.add_argument("--lateral", action="store_true",
                     help="search the frontal plane's values too (LATERAL: the coronal foot "
                     "placement's gains, the hips' out-of-plane gains)")
@@ -458,6 +475,8 @@ def main() -> None:
                                  "--sup-hip-cap")
         sup_knee_cap = setting_of("push_off_sup_knee_limit_nm", args.sup_knee_cap,
                                   file_settings, "--sup-knee-cap")
+        flight_from_fall = setting_of("flight_from_fall", args.flight_from_fall,
+                                      file_settings)
         for option, name, cap in (("--rec-hip-cap", "push_off_rec_hip_limit_nm", rec_hip_cap),
                                   ("--sup-hip-cap", "push_off_hip_limit_nm", sup_hip_cap),
                                   ("--sup-knee-cap", "push_off_sup_knee_limit_nm",
@@ -489,8 +508,8 @@ def main() -> None:
             ap.error(f"--grid-floor must be 0-{FLOOR_N}, got {args.grid_floor}")
     global GRID, STRENGTH, WALK_ON_S, ATTITUDE_DAMPING, TRUNK_ATTITUDE, MAX_TILT, GRID_FLOOR
     global ACTIVE, FIXED, GAIT_WEIGHT, FLIGHT_WEIGHT, REC_HIP_CAP, SUP_HIP_CAP, PUSH_WEIGHT
-    global KNEE_WEIGHT, BODIES_FLOOR, SUP_KNEE_CAP
-    SUP_KNEE_CAP = sup_knee_cap
+    global KNEE_WEIGHT, BODIES_FLOOR, SUP_KNEE_CAP, FLIGHT_FROM_FALL
+    SUP_KNEE_CAP, FLIGHT_FROM_FALL = sup_knee_cap, flight_from_fall
     KNEE_WEIGHT = 1.0 if args.push_off_knee is None else args.push_off_knee
     BODIES_FLOOR = args.bodies_floor
     GAIT_WEIGHT, FLIGHT_WEIGHT = args.walk_on_gait or 0.0, args.flight or 0.0
@@ -500,7 +519,7 @@ def main() -> None:
     ATTITUDE_DAMPING = attitude_damping
     TRUNK_ATTITUDE, MAX_TILT, GRID_FLOOR = trunk_attitude, args.max_tilt, args.grid_floor
     STRENGTH, WALK_ON_S = args.strength, args.walk_on
-    space = search_space(args.only, args.gains, args.lateral)
+    space = search_space(args.only, args.gains, args.lateral, args.flight_targets)
     rng = np.random.default_rng(args.seed)
     from stumble.control.fsm_params import FSMParams
 
@@ -554,7 +573,7 @@ def _init_args() -> tuple:
     """The module's settings, for ``_worker_init`` in a worker process."""
     return (STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING, TRUNK_ATTITUDE, MAX_TILT, ACTIVE,
             FIXED, GAIT_WEIGHT, FLIGHT_WEIGHT, REC_HIP_CAP, PUSH_WEIGHT, SUP_HIP_CAP,
-            KNEE_WEIGHT, SUP_KNEE_CAP)
+            KNEE_WEIGHT, SUP_KNEE_CAP, FLIGHT_FROM_FALL)
 
 
 def _worker_init(strength: str, grid: list, walk_on_s: float | None,
@@ -563,11 +582,12 @@ def _worker_init(strength: str, grid: list, walk_on_s: float | None,
                  fixed: tuple = (0, 0.0, 0, 0.0, 0, 0.0), gait_weight: float = 0.0,
                  flight_weight: float = 0.0, rec_hip_cap: float | None = None,
                  push_weight: float = 0.0, sup_hip_cap: float | None = None,
-                 knee_weight: float = 1.0, sup_knee_cap: float | None = None) -> None:
+                 knee_weight: float = 1.0, sup_knee_cap: float | None = None,
+                 flight_from_fall: bool = False) -> None:
     global STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING, TRUNK_ATTITUDE, MAX_TILT
     global ACTIVE, FIXED, GAIT_WEIGHT, FLIGHT_WEIGHT, REC_HIP_CAP, PUSH_WEIGHT, SUP_HIP_CAP
-    global KNEE_WEIGHT, SUP_KNEE_CAP
-    KNEE_WEIGHT, SUP_KNEE_CAP = knee_weight, sup_knee_cap
+    global KNEE_WEIGHT, SUP_KNEE_CAP, FLIGHT_FROM_FALL
+    KNEE_WEIGHT, SUP_KNEE_CAP, FLIGHT_FROM_FALL = knee_weight, sup_knee_cap, flight_from_fall
     STRENGTH, GRID, WALK_ON_S, ATTITUDE_DAMPING = strength, grid, walk_on_s, attitude_damping
     TRUNK_ATTITUDE, MAX_TILT, ACTIVE, FIXED = trunk_attitude, max_tilt, active, fixed
     GAIT_WEIGHT, FLIGHT_WEIGHT = gait_weight, flight_weight

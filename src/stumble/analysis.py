@@ -2,9 +2,10 @@
 
 - ``fell``: a body other than the feet touches the floor, or the pelvis drops below
   ``FALL_PELVIS_FRACTION`` of its standing height.
-- ``recovered``: the recovery step has landed, and for ``RECOVERED_AFTER_S`` after it
-  the person has not fallen, the trunk is within ``UPRIGHT_DEG`` of vertical and the
-  COM's ground projection is over the base of support (the feet on the floor, grown by
+- ``recovered``: the recovery step has landed, the person has not fallen for
+  ``RECOVERED_AFTER_S`` after it, and then (at the first instant from there on, where
+  the run stops) the trunk is within ``UPRIGHT_DEG`` of vertical and the COM's ground
+  projection is over the base of support (the feet on the floor, grown by
   ``BOS_MARGIN_M``); or, walking on (``StopRule.walk_on_s``), still walking at the
   verdict and, after an obstacle trip, past the obstacle.
 - ``diverged``: the physics blew up (NaN, or MuJoCo's bad-acceleration warning).
@@ -35,6 +36,9 @@ UPRIGHT_DEG = 35.0  # trunk tilt from vertical still called upright (ours)
 BOS_MARGIN_M = 0.05  # base of support grown by this (ours)
 SIDES = ("r", "l")
 NOT_PAST = "not past the obstacle"  # the stop reason of a walk on that did not pass the box
+# the stop reason of a state-machine walk on that was still walking at the end of its
+# time, but had taken fewer than WALK_ON_STEPS steps after the recovery step
+TOO_FEW_STEPS = "too few steps"
 TOUCHDOWN_SAMPLES = 3  # a touch-down lasts this many recorded samples (15 ms), not a scuff
 MIN_AIRBORNE_S = 0.1  # the recovery foot was in the air this long before it lands: a
 # touch right after the trip is the trip's own scuff (ours)
@@ -232,14 +236,40 @@ class StopRule:
 OTHER = {"r": "l", "l": "r"}
 
 
+# variant: the recovery foot lands from the air when both feet were off the floor for at
+# least this long right before it (ours: five 4 ms samples, so that a foot lifting in the
+# instant of the landing is not a flight)
+FLIGHT_MIN_S = 0.02
+TAKEOVER_S = 0.02  # the first samples after the trip, where a stance foot may flicker off
+
+
 def variant(rec: Recording, landing_s: float | None) -> str | None:
-    """``flight`` if both feet left the floor before the recovery landing, else
-    ``double_support``; None without a landing."""
+    """``flight`` if the recovery foot lands from the air (both feet off the floor for the
+    ``FLIGHT_MIN_S`` before its landing), else ``double_support`` (the other foot is on
+    the floor when it lands, even after a hop of it before); None without a landing.
+    SCA 2009 §3: "a flight phase or double support phase might occur followed by
+    touchdown on the ground with the non-tripped leg"; their controllers' Flight state
+    is left when that foot lands (§4.5). Until 2026-12-07 a hop of the push-off foot
+    that landed again before the recovery foot counted as a flight (see
+    ``airborne_before_landing_s``)."""
     if landing_s is None:
         return None
-    before = rec.time_s < landing_s
+    t = rec.time_s
     airborne = ~rec.foot_on_floor[:, 0] & ~rec.foot_on_floor[:, 1]
-    return "flight" if bool(np.any(airborne & before & (rec.time_s > 0.02))) else "double_support"
+    start, end = np.searchsorted(t, [landing_s - FLIGHT_MIN_S - 1e-9, landing_s - 1e-9])
+    return "flight" if end > start and bool(airborne[start:end].all()) else "double_support"
+
+
+def airborne_before_landing_s(rec: Recording, landing_s: float | None) -> float | None:
+    """Seconds with both feet off the floor from the trip (after ``TAKEOVER_S``) to the
+    recovery landing: a flight's, or a hop's of the push-off foot that lands again
+    first; None without a landing."""
+    if landing_s is None or len(rec.time_s) < 2:
+        return None
+    t = rec.time_s
+    airborne = (~rec.foot_on_floor[:, 0] & ~rec.foot_on_floor[:, 1]
+                & (t > TAKEOVER_S + 1e-9) & (t < landing_s - 1e-9))
+    return round(float(airborne.sum() * np.median(np.diff(t))), 4)
 
 
 def pitch_angles_deg(model: mujoco.MjModel, qpos: np.ndarray, tripped: str,
@@ -732,23 +762,31 @@ _EXERTIONS = (("hip_flexion", "hip_extension", "hip_flexion"),
 
 
 def support_peak_moments(m: mujoco.MjModel, rec: Recording, tripped_side: str,
-                         window_s: float = SUPPORT_WINDOW_S) -> dict | None:
-    """Peak servo moments (N·m, ≥ 0) of the support limb (the leg not tripped) in the
-    first ``window_s`` after the trip, by exertion (hip_extension, knee_flexion,
-    ankle_plantarflexion, ...), as Pijnappels et al. 2005 report them; None for muscles
-    (their forces are not joint moments) or without actuator forces."""
+                         window_s: float = SUPPORT_WINDOW_S,
+                         swap_s: float | None = None) -> dict | None:
+    """Peak servo moments (N·m, ≥ 0) of the support limb in the first ``window_s`` after
+    the trip, by exertion (hip_extension, knee_flexion, ankle_plantarflexion, ...), as
+    Pijnappels et al. 2005 report them: the leg not tripped, and from ``swap_s`` (s; a
+    lowering trip's leg swap, when the tripped leg takes over the support and pushes off,
+    SCA 2009 §4.4) the tripped leg; None for muscles (their forces are not joint
+    moments) or without actuator forces."""
     if rec.actuator_force is None or not len(rec.time_s):
         return None
-    side = {"r": "l", "l": "r"}[tripped_side]
-    inside = (rec.time_s >= 0.0) & (rec.time_s <= window_s + 1e-9)
+    t = rec.time_s
+    inside = (t >= 0.0) & (t <= window_s + 1e-9)
+    swapped = t >= (np.inf if swap_s is None else swap_s - 1e-9)
+    parts = ((OTHER[tripped_side], inside & ~swapped), (tripped_side, inside & swapped))
     out = {}
     for hinge, minus, plus in _EXERTIONS:
-        i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{hinge}_{side}")
-        if i < 0 or m.actuator_trntype[i] != mujoco.mjtTrn.mjTRN_JOINT:
-            return None
-        tau = rec.actuator_force[inside, i]
-        out[minus] = round(float(max(0.0, -tau.min())), 1)
-        out[plus] = round(float(max(0.0, tau.max())), 1)
+        taus = []
+        for side, rows in parts:
+            i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{hinge}_{side}")
+            if i < 0 or m.actuator_trntype[i] != mujoco.mjtTrn.mjTRN_JOINT:
+                return None
+            taus.append(rec.actuator_force[rows, i])
+        tau = np.concatenate(taus)
+        out[minus] = round(float(max(0.0, -tau.min(initial=0.0))), 1)
+        out[plus] = round(float(max(0.0, tau.max(initial=0.0))), 1)
     return out
 
 
@@ -812,6 +850,7 @@ def trip_summary(sc: Scenario, strategy: str, log: list, rec: Recording, stop: S
         "controller": sc.controller,
         "strategy": strategy,
         "variant": variant(rec, landing),
+        "airborne_before_landing_s": airborne_before_landing_s(rec, landing),
         "recovered": recovered,
         "fell": fell,
         "diverged": diverged,
@@ -831,7 +870,8 @@ def trip_summary(sc: Scenario, strategy: str, log: list, rec: Recording, stop: S
         "sim_time_s": round(float(rec.time_s[-1]) if len(rec.time_s) else 0.0, 4),
         "wall_time_s": round(rec.wall_time_s, 4),
         "steps": rec.steps,
-        "stop_reason": rec.stop_reason,
+        "stop_reason": (TOO_FEW_STEPS if rec.stop_reason == "recovered" and not recovered
+                        and not diverged else rec.stop_reason),
         "seed": sc.seed,
         "contact": sc.contact,
         "delay_scale": sc.delay_scale,
@@ -839,7 +879,9 @@ def trip_summary(sc: Scenario, strategy: str, log: list, rec: Recording, stop: S
         "strength_scale": sc.strength_scale,
         "strength_model": sc.strength_model,
         "population": sc.population,
-        "support_peak_moments_nm": support_peak_moments(m, rec, sc.side),
+        "support_peak_moments_nm": support_peak_moments(
+            m, rec, sc.side, swap_s=next((t0 for n, t0 in log if n == "clearance"), None)
+            if strategy == "lowering" else None),
         "angular_momentum_kg_m2_per_s": trip_angular_momentum(m, rec, sc.side, sc.mechanism,
                                                               landing),
         "recovery": sc.recovery,

@@ -5,7 +5,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from stumble.analysis import TripTimer
+from stumble.analysis import TripTimer, airborne_before_landing_s, variant
 
 DT = 0.005  # the recording's sample (s)
 
@@ -277,3 +277,31 @@ def test_a_body_that_walks_back_into_the_box_has_not_recovered():
     box = m.geom("obstacle").id
     far = m.geom_pos[box, 0] + m.geom_size[box, 0]  # the box's far face, world x (m)
     assert over.recording.com[-1, 0] > far + 2.0
+
+
+def test_the_variant_is_how_the_recovery_foot_lands():
+    """``flight`` only when both feet are off the floor for the 20 ms before the recovery
+    landing; a hop of the other foot that is down again by then, or a flicker at the
+    takeover, is double support (both counted as time airborne)."""
+    t = np.round(np.arange(0.0, 0.6, 0.004), 4)
+    on = np.ones((len(t), 2), bool)
+
+    def rec(off: list[tuple[float, float, int]]):
+        f = on.copy()
+        for a, b, col in off:
+            f[(t >= a) & (t < b), col] = False
+        return SimpleNamespace(time_s=t, foot_on_floor=f)
+
+    swing = (0.0, 0.5, 1)  # the recovery foot in the air until it lands at 0.5 s
+    hop = rec([swing, (0.30, 0.40, 0)])
+    assert variant(hop, 0.5) == "double_support"
+    assert airborne_before_landing_s(hop, 0.5) == pytest.approx(0.1)
+    flight = rec([swing, (0.44, 0.52, 0)])
+    assert variant(flight, 0.5) == "flight"
+    assert airborne_before_landing_s(flight, 0.5) == pytest.approx(0.06)
+    late = rec([swing, (0.49, 0.52, 0)])  # off only 12 ms before the landing
+    assert variant(late, 0.5) == "double_support"
+    flicker = rec([swing, (0.008, 0.02, 0)])
+    assert variant(flicker, 0.5) == "double_support"
+    assert airborne_before_landing_s(flicker, 0.5) == 0.0
+    assert variant(flight, None) is None and airborne_before_landing_s(flight, None) is None

@@ -130,6 +130,7 @@ class TripFSM:
             self.t_extend = float("inf")
         # where the trip stopped the swing foot: the recovery foot must pass it (+ margin)
         self.trip_point_x = self._toe_x(ctx, self.tripped)
+        self._sup_off_s: float | None = None  # flight_from_fall: the support foot left
         self._crossed = False  # lowering: the tripped leg's swing has passed the obstacle
         self._write(ctx)
 
@@ -260,6 +261,8 @@ class TripFSM:
         for side in ("r", "l"):
             if not on[side]:
                 self.left_floor[side] = True
+        if on[self.roles["sup"]]:
+            self._sup_off_s = None
         self._transitions(ctx, t)
         self._write(ctx)
 
@@ -301,6 +304,11 @@ class TripFSM:
         elif (st == "fall" and on[rec] and self.left_floor[rec]
               and self._ahead(ctx, rec, sup, 0.0)):
             self._switch("double_support", t, d, targets=self._table("double_support"))
+        elif st == "fall" and self.p.flight_from_fall and not on[sup] and not on[rec]:
+            # the support foot has left the floor in Fall (FSMParams.flight_from_fall)
+            self._sup_off_s = t if self._sup_off_s is None else self._sup_off_s
+            if t - self._sup_off_s >= self.p.flight_lift_s - 1e-9:
+                self._switch("flight", t, d, targets=self._table("flight"))
         elif st == "double_support" and not on[sup]:
             self._switch("single_support_after_trip", t, d,
                          targets=self._table("single_support_after_trip"))

@@ -19,6 +19,7 @@ is beside it. Everything here can be overridden (``FSMParams(**changes)``).
 from __future__ import annotations
 
 import copy
+import difflib
 import functools
 import hashlib
 import json
@@ -32,14 +33,21 @@ ACTIVATION_TO_TORQUE_S = 0.050  # SCA 2009 §4.3: 50 ms from muscle activation t
 LATENCY_S = {
     # push-off reaction of the support leg, SCA 2009 §3.1 (Pijnappels et al. 2005)
     "sup.hip_flexion": 0.050,  # hamstrings burst ~50 ms (hip extension)
-    "sup.hip_adduction": 0.080,  # gluteal burst ~80 ms
+    # gluteal burst ~80 ms: SCA 2009 §3.1 has it extend the support hip with the
+    # hamstrings; ours times the hip's frontal-plane (abduction) response with it, the
+    # gluteus medius's, and its extension with the hamstrings' 50 ms (the earlier burst)
+    "sup.hip_adduction": 0.080,
     "sup.knee_angle": 0.120,  # quadriceps ~120 ms (knee extension)
     "sup.ankle_angle": 0.075,  # triceps surae ~75 ms (plantarflexion)
     # elevating strategy, recovery (tripped) leg, SCA 2009 §3.2 (Schillings et al. 2000)
     "elev.rec.knee_angle": 0.064,  # biceps femoris ~64 ms flexes the knee
     "elev.rec.knee_extend": 0.154,  # rectus femoris ~154 ms extends it for touch-down
     "elev.rec.hip_flexion": 0.064,  # taken with the BF burst (the paper gives no hip timing)
-    "elev.rec.ankle_angle": 0.075,  # tibialis anterior ~75 ms after the push-off reaction
+    # tibialis anterior: SCA 2009 §3.2 "about 75 msec after the push-off reaction";
+    # ambiguous (after the push-off reaction's start, ~50 ms, or after the collision).
+    # Ours: 75 ms after the collision, as the paper's other latencies; the other reading
+    # is about 0.125 s (set latency_s["elev.rec.ankle_angle"] to it)
+    "elev.rec.ankle_angle": 0.075,
     # lowering strategy, tripped leg, SCA 2009 §3.3 (Schillings et al. 2000)
     "low.trip.knee_angle": 0.062,  # rectus femoris ~62 ms
     "low.trip.hip_flexion": 0.087,  # biceps femoris ~87 ms
@@ -321,6 +329,16 @@ FLIGHT = {
 # Clearance's (the state before Fall)
 LOW_FALL_FAST_TARGETS = {"sup_ankle": "sup.ankle_angle", "sup_knee": "sup.knee_angle",
                          "rec_knee": "rec.knee_angle", "rec_ankle": "rec.ankle_angle"}
+# The elevating Flight's targets (SCA 2009 §4.3's, never searched before 2026-12-07,
+# when Flight first ran: ``flight_from_fall``); the recovery hip follows the foot
+# placement there (``land_thigh_deg``). scripts/tune_fsm.py --flight-targets searches
+# these and the lowering's (``LOWERING_FLIGHT``'s ``fl_low_*``).
+ELEV_FLIGHT = {
+    f"fl_{key.replace('.', '_').replace('_angle', '').replace('_flexion', '')}":
+    (("targets_deg", "flight", key), lo, hi)
+    for key, (lo, hi) in {"rec.knee_angle": (-60.0, -3.0), "rec.ankle_angle": (-15.0, 20.0),
+                          "sup.hip_flexion": (-30.0, 40.0), "sup.knee_angle": (-110.0, -5.0),
+                          "sup.ankle_angle": (-40.0, 20.0)}.items()}
 # Flight in the lowering strategy by the compensation of SCA 2009 eq. 4 (issue 11; ours,
 # off by default): its own k_c at fast walking, the COM's lead over the lowered foot
 # before it acts, and the lowering's own Flight table (``flight_lowering``, from
@@ -350,7 +368,8 @@ LATERAL = {
 # tables a search may create from another (``with_values``): the lowering's own Flight
 DERIVED_TABLES = {"flight_lowering": "flight"}
 # every name a parameter file may set
-TUNABLE = {**SPACE, **GAINS, **WALK_ON, **FLIGHT, **LOWERING_FLIGHT, **LATERAL}
+TUNABLE = {**SPACE, **GAINS, **WALK_ON, **FLIGHT, **LOWERING_FLIGHT, **LATERAL,
+           **ELEV_FLIGHT}
 
 # How the values marked "tuned" were found: CMA-ES (the cmaes package, seeded) over the
 # 24 targets and 6 gains of SPACE and GAINS, from the earlier tuned values (random and
@@ -545,6 +564,14 @@ class FSMParams:
     clear_margin_m: float = 0.11489045028742148  # tuned
     # COM vertical velocity below which the COM "starts to fall" (SCA 2009 §4.3)
     fall_vz_m_per_s: float = 0.0
+    # Flight from Fall (ours; a setting): SCA 2009 §4.3 enters Flight when "the stance leg
+    # leaves the ground during Clearance". Our support foot leaves the floor later, in
+    # Fall, and lands again before the recovery foot (a hop: double support at the
+    # recovery landing). With this on, a support foot off the floor for
+    # ``flight_lift_s`` in Fall, the recovery foot in the air, starts Flight too (rear leg
+    # flexed, front leg extended), and the recovery foot lands from the air.
+    flight_from_fall: bool = False
+    flight_lift_s: float = 0.012  # ours: three 4 ms samples, not a flicker
 
     def delay(self, key: str) -> float:
         """Latency + activation-to-torque offset, times the delay scale (s)."""
@@ -721,7 +748,7 @@ DEFAULT_SETS = {("fixed", "walk_on"): DEFAULT_SET, ("fixed", "step"): DEFAULT_SE
 # "settings" object): FSMParams fields that no search varies but that a set was found
 # with (scripts/tune_fsm.py writes its --trunk-attitude and --attitude-damping there).
 SETTINGS = ("trunk_attitude", "attitude_damping", "push_off_hip_limit_nm",
-            "push_off_rec_hip_limit_nm", "push_off_sup_knee_limit_nm")
+            "push_off_rec_hip_limit_nm", "push_off_sup_knee_limit_nm", "flight_from_fall")
 # the settings that cap a servo's moment in the push-off (N·m > 0, or None: off)
 CAP_SETTINGS = ("push_off_hip_limit_nm", "push_off_rec_hip_limit_nm",
                 "push_off_sup_knee_limit_nm")
@@ -753,6 +780,10 @@ def check_setting(name: str, value, where: str):
             raise InputError(f"{where}: {name} = {value!r} is not a number of N·m > 0 "
                              f"(or null: the servo's own limit)")
         return None if value is None else float(value)
+    if name == "flight_from_fall":
+        if not isinstance(value, bool):
+            raise InputError(f"{where}: flight_from_fall = {value!r} is not true or false")
+        return value
     if name == "attitude_damping":
         if not isinstance(value, str) or value not in ATTITUDE_DAMPING:
             raise InputError(f"{where}: attitude_damping = {value!r} is not one of "
@@ -797,6 +828,11 @@ def read_params(path_or_name) -> ParamsFile:
                          f"\"params\" ({type(e).__name__})") from None
     if not isinstance(values, dict):
         raise InputError(f"{path_or_name}: \"params\" is not an object of named values")
+    for key in doc:  # other keys are ignored (a search's score, its command), but not a
+        near = difflib.get_close_matches(str(key), ("params", "settings"), 1, 0.7)
+        if near and key != near[0]:  # misspelt one of the two that are read
+            raise InputError(f"{path_or_name}: unknown key {key!r} (did you mean "
+                             f"{near[0]!r}?)")
     space, off = TUNABLE, _own_values()
     for name, value in values.items():
         if name not in space:

@@ -66,10 +66,25 @@ def test_lowering_sequence_follows_sca_2009(lowering):
     assert lowering.summary["variant"] in ("double_support", "flight")
 
 
-def test_variant_matches_the_states(elevating):
-    names = [s["name"] for s in elevating.summary["states"]]
-    v = elevating.summary["variant"]
-    assert (v == "flight") == ("flight" in names) or v == "double_support"
+def test_a_hop_is_no_flight_and_flight_from_fall_makes_one():
+    """The force trip at 0.25 of swing, 1.4 m/s on the default set: the push-off foot
+    hops (both feet off 56 ms) but is down again when the recovery foot lands: double
+    support, no Flight state. With ``flight_from_fall`` the hop starts Flight, and the
+    recovery foot lands from the air."""
+    from dataclasses import replace
+
+    from stumble.control.fsm_params import load_params
+
+    sc = Scenario(swing_fraction=0.25, speed_m_per_s=1.4)
+    hop = simulate_trip(sc).summary
+    names = [s["name"] for s in hop["states"]]
+    assert hop["variant"] == "double_support" and "flight" not in names
+    assert hop["airborne_before_landing_s"] == pytest.approx(0.056, abs=0.01)
+    fly = simulate_trip(sc, params=replace(load_params("knee_cap"),
+                                           flight_from_fall=True)).summary
+    names = [s["name"] for s in fly["states"]]
+    assert fly["variant"] == "flight" and names[2:4] == ["fall", "flight"]
+    assert fly["airborne_before_landing_s"] > 0.1
 
 
 def test_a_weak_body_falls():
@@ -177,6 +192,7 @@ def test_tunable_values_and_the_human_strength_set():
     import json
 
     from stumble.control.fsm_params import (
+        ELEV_FLIGHT,
         FLIGHT,
         GAINS,
         HUMAN_STRENGTH_FILE,
@@ -189,7 +205,7 @@ def test_tunable_values_and_the_human_strength_set():
 
     p = FSMParams()
     assert set(p.values()) == (set(SPACE) | set(GAINS) | set(WALK_ON) | set(FLIGHT)
-                               | set(LOWERING_FLIGHT) | set(LATERAL))
+                               | set(LOWERING_FLIGHT) | set(LATERAL) | set(ELEV_FLIGHT))
     assert len(SPACE) == 27
     assert p.with_values(p.values()) == p
     q = p.with_values({"kp_knee": 123.0, "ssat_swing_s": 0.3})
@@ -250,7 +266,8 @@ def test_a_params_file_carries_its_settings(tmp_path):
     assert rec["settings"] == {"trunk_attitude": 0.3, "attitude_damping": "joint",
                                "push_off_hip_limit_nm": None,
                                "push_off_rec_hip_limit_nm": None,
-                               "push_off_sup_knee_limit_nm": None}
+                               "push_off_sup_knee_limit_nm": None,
+                               "flight_from_fall": False}
     f.write_text(json.dumps({"params": {}, "settings": {"attitude_damping": "pelvis"}}))
     assert load_params(f).attitude_damping == "pelvis" and load_params(f).trunk_attitude == 0.0
     for settings, match in (('{"trunk_attitude": -0.5}', "trunk_attitude = -0.5 is not"),
@@ -309,7 +326,8 @@ def test_tune_fsm_out_carries_its_settings_to_around_and_load_params(tmp_path, m
         assert settings == {"trunk_attitude": 0.4, "attitude_damping": "pelvis",
                             "push_off_rec_hip_limit_nm": 60.0,
                             "push_off_hip_limit_nm": None,
-                            "push_off_sup_knee_limit_nm": None}
+                            "push_off_sup_knee_limit_nm": None,
+                               "flight_from_fall": False}
         with pytest.raises(InputError, match=re.escape(
                 "--rec-hip-cap 80.0 conflicts with the --around file's "
                 "settings.push_off_rec_hip_limit_nm 60.0")):
@@ -740,13 +758,14 @@ def test_the_upright_set_walks_on_with_the_trunk_within_26_degrees():
     assert upright["walk_on_step_s"] > base["walk_on_step_s"] + 0.01
 
 
-def test_fast_push_flies_at_fast_walking_only():
+def test_fast_push_lifts_the_support_foot_at_fast_walking_only():
     """``elev_sup_ankle_fast_deg`` (ours, issue 11): the elevating support ankle pushes
     further at fast walking, phased in as k_c is (0 at 1.0 m/s, all of it at 1.4). In the
-    upright set (-5°; flight's elevating trips are the same) an elevating
-    force trip at 0.25 of swing, 1.4 m/s, recovers with a flight phase (SCA 2009 Table 1:
-    flights at 1.44 m/s), where without the push it keeps double support; the same trip
-    at 1.0 m/s keeps double support."""
+    upright set (-5°; flight's elevating trips are the same) an elevating force trip at
+    0.25 of swing, 1.4 m/s, pushes the support foot off the floor before the recovery
+    foot lands, where without the push it stays down; the same trip at 1.0 m/s keeps it
+    down. The foot lands again first, so the landing is in double support: counted a
+    flight until 2026-12-07, a hop since (``analysis.variant``)."""
     from stumble.control.fsm_params import load_params
 
     p = load_params("upright")
@@ -761,10 +780,11 @@ def test_fast_push_flies_at_fast_walking_only():
     sc = Scenario(swing_fraction=0.25, speed_m_per_s=1.4, mechanism="force")
     fast = simulate_trip(sc, params=p).summary
     still = simulate_trip(sc, params=off).summary
-    assert fast["recovered"] and fast["variant"] == "flight"
-    assert still["recovered"] and still["variant"] == "double_support"
+    assert fast["recovered"] and fast["variant"] == "double_support"
+    assert fast["airborne_before_landing_s"] == pytest.approx(0.028, abs=0.01)
+    assert still["recovered"] and still["airborne_before_landing_s"] == 0.0
     slow = simulate_trip(sc.with_(speed_m_per_s=1.0), params=p).summary
-    assert slow["recovered"] and slow["variant"] == "double_support"
+    assert slow["recovered"] and slow["airborne_before_landing_s"] == 0.0
 
 
 def test_scan_fsm_counts_walk_ons_and_flights_as_validate_does():
@@ -900,16 +920,17 @@ def test_lowering_flight_parameters_default_to_the_elevating_law():
     assert moved.values()["fl_low_sup_knee"] == -30.0
 
 
-def test_the_flight_set_flies_in_the_lowering_strategy_at_fast_walking_only():
+def test_the_flight_set_pushes_off_the_lowered_foot_at_fast_walking_only():
     """The flight set, the default from 2026-12-05 to 2026-12-06 (issue 11; ``knee_cap``,
     the default since, was searched from it under a support-knee cap): the lowering strategy's
     own compensation torque at fast walking (SCA 2009 eq. 4, k_c 232 against the paper's
     300, once the COM is 7 cm ahead of the lowered foot) and its own Flight targets. A
-    lowering obstacle trip at 0.65 of swing, 1.4 m/s, then walks on 6 s after a flight
-    phase (seed 000 Table 1: 3 of 7 lowering trips fly at 1.44 m/s), its recovery leg
-    landing as soon after the trip as in SCA 2009's motion capture or simulation (§5.2:
-    0.57 and 0.72 s), where upright keeps double support; at 1.0 m/s both keep it. The
-    searches that found it start from a file of the repository, with its settings."""
+    lowering obstacle trip at 0.65 of swing, 1.4 m/s, then walks on 6 s after the lowered
+    foot has left the floor (a hop: it lands again before the recovery foot, so double
+    support, counted a flight until 2026-12-07), its recovery leg landing as soon after
+    the trip as in SCA 2009's motion capture or simulation (§5.2: 0.57 and 0.72 s),
+    where upright keeps the foot down; at 1.0 m/s both keep it. The searches that found
+    it start from a file of the repository, with its settings."""
     from pathlib import Path
 
     from stumble.control.fsm_params import (
@@ -936,12 +957,13 @@ def test_the_flight_set_flies_in_the_lowering_strategy_at_fast_walking_only():
     sc = Scenario(swing_fraction=0.65, speed_m_per_s=1.4, mechanism="obstacle")
     flies, keeps = simulate_trip(sc, params=fl).summary, simulate_trip(sc, params=up).summary
     assert flies["strategy"] == keeps["strategy"] == "lowering"
-    assert flies["recovered"] and flies["variant"] == "flight"
+    assert flies["recovered"] and flies["variant"] == "double_support"
+    assert flies["airborne_before_landing_s"] == pytest.approx(0.068, abs=0.01)
     assert flies["trunk_tilt_at_recovery_contact_deg"] <= 26.0
     assert abs(flies["durations_s"]["trip_to_recovery_contact"] - 0.57) <= 0.72 - 0.57
-    assert keeps["recovered"] and keeps["variant"] == "double_support"
+    assert keeps["recovered"] and keeps["airborne_before_landing_s"] == 0.0
     slow = simulate_trip(sc.with_(speed_m_per_s=1.0), params=fl).summary
-    assert slow["recovered"] and slow["variant"] == "double_support"
+    assert slow["recovered"] and slow["airborne_before_landing_s"] == 0.0
 
 
 def test_a_parameter_file_of_every_value_reads_back(tmp_path):

@@ -35,8 +35,12 @@ def trip_controller(sc: Scenario, strategy: str | None, params: FSMParams | None
     if sc.controller == "gh2010":
         return walk_controller("gh2010", pb, t_trip, gh2010, delay_scale=sc.delay_scale,
                                response_only=response_only)
-    p = replace(params or default_params(sc.strength_model, sc.recovery),
-                delay_scale=sc.delay_scale)
+    p = params or default_params(sc.strength_model, sc.recovery)
+    if p.delay_scale != 1.0 and p.delay_scale != sc.delay_scale:  # not silently replaced
+        raise InputError(f"the state machines' parameters carry delay_scale "
+                         f"{p.delay_scale:g}: give it as the scenario's delay scale "
+                         f"({sc.delay_scale:g}) instead")
+    p = replace(p, delay_scale=sc.delay_scale)
     pop = POPULATIONS[sc.population]
     if pop.extra_latency_s:  # the population's slower responses (trip.POPULATIONS)
         p = replace(p, latency_s={k: v + pop.extra_latency_s.get(k, 0.0)
