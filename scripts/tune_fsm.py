@@ -123,8 +123,9 @@ def search_space(only: str, gains: bool, lateral: bool = False,
         space.update(GAINS)
     if lateral:
         space.update(LATERAL)
-    if flight_targets:  # both Flight tables' targets
-        space.update(ELEV_FLIGHT)
+    if flight_targets:  # both Flight tables' targets; a lowering search the lowering's
+        if only not in ("lowering", "lowering_fast", "lowering_flight"):
+            space.update(ELEV_FLIGHT)  # (its elevating trips run once, with the start's)
         space.update({k: v for k, v in LOWERING_FLIGHT.items() if k.startswith("fl_low_")})
     return space
 

@@ -265,7 +265,9 @@ def map_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
                 _row(fig_r, "stumble", ctrl, RECOVERY_TARGET, pub_r, None, "not available",
                      "n/a", keys, why),
                 angmom_row(ctrl, mid)]
-    window = [(s, r) for s, r in ran if human_strategy(s) is not None]
+    # a diverged run counts as not recovered; its strategy is not read
+    window = [(s, r) for s, r in ran
+              if human_strategy(s) is not None and not r.get("diverged")]
     human = sum(r.get("strategy") == human_strategy(s) for s, r in window)
     share = human / len(window) if window else 0.0
     k = sum(bool(r.get("recovered")) for _s, r in ran)
@@ -273,8 +275,9 @@ def map_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
     rate = k / n  # of all the map's trips (the issue's): one not set did not recover
     unset = sum(bool(r.get("not_set")) for _s, r in rows)
     errors = len(rows) - len(ran) - unset
-    left = "".join(f"; {m} {what}" for m, what in ((unset, "not set"), (errors, "raised"))
-                   if m)
+    diverged = sum(bool(r.get("diverged")) for _s, r in ran)
+    left = "".join(f"; {m} {what}" for m, what in ((diverged, "diverged"), (unset, "not set"),
+                                                   (errors, "raised")) if m)
     return [_row(fig_s, "SCA 2009 §3", ctrl, MAP_STRATEGY_TARGET, pub_s, round(share, 4),
                  f"{human}/{len(window)} ({share:.0%}{left})",
                  "yes" if share >= MAP_STRATEGY_TARGET else "no", keys),
@@ -349,11 +352,11 @@ def strength_rows(ctrl: str, by_case: dict[str, dict]) -> list[dict]:
     older = [by_case[f"{ctrl}/older/{s}"] for s in WINDOW_SWINGS]
     o_ran = [r for r in older if not _failed(r)]
     late = [r for r in o_ran if OLDER_LOWERING[0] - 1e-9 <= r["swing_fraction"]
-            <= OLDER_LOWERING[1] + 1e-9]
+            <= OLDER_LOWERING[1] + 1e-9 and not r.get("diverged")]
     n_low = sum(r.get("strategy") == "lowering" for r in late)
     out.append(_row("older adults: strategy, trip at 55-75 % of swing", "Roos et al. 2010",
                     ctrl, "lowering", "lowering (at 60-80 %)", n_low,
-                    f"lowering {n_low}/{len(late)}",
+                    f"lowering {n_low}/{len(late)}" + _left_out(older),
                     "yes" if late and n_low == len(late) else "no",
                     [r["key"] for r in older]))
     grid = {pop: [by_case[f"{ctrl}/grid/{pop}/{m}/{s}/{v}"] for m, s, v in OLDER_GRID]

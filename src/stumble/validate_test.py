@@ -317,6 +317,28 @@ def test_a_diverged_run_is_not_recovered_and_its_strategy_is_not_read():
     assert row["stumble_text"] == f"{n - 1}/{n} ({(n - 1) / n:.0%}; 1 diverged)"
 
 
+def test_a_diverged_run_is_named_in_the_own_gait_map_too():
+    """The strategy map in a reflex controller's own gait: a diverged window trip's
+    strategy is not read, it is not recovered, and both rows name it."""
+    from stumble.control.reflex.fit_walk import human_strategy
+    from stumble.validate import MAP_SPEEDS, MAP_SWINGS, map_rows
+
+    by_case = {}
+    for v in MAP_SPEEDS:
+        for s in MAP_SWINGS:
+            key = f"reflex/map/{s}/{v}"
+            by_case[key] = {"key": key, "recovered": True, "error": None,
+                            "strategy": human_strategy(s) or "elevating"}
+    by_case[f"reflex/map/{MAP_SWINGS[0]}/{MAP_SPEEDS[0]}"].update(
+        recovered=False, diverged=True)
+    strategy, recovered, _angmom = map_rows("reflex", by_case)
+    window = sum(human_strategy(s) is not None for s in MAP_SWINGS) * len(MAP_SPEEDS)
+    n = len(MAP_SWINGS) * len(MAP_SPEEDS)
+    assert strategy["stumble_text"] == f"{window - 1}/{window - 1} (100%; 1 diverged)"
+    assert recovered["stumble_text"].startswith(f"{n - 1}/{n} (")
+    assert recovered["stumble_text"].endswith("; 1 diverged)")
+
+
 def test_a_trip_not_set_counts_as_no_run_in_the_figures():
     """A window trip that could not be set (``not_set``) is no trip to read: the figure
     says why, as for a run that raised, and the recovery rate leaves it out."""

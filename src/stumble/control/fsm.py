@@ -131,6 +131,7 @@ class TripFSM:
         # where the trip stopped the swing foot: the recovery foot must pass it (+ margin)
         self.trip_point_x = self._toe_x(ctx, self.tripped)
         self._sup_off_s: float | None = None  # flight_from_fall: the support foot left
+        self._flight_from_fall = False  # Flight entered from Fall
         self._crossed = False  # lowering: the tripped leg's swing has passed the obstacle
         self._write(ctx)
 
@@ -296,6 +297,9 @@ class TripFSM:
             elif (on[rec] and self.left_floor[rec] and t - self.t_state > 0.1
                   and self._ahead(ctx, rec, sup, 0.0)):
                 self._switch("double_support", t, d, targets=self._table("double_support"))
+        elif (st == "flight" and self._flight_from_fall and on[sup] and not on[rec]):
+            # the hop that started Flight lands first: back to Fall (flight_from_fall)
+            self._switch("fall", t, d, targets=self._table("fall"))
         elif st == "flight" and on[rec] and self._ahead(ctx, rec, sup, 0.0):
             self._switch("single_support_after_trip", t, d,
                          targets=self._table("single_support_after_trip"))
@@ -309,6 +313,7 @@ class TripFSM:
             self._sup_off_s = t if self._sup_off_s is None else self._sup_off_s
             if t - self._sup_off_s >= self.p.flight_lift_s - 1e-9:
                 self._switch("flight", t, d, targets=self._table("flight"))
+                self._flight_from_fall = True
         elif st == "double_support" and not on[sup]:
             self._switch("single_support_after_trip", t, d,
                          targets=self._table("single_support_after_trip"))

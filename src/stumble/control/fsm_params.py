@@ -599,7 +599,12 @@ class FSMParams:
         """A copy with tunable values (``TUNABLE`` names) set; KeyError names an
         unknown one."""
         p = copy.deepcopy(self)
-        for name, value in values.items():
+        # a derived table's values after its source's: one equal to the source's (new)
+        # value needs no table of its own, one that differs starts from the new source
+        derived = [n for n in values if TUNABLE[n][0][0] == "targets_deg"
+                   and TUNABLE[n][0][1] in DERIVED_TABLES]
+        for name in [*(n for n in values if n not in derived), *derived]:
+            value = values[name]
             path = TUNABLE[name][0]
             if path[0] == "targets_deg":
                 if path[1] not in p.targets_deg and path[1] in DERIVED_TABLES:

@@ -85,6 +85,15 @@ def test_a_hop_is_no_flight_and_flight_from_fall_makes_one():
     names = [s["name"] for s in fly["states"]]
     assert fly["variant"] == "flight" and names[2:4] == ["fall", "flight"]
     assert fly["airborne_before_landing_s"] > 0.1
+    # a Flight whose rear leg stays down (SCA 2009's table with the hip at -30°): the hop
+    # lands before the recovery foot, and the controller goes back to Fall, not on in
+    # Flight on a standing leg
+    stay = replace(load_params("knee_cap"), flight_from_fall=True).with_values(
+        {"fl_sup_knee": -5.0, "fl_sup_hip": -30.0, "fl_sup_ankle": -40.0})
+    back = simulate_trip(sc.with_(swing_fraction=0.15), params=stay).summary
+    names = [s["name"] for s in back["states"]]
+    assert names[2:6] == ["fall", "flight", "fall", "double_support"]
+    assert back["variant"] == "double_support"
 
 
 def test_a_weak_body_falls():
