@@ -332,7 +332,8 @@ LOW_FALL_FAST_TARGETS = {"sup_ankle": "sup.ankle_angle", "sup_knee": "sup.knee_a
 # The elevating Flight's targets (SCA 2009 §4.3's, never searched before 2026-12-07,
 # when Flight first ran: ``flight_from_fall``); the recovery hip follows the foot
 # placement there (``land_thigh_deg``). scripts/tune_fsm.py --flight-targets searches
-# these and the lowering's (``LOWERING_FLIGHT``'s ``fl_low_*``).
+# these and the lowering's (``LOWERING_FLIGHT``'s ``fl_low_*``); the ranges are ours, as
+# the lowering's.
 ELEV_FLIGHT = {
     f"fl_{key.replace('.', '_').replace('_angle', '').replace('_flexion', '')}":
     (("targets_deg", "flight", key), lo, hi)

@@ -826,7 +826,9 @@ def _defaults_metadata(out: Path, store, source, params: ParamsFile | None) -> d
     if params is not None:
         meta["params"] = params.record()
     elif source.has_fsm:  # the sets this version's state machines run by default
-        check(fsm, fsm := default_params_record(), "fsm", "state-machine")
+        now_fsm = default_params_record()
+        check(fsm, now_fsm, "fsm", "state-machine")
+        fsm = now_fsm
     if fsm is not None and params is None and (source.has_fsm or has_runs("fsm")):
         meta["fsm_default_params"] = fsm
     before = prev.get("reflex_default_params")
