@@ -221,7 +221,7 @@ def _one_line_error(r: subprocess.CompletedProcess, *words: str) -> None:
       "OUT"], ["--ahead-from: that network has no touch response by the foot"]),
     (["study", "--out", "OUT", "--params", "missing.json"],
      ["missing.json: no such file, nor a shipped state-machine set (flight, upright, "
-      "step, anderson2007_walk_on, anderson2007, hip_cap, knee_cap)"]),
+      "step, anderson2007_walk_on, anderson2007, hip_cap, knee_cap, flight_from_fall)"]),
     (["study", "--out", "OUT", "--controller", "reflex", "--params", "anderson2007"],
      ["--params is for --controller fsm"]),
 ])

@@ -813,7 +813,7 @@ def add_validate_parser(sub) -> None:
                    help="the state machines' targets and gains: a JSON file as "
                    "scripts/tune_fsm.py --out writes it, or a shipped set (knee_cap, "
                    "the default; flight; upright; step; anderson2007_walk_on; "
-                   "anderson2007; hip_cap); a "
+                   "anderson2007; hip_cap; flight_from_fall); a "
                    "directory "
                    "holds the runs of one set")
     from stumble.study.cli import timeout_arg

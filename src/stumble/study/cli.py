@@ -86,7 +86,7 @@ def add_study_parser(sub) -> None:
                    "file as scripts/tune_fsm.py --out writes it, or a shipped set "
                    "(knee_cap, the default; flight; upright; step; anderson2007_walk_on "
                    "and anderson2007, the defaults with --strength anderson2007; "
-                   "hip_cap); "
+                   "hip_cap; flight_from_fall); "
                    "recorded in "
                    "DIR/study.json "
                    "with its SHA-256")
