@@ -30,6 +30,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 import tune_fsm as T  # the search spaces and their ranges
 
 from stumble.control.fsm_params import load_params
+from stumble.errors import InputError
 from stumble.pipeline import simulate_trip
 from stumble.trip import Scenario
 
@@ -52,7 +53,8 @@ def run(job) -> tuple[bool, bool, float]:
     u, (mech, f, v) = job
     s = simulate_trip(Scenario(mechanism=mech, swing_fraction=f, speed_m_per_s=v),
                       params=_BASE.with_values(values_of(u))).summary
-    ok = bool(s["recovered"]) and (s["trunk_tilt_at_recovery_contact_deg"] or 99) <= MAX_TILT_DEG
+    tilt = s["trunk_tilt_at_recovery_contact_deg"]
+    ok = bool(s["recovered"]) and tilt is not None and tilt <= MAX_TILT_DEG
     return ok, s["variant"] == "flight" and s["strategy"] == "lowering", v
 
 
@@ -82,8 +84,19 @@ def main() -> None:
     ap.add_argument("--sigma", type=float, default=0.1,
                     help="initial step, a fraction of each range (default 0.1)")
     args = ap.parse_args()
-    start = json.loads(Path(args.around).read_text())
-    _BASE = load_params(args.around)
+    try:
+        start = json.loads(Path(args.around).read_text())
+        if not isinstance(start, dict) or not isinstance(start.get("params"), dict):
+            raise InputError("not a parameter file (no \"params\" object)")
+        _BASE = load_params(args.around)
+    except (OSError, ValueError, InputError) as e:
+        sys.exit(f"search_lowering_flights: --around {args.around}: {e}")
+    out_dir = Path(args.out).resolve().parent
+    if not out_dir.is_dir():
+        sys.exit(f"search_lowering_flights: --out {args.out}: no directory {out_dir}")
+    if args.generations < 1 or not args.sigma > 0 or not args.flight >= 0:
+        sys.exit("search_lowering_flights: --generations must be >= 1, --sigma > 0, "
+                 "--flight >= 0")
     v0 = _BASE.values()
     x0 = np.array([(v0[k] - RANGES[k][0]) / (RANGES[k][1] - RANGES[k][0])
                    for k in NAMES]).clip(0, 1)

@@ -750,9 +750,10 @@ SHIPPED = {"flight": FLIGHT_FILE,  # named parameter sets (load_params)
            "knee_cap": KNEE_CAP_FILE, "flight_from_fall": FLIGHT_FROM_FALL_FILE}
 # The set a trip runs with when none is named (issue 11: recovered means walking on; the
 # knee_cap set walks on after 47 of the 48 grid trips and 87 of the six bodies' 96 with
-# the trunk within 26°, flies at 1.4 m/s in both strategies, and its support knee pushes
-# off within 1.5 times people's; ``flight`` from 2026-12-05, whose knee pushes off at
-# ~150 N·m; ``upright`` until 2026-12-05, whose lowering trips never fly)
+# the trunk within 26°, and its support knee pushes off within 1.5 times people's;
+# at 1.4 m/s its push-off foot hops but never flies: ``flight_from_fall`` flies;
+# ``flight`` from 2026-12-05, whose knee pushes off at ~150 N·m; ``upright`` until
+# 2026-12-05)
 DEFAULT_SET = "knee_cap"
 # the set a trip runs with when none is named, by (strength model, recovery rule)
 DEFAULT_SETS = {("fixed", "walk_on"): DEFAULT_SET, ("fixed", "step"): DEFAULT_SET,

@@ -938,7 +938,7 @@ def test_the_flight_from_fall_set_lands_from_a_flight_at_fast_walking_only():
     Table 1). Its fit starts from files of the repository."""
     from pathlib import Path
 
-    from stumble.control.fsm_params import FLIGHT_FROM_FALL_FILE, load_params
+    from stumble.control.fsm_params import DEFAULT_SET, FLIGHT_FROM_FALL_FILE, load_params
 
     p = load_params("flight_from_fall")
     assert p.flight_from_fall and p.push_off_sup_knee_limit_nm == 80.0
@@ -952,9 +952,17 @@ def test_the_flight_from_fall_set_lands_from_a_flight_at_fast_walking_only():
         assert fast["variant"] == "flight" and fast["airborne_before_landing_s"] > 0.1
         assert "flight" in [s["name"] for s in fast["states"]]
         assert slow["variant"] == "double_support" and slow["airborne_before_landing_s"] == 0.0
+    # its fit: three commands, each starting from the one before's --out, the first from
+    # the repository's start (k_c set by hand to 480, the setting on, the knee capped)
     commands = json.loads(FLIGHT_FROM_FALL_FILE.read_text())["fit"]["commands"]
-    start = re.search(r"--around (\S+)", commands[0]).group(1)
-    assert (Path(__file__).resolve().parents[3] / start).is_file()
+    arounds = [re.search(r"--around (\S+)", c).group(1) for c in commands]
+    outs = [re.search(r"--out (\S+)", c).group(1) for c in commands]
+    assert arounds[1:] == outs[:-1] and "search_lowering_flights.py" in commands[0]
+    start = json.loads((Path(__file__).resolve().parents[3] / arounds[0]).read_text())
+    assert start["params"]["kc_lowering_fast"] == 480.0
+    assert start["settings"]["flight_from_fall"] is True
+    assert start["settings"]["push_off_sup_knee_limit_nm"] == 80.0
+    assert DEFAULT_SET == "knee_cap"  # shipped by name, not (yet) the default
 
 
 def test_the_flight_set_pushes_off_the_lowered_foot_at_fast_walking_only():
