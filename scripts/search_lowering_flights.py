@@ -36,8 +36,7 @@ from stumble.trip import Scenario
 
 NAMES = list(dict.fromkeys((*T.LOWERING, *T.LOWERING_FAST, *T.LOWERING_FLIGHT)))
 RANGES = {k: T.TUNABLE[k][1:] for k in NAMES}
-TRIPS = [(m, f, v) for v in (1.0, 1.2, 1.4) for m in ("force", "obstacle")
-         for f in (0.55, 0.65, 0.75)]
+TRIPS = [(mech, f, v) for f, v, mech in T.LOWERING_GRID]  # tune_fsm.py --grid lowering's
 MAX_TILT_DEG = 26.0  # van den Bogert et al. 2002 (issue 11)
 _BASE = None
 
