@@ -125,16 +125,19 @@ def test_a_walk_on_recovery_reports_its_steps_and_when_its_gait_is_steady():
 def test_the_walk_on_reports_where_it_heads():
     """``walk_on_heading_deg`` and ``sideways_m``: a force trip at 0.25 of swing (1.2 m/s)
     walks on straight; one at 0.65 (1.4 m/s) walks on 27 deg to the right of the walk
-    before, 2.6 m to the side after 6 s (the default set's largest of the 48-trip grid);
-    the step speeds along x read the veer as slower (1.10 m/s, 1.23 along its path).
-    The planar reflex body has no sideways: None."""
+    before, 2.6 m to the side after 6 s (the largest of the 48-trip grid with the
+    ``knee_cap`` set, the default until 2026-12-07; ``flight_from_fall`` veers 6 deg
+    there); the step speeds along x read the veer as slower (1.10 m/s, 1.23 along its
+    path). The planar reflex body has no sideways: None."""
+    from stumble.control.fsm_params import load_params
     from stumble.pipeline import simulate_trip
     from stumble.trip import Scenario
 
+    p = load_params("knee_cap")
     straight = simulate_trip(Scenario(mechanism="force", swing_fraction=0.25,
-                                      speed_m_per_s=1.2)).summary
+                                      speed_m_per_s=1.2), params=p).summary
     veers = simulate_trip(Scenario(mechanism="force", swing_fraction=0.65,
-                                   speed_m_per_s=1.4)).summary
+                                   speed_m_per_s=1.4), params=p).summary
     assert straight["recovered"] and veers["recovered"]
     assert abs(straight["walk_on_heading_deg"]) < 1.0 and abs(straight["sideways_m"]) < 0.2
     assert veers["walk_on_heading_deg"] == pytest.approx(-26.8, abs=0.5)
@@ -232,16 +235,18 @@ def test_the_trips_contact_joins_gaps_shorter_than_20_ms():
 
 
 def test_a_mid_swing_trip_gains_what_people_gain_and_the_support_leg_takes_it_all_out():
-    """An obstacle trip at 0.35 of swing, 1.2 m/s (the default set): over the foot's
-    56 ms on the box the body gains 10.9 kg·m²/s of forward angular momentum, within 5 %
-    of people's 11.4 over mid-swing trips (Pijnappels et al. 2004); by the recovery
-    foot's contact (0.42 s) the support leg has taken all of it out (-0.2)."""
+    """An obstacle trip at 0.35 of swing, 1.2 m/s (the ``knee_cap`` set, the default
+    until 2026-12-07): over the foot's 56 ms on the box the body gains 10.9 kg·m²/s of
+    forward angular momentum, within 5 % of people's 11.4 over mid-swing trips
+    (Pijnappels et al. 2004; ``flight_from_fall``: 10.8); by the recovery foot's contact
+    (0.42 s) the support leg has taken all of it out (-0.2)."""
     from stumble.analysis import PEOPLE_TRIP_ANGMOM_GAIN
+    from stumble.control.fsm_params import load_params
     from stumble.pipeline import simulate_trip
     from stumble.trip import Scenario
 
     s = simulate_trip(Scenario(mechanism="obstacle", swing_fraction=0.35,
-                               speed_m_per_s=1.2)).summary
+                               speed_m_per_s=1.2), params=load_params("knee_cap")).summary
     am = s["angular_momentum_kg_m2_per_s"]
     assert am["gained_in_contact"] == pytest.approx(10.89, abs=0.1)
     assert abs(am["gained_in_contact"] / PEOPLE_TRIP_ANGMOM_GAIN - 1.0) < 0.05

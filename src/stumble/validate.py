@@ -811,9 +811,9 @@ def add_validate_parser(sub) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--params", metavar="FILE|NAME",
                    help="the state machines' targets and gains: a JSON file as "
-                   "scripts/tune_fsm.py --out writes it, or a shipped set (knee_cap, "
-                   "the default; flight; upright; step; anderson2007_walk_on; "
-                   "anderson2007; hip_cap; flight_from_fall); a "
+                   "scripts/tune_fsm.py --out writes it, or a shipped set "
+                   "(flight_from_fall, the default; knee_cap; flight; upright; step; "
+                   "anderson2007_walk_on; anderson2007; hip_cap); a "
                    "directory "
                    "holds the runs of one set")
     from stumble.study.cli import timeout_arg

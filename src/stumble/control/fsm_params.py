@@ -731,8 +731,8 @@ HIP_CAP_FILE = Path(__file__).parent / "data" / "fsm_hip_cap.json"
 # from ``flight`` with push_off_sup_knee_limit_nm 80 in its settings (scripts/tune_fsm.py
 # --sup-knee-cap 80; the commands and their figures are its "fit"). The support knee
 # pushes off within 1.5 times people's, and it keeps flight's figures for issue 11 (47 of
-# 48, the bodies 87 of 96, the flights); the hip is flight's. The default since
-# 2026-12-06 (docs/fsm-fits.md, "Where it stands").
+# 48, the bodies 87 of 96, the flights); the hip is flight's. The default from
+# 2026-12-06 to 2026-12-07 (docs/fsm-fits.md, "Where it stands").
 KNEE_CAP_FILE = Path(__file__).parent / "data" / "fsm_knee_cap.json"
 
 # Flights that land the recovery foot from the air (issue 11): the knee-capped set with
@@ -740,7 +740,7 @@ KNEE_CAP_FILE = Path(__file__).parent / "data" / "fsm_knee_cap.json"
 # (k_c 350 at 1.4 m/s, §5: 300) and the landing after a flight searched with it (the
 # commands and their figures are its "fit"). 47 of 48 and the bodies' 87 of 96 walk on,
 # and at 1.4 m/s 4 of 6 elevating and 3 of 5 lowering window recoveries fly (none at
-# 1.0 m/s); not yet the default (docs/fsm-fits.md, "Lowering flights").
+# 1.0 m/s); the default since 2026-12-07 (docs/fsm-fits.md, "Lowering flights").
 FLIGHT_FROM_FALL_FILE = Path(__file__).parent / "data" / "fsm_flight_from_fall.json"
 
 SHIPPED = {"flight": FLIGHT_FILE,  # named parameter sets (load_params)
@@ -749,12 +749,12 @@ SHIPPED = {"flight": FLIGHT_FILE,  # named parameter sets (load_params)
            "anderson2007": HUMAN_STRENGTH_FILE, "hip_cap": HIP_CAP_FILE,
            "knee_cap": KNEE_CAP_FILE, "flight_from_fall": FLIGHT_FROM_FALL_FILE}
 # The set a trip runs with when none is named (issue 11: recovered means walking on; the
-# knee_cap set walks on after 47 of the 48 grid trips and 87 of the six bodies' 96 with
-# the trunk within 26°, and its support knee pushes off within 1.5 times people's;
-# at 1.4 m/s its push-off foot hops but never flies: ``flight_from_fall`` flies;
-# ``flight`` from 2026-12-05, whose knee pushes off at ~150 N·m; ``upright`` until
-# 2026-12-05)
-DEFAULT_SET = "knee_cap"
+# flight_from_fall set walks on after 47 of the 48 grid trips and 87 of the six bodies'
+# 96 with the trunk within 26°, its support knee pushes off within 1.5 times people's,
+# and at 1.4 m/s the recovery foot lands from a flight in both strategies; ``knee_cap``
+# from 2026-12-06, whose push-off foot hops but never flies; ``flight`` from
+# 2026-12-05, whose knee pushes off at ~150 N·m; ``upright`` until 2026-12-05)
+DEFAULT_SET = "flight_from_fall"
 # the set a trip runs with when none is named, by (strength model, recovery rule)
 DEFAULT_SETS = {("fixed", "walk_on"): DEFAULT_SET, ("fixed", "step"): DEFAULT_SET,
                 ("anderson2007", "walk_on"): "anderson2007_walk_on",
@@ -869,8 +869,8 @@ def read_params(path_or_name) -> ParamsFile:
 
 def default_params(strength_model: str = "fixed", recovery: str = "walk_on") -> FSMParams:
     """The state machines' parameters when none are given, for a strength model and a
-    recovery rule (``DEFAULT_SETS``; ``knee_cap`` on fixed torque limits); a copy: each
-    file is read once."""
+    recovery rule (``DEFAULT_SETS``; ``flight_from_fall`` on fixed torque limits); a copy:
+    each file is read once."""
     return copy.deepcopy(_shipped(DEFAULT_SETS[(strength_model, recovery)]))
 
 

@@ -84,9 +84,9 @@ def add_study_parser(sub) -> None:
     p.add_argument("--params", metavar="FILE|NAME",
                    help="state-machine parameters for every trip (--controller fsm): a JSON "
                    "file as scripts/tune_fsm.py --out writes it, or a shipped set "
-                   "(knee_cap, the default; flight; upright; step; anderson2007_walk_on "
-                   "and anderson2007, the defaults with --strength anderson2007; "
-                   "hip_cap; flight_from_fall); "
+                   "(flight_from_fall, the default; knee_cap; flight; upright; step; "
+                   "anderson2007_walk_on and anderson2007, the defaults with --strength "
+                   "anderson2007; hip_cap); "
                    "recorded in "
                    "DIR/study.json "
                    "with its SHA-256")
