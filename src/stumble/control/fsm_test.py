@@ -972,13 +972,13 @@ def test_the_flight_from_fall_set_lands_from_a_flight_at_fast_walking_only():
 
 def test_the_flight_set_pushes_off_the_lowered_foot_at_fast_walking_only():
     """The flight set, the default from 2026-12-05 to 2026-12-06 (issue 11; ``knee_cap``,
-    the default from 2026-12-06 to 2026-12-07, was searched from it under a support-knee cap): the
-    lowering strategy's own compensation torque at fast walking (SCA 2009 eq. 4, k_c 232
-    against the paper's 300, once the COM is 7 cm ahead of the lowered foot) and its own
-    Flight targets. A
-    lowering obstacle trip at 0.65 of swing, 1.4 m/s, then walks on 6 s after the lowered
-    foot has left the floor (a hop: it lands again before the recovery foot, so double
-    support, counted a flight until 2026-12-07), its recovery leg landing as soon after
+    the default from 2026-12-06 to 2026-12-07, was searched from it under a support-knee
+    cap): the lowering strategy's own compensation torque at fast walking (SCA 2009 eq.
+    4, k_c 232 against the paper's 300, once the COM is 7 cm ahead of the lowered foot)
+    and its own Flight targets. A lowering obstacle trip at 0.65 of swing, 1.4 m/s, then
+    walks on 6 s after the lowered foot has left the floor (a hop: it lands again before
+    the recovery foot, so double support, counted a flight until 2026-12-07), its
+    recovery leg landing as soon after
     the trip as in SCA 2009's motion capture or simulation (§5.2: 0.57 and 0.72 s),
     where upright keeps the foot down; at 1.0 m/s both keep it. The searches that found
     it start from a file of the repository, with its settings."""
