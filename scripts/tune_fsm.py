@@ -232,6 +232,7 @@ FLIGHT_WEIGHT = 0.0  # --flight W: a recovery with a flight where people fly is 
 PUSH_WEIGHT = 0.0  # --push-off W: the objective loses W × push_off_excess of each trip
 KNEE_WEIGHT = 1.0  # --push-off-knee K: the knee's term of push_off_excess counts K times
 BODIES_FLOOR = None  # --bodies-floor N: 2 lost per body trip recovered below N
+OVER_TILT_WEIGHT = 0.0  # --over-tilt W: W lost per trip walking on past MAX_TILT
 
 
 def counts(s: dict) -> bool:
@@ -240,6 +241,14 @@ def counts(s: dict) -> bool:
         return False
     tilt = s.get("trunk_tilt_at_recovery_contact_deg")
     return MAX_TILT is None or (tilt is not None and tilt <= MAX_TILT)
+
+
+def over_tilt(s: dict) -> bool:
+    """Whether a trip walks on with the trunk past ``MAX_TILT`` at recovery-foot contact
+    (a recovery people would not make: issue 11's "no recovery beyond 26°")."""
+    tilt = s.get("trunk_tilt_at_recovery_contact_deg")
+    return bool(s["recovered"] and MAX_TILT is not None and tilt is not None
+                and tilt > MAX_TILT)
 
 
 def gait_mismatch(s: dict) -> float:
@@ -293,9 +302,10 @@ def push_off_excess(s: dict, f: float, mech: str, body: list) -> float:
     return out
 
 
-def trip_counts(x: dict, i: int) -> tuple[bool, float, float, int, float]:
+def trip_counts(x: dict, i: int) -> tuple[bool, float, float, int, float, bool]:
     """Whether ``GRID[i]`` recovers under ``x`` (``counts``), the time it survived, its
-    walk on's ``gait_bonus``, its ``flight_score`` and its ``push_off_excess``."""
+    walk on's ``gait_bonus``, its ``flight_score``, its ``push_off_excess`` and whether it
+    walks on past ``MAX_TILT`` (``over_tilt``)."""
     from stumble.pipeline import simulate_trip
     from stumble.trip import Scenario
 
@@ -308,33 +318,34 @@ def trip_counts(x: dict, i: int) -> tuple[bool, float, float, int, float]:
                                strength_model=STRENGTH, **walk_on),
                       params=params_from(x)).summary
     return (counts(s), s["sim_time_s"] if not s["fell"] else (s["fall_time_s"] or 0.0),
-            gait_bonus(s), flight_score(s), push_off_excess(s, f, mech, body))
+            gait_bonus(s), flight_score(s), push_off_excess(s, f, mech, body), over_tilt(s))
 
 
 # --only lowering: the trips the searched targets act on (those the start sends to the
 # lowering strategy; no target of ``LOWERING`` is used by an elevating trip), and the
 # score of the others, run once with the start's values (``fixed_part``); None: all
 ACTIVE = None
-FIXED = (0, 0.0, 0, 0.0, 0, 0.0)
+FIXED = (0, 0.0, 0, 0.0, 0, 0.0, 0)
 
 
-def score_of(x: dict, indices) -> tuple[int, float, int, float, int, float]:
+def score_of(x: dict, indices) -> tuple[int, float, int, float, int, float, int]:
     """(recoveries, total time survived, recoveries among the first 48, the recovered
     trips' summed ``gait_bonus`` and ``flight_score``, every trip's summed
-    ``push_off_excess``) of GRID[indices]."""
-    rec, survived, rec_grid, gait, flight, push = 0, 0.0, 0, 0.0, 0, 0.0
+    ``push_off_excess``, the walks on past ``MAX_TILT``) of GRID[indices]."""
+    rec, survived, rec_grid, gait, flight, push, over = 0, 0.0, 0, 0.0, 0, 0.0, 0
     for i in indices:
-        ok, t, m, fl, po = trip_counts(x, i)
+        ok, t, m, fl, po, ov = trip_counts(x, i)
         push += po
+        over += int(ov)
         rec += int(ok)
         rec_grid += int(ok and i < FLOOR_N)
         survived += t
         gait += m if ok else 0.0
         flight += fl if ok else 0
-    return rec, survived, rec_grid, gait, flight, push
+    return rec, survived, rec_grid, gait, flight, push, over
 
 
-def evaluate(x: dict) -> tuple[int, float, int, float, int, float]:
+def evaluate(x: dict) -> tuple[int, float, int, float, int, float, int]:
     """``score_of`` over the grid: with ``--only lowering`` its lowering trips run and the
     others' ``FIXED`` score is added (the same figures as running them: they do not use
     the searched targets)."""
@@ -353,23 +364,24 @@ def fixed_part(base: dict, ex=None) -> tuple[list[int], tuple]:
     parts = ([ex.submit(score_of, base, rest[:half]), ex.submit(score_of, base, rest[half:])]
              if ex else None)
     a, b = ([q.result() for q in parts] if parts else
-            (score_of(base, rest), (0, 0.0, 0, 0.0, 0, 0.0)))
+            (score_of(base, rest), (0, 0.0, 0, 0.0, 0, 0.0, 0)))
     return active, tuple(p + q for p, q in zip(a, b, strict=True))
 
 
 def penalised(score: tuple) -> tuple[float, float]:
     """(recoveries less the grid floor's penalty plus ``GAIT_WEIGHT`` times the recovered
     trips' summed ``gait_bonus`` and ``FLIGHT_WEIGHT`` times their ``flight_score``, less
-    ``PUSH_WEIGHT`` times the summed ``push_off_excess``; time survived): compared as a
+    ``PUSH_WEIGHT`` times the summed ``push_off_excess`` and ``OVER_TILT_WEIGHT`` times
+    the walks on past ``MAX_TILT``; time survived): compared as a
     tuple; without ``--grid-floor``, ``--walk-on-gait``, ``--flight`` and ``--push-off``
     the plain (recoveries, time survived). ``BODIES_FLOOR`` penalises the body trips (those
     after the first 48) recovered below it as the grid floor does the grid's."""
-    rec, survived, rec_grid, gait, flight, push = score
+    rec, survived, rec_grid, gait, flight, push, over = score
     short = 0 if GRID_FLOOR is None else max(0, GRID_FLOOR - rec_grid)
     if BODIES_FLOOR is not None:
         short += max(0, BODIES_FLOOR - (rec - rec_grid))
     return (rec - FLOOR_PENALTY * short + GAIT_WEIGHT * gait + FLIGHT_WEIGHT * flight
-            - PUSH_WEIGHT * push, survived)
+            - PUSH_WEIGHT * push - OVER_TILT_WEIGHT * over, survived)
 
 
 def main() -> None:
@@ -456,6 +468,10 @@ def main() -> None:
     ap.add_argument("--grid-floor", type=int, default=None, metavar="N",
                     help="penalise the objective by 2 per trip of the first 48 (the full "
                     "grid, before full+bodies' bodies) recovered below N")
+    ap.add_argument("--over-tilt", type=float, default=None, metavar="W",
+                    help="with --max-tilt: the objective loses W per trip that walks on with "
+                    "the trunk past DEG at recovery-foot contact (such a trip already does "
+                    "not count as recovered; this also pushes the search away from it)")
     args = ap.parse_args()
     if args.trunk_attitude is not None and not (np.isfinite(args.trunk_attitude)
                                                 and args.trunk_attitude >= 0):
@@ -487,6 +503,9 @@ def main() -> None:
         ap.error(str(e))
     if args.max_tilt is not None and not (np.isfinite(args.max_tilt) and args.max_tilt > 0):
         ap.error(f"--max-tilt must be a number of degrees > 0, got {args.max_tilt}")
+    if args.over_tilt is not None and (args.max_tilt is None or not (
+            np.isfinite(args.over_tilt) and args.over_tilt > 0)):
+        ap.error("--over-tilt needs --max-tilt DEG and a weight > 0")
     if args.walk_on_gait is not None and (args.walk_on is None or not (
             np.isfinite(args.walk_on_gait) and args.walk_on_gait > 0)):
         ap.error("--walk-on-gait needs --walk-on S and a weight > 0")
@@ -513,6 +532,8 @@ def main() -> None:
     SUP_KNEE_CAP, FLIGHT_FROM_FALL = sup_knee_cap, flight_from_fall
     KNEE_WEIGHT = 1.0 if args.push_off_knee is None else args.push_off_knee
     BODIES_FLOOR = args.bodies_floor
+    global OVER_TILT_WEIGHT
+    OVER_TILT_WEIGHT = args.over_tilt or 0.0
     GAIT_WEIGHT, FLIGHT_WEIGHT = args.walk_on_gait or 0.0, args.flight or 0.0
     REC_HIP_CAP, SUP_HIP_CAP, PUSH_WEIGHT = rec_hip_cap, sup_hip_cap, args.push_off or 0.0
     GRID = {"small": GRID, "full": FULL_GRID, "lowering": LOWERING_GRID,
@@ -600,7 +621,8 @@ def _gait(score: tuple) -> str:
     --walk-on-gait, --flight)."""
     return ((f", gait {score[3]:.1f}" if GAIT_WEIGHT else "")
             + (f", flight {score[4]:+d}" if FLIGHT_WEIGHT else "")
-            + (f", push-off excess {score[5]:.2f}" if PUSH_WEIGHT else ""))
+            + (f", push-off excess {score[5]:.2f}" if PUSH_WEIGHT else "")
+            + (f", past the tilt {score[6]}" if OVER_TILT_WEIGHT else ""))
 
 
 def generations_path(out: str) -> str:

@@ -572,9 +572,9 @@ def test_tune_fsm_gait_mismatch_compares_the_walk_on_with_the_walk_before(monkey
     assert tune.gait_bonus(s) == 0.0  # 0.45 off: no bonus
     monkeypatch.setattr(tune, "GAIT_WEIGHT", 2.0)
     monkeypatch.setattr(tune, "GRID_FLOOR", None)
-    assert tune.penalised((40, 100.0, 40, 12.5, 0, 0.0)) == pytest.approx((65.0, 100.0))
+    assert tune.penalised((40, 100.0, 40, 12.5, 0, 0.0, 0)) == pytest.approx((65.0, 100.0))
     monkeypatch.setattr(tune, "GAIT_WEIGHT", 0.0)
-    assert tune.penalised((40, 100.0, 40, 12.0, 0, 0.0)) == (40, 100.0)
+    assert tune.penalised((40, 100.0, 40, 12.0, 0, 0.0, 0)) == (40, 100.0)
 
 
 def test_tune_fsm_flight_score_rewards_flight_where_people_fly(monkeypatch):
@@ -594,7 +594,7 @@ def test_tune_fsm_flight_score_rewards_flight_where_people_fly(monkeypatch):
     monkeypatch.setattr(tune, "GAIT_WEIGHT", 0.0)
     monkeypatch.setattr(tune, "GRID_FLOOR", None)
     monkeypatch.setattr(tune, "FLIGHT_WEIGHT", 0.5)
-    assert tune.penalised((40, 100.0, 40, 0.0, 4, 0.0)) == pytest.approx((42.0, 100.0))
+    assert tune.penalised((40, 100.0, 40, 0.0, 4, 0.0, 0)) == pytest.approx((42.0, 100.0))
 
 
 def test_tune_fsm_out_names_the_generation_that_found_its_best(tmp_path, monkeypatch):
@@ -606,7 +606,7 @@ def test_tune_fsm_out_names_the_generation_that_found_its_best(tmp_path, monkeyp
     calls = iter(range(100))
     # the start scores 10, generation 0's candidates 21-24, every later one less
     monkeypatch.setattr(tune, "evaluate", lambda x: (
-        (lambda n: (10 if n == 0 else 20 + n if n <= 4 else 5, 0.0, 0, 0.0, 0, 0.0))(
+        (lambda n: (10 if n == 0 else 20 + n if n <= 4 else 5, 0.0, 0, 0.0, 0, 0.0, 0))(
             next(calls))))
     monkeypatch.setattr(tune, "GRID", [(0.35, 1.2, "obstacle")])
     out = tmp_path / "best.json"
@@ -636,7 +636,7 @@ def test_tune_fsm_push_off_excess_measures_validates_nine_trips_against_pijnappe
     monkeypatch.setattr(tune, "GRID_FLOOR", None)
     monkeypatch.setattr(tune, "FLIGHT_WEIGHT", 0.0)
     monkeypatch.setattr(tune, "PUSH_WEIGHT", 2.0)
-    assert tune.penalised((40, 100.0, 40, 0.0, 0, 3.0)) == pytest.approx((34.0, 100.0))
+    assert tune.penalised((40, 100.0, 40, 0.0, 0, 3.0, 0)) == pytest.approx((34.0, 100.0))
 
 
 def test_tune_fsm_knee_weight_and_bodies_floor(monkeypatch):
@@ -650,11 +650,31 @@ def test_tune_fsm_knee_weight_and_bodies_floor(monkeypatch):
                         ("PUSH_WEIGHT", 0.0), ("BODIES_FLOOR", 87)):
         monkeypatch.setattr(tune, name, value)
     # 46 of the grid and 82 of the bodies: 5 body trips short of 87
-    assert tune.penalised((128, 800.0, 46, 0.0, 0, 0.0)) == pytest.approx((118.0, 800.0))
+    assert tune.penalised((128, 800.0, 46, 0.0, 0, 0.0, 0)) == pytest.approx((118.0, 800.0))
     # the grid short by one as well
-    assert tune.penalised((127, 800.0, 45, 0.0, 0, 0.0)) == pytest.approx((115.0, 800.0))
+    assert tune.penalised((127, 800.0, 45, 0.0, 0, 0.0, 0)) == pytest.approx((115.0, 800.0))
     monkeypatch.setattr(tune, "BODIES_FLOOR", None)
-    assert tune.penalised((128, 800.0, 46, 0.0, 0, 0.0)) == pytest.approx((128.0, 800.0))
+    assert tune.penalised((128, 800.0, 46, 0.0, 0, 0.0, 0)) == pytest.approx((128.0, 800.0))
+
+
+def test_tune_fsm_over_tilt_loses_the_walks_on_past_the_tilt(monkeypatch):
+    """--over-tilt W: a trip that walks on with the trunk past --max-tilt at recovery-foot
+    contact does not count (``counts``) and also loses W (``over_tilt``, the score's
+    seventh field); a fall or a recovery within the tilt loses nothing."""
+    tune = _tune_fsm()
+    monkeypatch.setattr(tune, "MAX_TILT", 26.0)
+    past = {"recovered": True, "trunk_tilt_at_recovery_contact_deg": 26.1}
+    within = {**past, "trunk_tilt_at_recovery_contact_deg": 25.4}
+    fell = {**past, "recovered": False}
+    assert [tune.counts(s) for s in (past, within, fell)] == [False, True, False]
+    assert [tune.over_tilt(s) for s in (past, within, fell)] == [True, False, False]
+    monkeypatch.setattr(tune, "MAX_TILT", None)
+    assert not tune.over_tilt(past)
+    for name, value in (("GAIT_WEIGHT", 0.0), ("GRID_FLOOR", None), ("FLIGHT_WEIGHT", 0.0),
+                        ("PUSH_WEIGHT", 0.0), ("BODIES_FLOOR", None),
+                        ("OVER_TILT_WEIGHT", 3.0)):
+        monkeypatch.setattr(tune, name, value)
+    assert tune.penalised((135, 800.0, 47, 0.0, 0, 0.0, 2)) == pytest.approx((129.0, 800.0))
 
 
 def test_walk_on_with_double_support_takes_longer_steps():
@@ -815,10 +835,11 @@ def test_scan_fsm_counts_walk_ons_and_flights_as_validate_does():
     spec.loader.exec_module(scan)
 
     def row(f, v, strategy, variant, rec=True, tilt=20.0, step=0.6, body=(),
-            contact=None):
-        return {"swing": f, "speed": v, "mechanism": "force", "body": list(body),
+            contact=None, mech="force", push=None):
+        return {"swing": f, "speed": v, "mechanism": mech, "body": list(body),
                 "recovered": rec, "strategy": strategy, "variant": variant, "tilt": tilt,
-                "recovery_step_s": step, "trip_to_recovery_contact_s": contact}
+                "recovery_step_s": step, "trip_to_recovery_contact_s": contact,
+                "push_off_nm": push or {}}
 
     rows = [row(0.15, 1.4, "elevating", "flight", step=0.58),
             row(0.25, 1.4, "elevating", "flight", step=0.62),
@@ -840,6 +861,16 @@ def test_scan_fsm_counts_walk_ons_and_flights_as_validate_does():
     assert fig["elevating_flight_step_s"] == pytest.approx(0.6)  # 0.58, 0.62 (0.9 at 0.35)
     assert fig["bodies_walked_on"] == 1 and fig["bodies_of"] == 2
     assert fig["bodies_largest_tilt_deg"] == 22.0
+    assert fig["bodies_within_26"] == 1
+    # the push-off: validate's nine trips (obstacle, 0.25-0.45 of swing), medians in N·m
+    assert fig["push_off_median_nm"]["hip_extension"] is None  # no obstacle trip
+    push = [{"hip_extension": h, "knee_flexion": 80.0, "ankle_plantarflexion": 250.0}
+            for h in (190.0, 204.0, 230.0, 300.0)]
+    obst = [row(f, 1.2, "elevating", "double_support", mech="obstacle", push=p)
+            for f, p in zip((0.25, 0.35, 0.45, 0.55), push, strict=True)]  # 0.55: not one
+    med = scan.figures(-5.0, rows + obst)["push_off_median_nm"]
+    assert med == {"hip_extension": 204.0, "knee_flexion": 80.0,
+                   "ankle_plantarflexion": 250.0}
 
 
 def test_a_trip_runs_the_default_set_of_its_strength_and_rule(monkeypatch):
