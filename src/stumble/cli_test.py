@@ -221,7 +221,8 @@ def _one_line_error(r: subprocess.CompletedProcess, *words: str) -> None:
       "OUT"], ["--ahead-from: that network has no touch response by the foot"]),
     (["study", "--out", "OUT", "--params", "missing.json"],
      ["missing.json: no such file, nor a shipped state-machine set (flight, upright, "
-      "step, anderson2007_walk_on, anderson2007, hip_cap, knee_cap, flight_from_fall)"]),
+      "step, anderson2007_walk_on, anderson2007, hip_cap, knee_cap, flight_from_fall, "
+      "rec_hip_cap)"]),
     (["study", "--out", "OUT", "--controller", "reflex", "--params", "anderson2007"],
      ["--params is for --controller fsm"]),
 ])
@@ -369,15 +370,15 @@ def test_trip_population_and_strength_options(tmp_path, capsys):
 
 def test_trip_names_the_state_machine_set_it_ran(tmp_path):
     """summary.json's ``fsm_params``: the shipped set or file that ran, its SHA-256, and
-    whether it was the default (``flight_from_fall`` since 2026-12-07)."""
+    whether it was the default (``rec_hip_cap`` since 2026-12-07)."""
     from stumble.control.fsm_params import DEFAULT_SET, read_params
 
     argv = ["trip", "--duration", "0.5", "--no-video"]
     assert main([*argv, "--out", str(tmp_path / "a")]) == 0
     s = json.loads((tmp_path / "a" / "summary.json").read_text())
-    assert DEFAULT_SET == "flight_from_fall"
-    assert s["fsm_params"] == {"path": "flight_from_fall", "default": True,
-                               "sha256": read_params("flight_from_fall").sha256}
+    assert DEFAULT_SET == "rec_hip_cap"
+    assert s["fsm_params"] == {"path": "rec_hip_cap", "default": True,
+                               "sha256": read_params("rec_hip_cap").sha256}
     f = tmp_path / "flight.json"
     f.write_bytes(read_params("flight").path.read_bytes())
     assert main([*argv, "--out", str(tmp_path / "b"), "--params", str(f)]) == 0

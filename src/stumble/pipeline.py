@@ -144,7 +144,7 @@ def simulate_trip(scenario: Scenario, params: FSMParams | None = None,
                             else None)
     reflex = sc.controller in MUSCLE_CONTROLLERS
     # the shipped set for the strength model and the recovery rule when none is given
-    # (``fsm_params.DEFAULT_SETS``: flight_from_fall on fixed limits, the sets tuned on
+    # (``fsm_params.DEFAULT_SETS``: rec_hip_cap on fixed limits, the sets tuned on
     # human strength)
     # (the reflex controllers' strategy emerges: no state-machine set to read)
     p = params or (None if reflex else default_params(sc.strength_model, sc.recovery))

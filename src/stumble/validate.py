@@ -812,8 +812,8 @@ def add_validate_parser(sub) -> None:
     p.add_argument("--params", metavar="FILE|NAME",
                    help="the state machines' targets and gains: a JSON file as "
                    "scripts/tune_fsm.py --out writes it, or a shipped set "
-                   "(flight_from_fall, the default; knee_cap; flight; upright; step; "
-                   "anderson2007_walk_on; anderson2007; hip_cap); a "
+                   "(rec_hip_cap, the default; flight_from_fall; knee_cap; flight; "
+                   "upright; step; anderson2007_walk_on; anderson2007; hip_cap); a "
                    "directory "
                    "holds the runs of one set")
     from stumble.study.cli import timeout_arg

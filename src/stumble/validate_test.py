@@ -189,7 +189,7 @@ def test_validate_prints_the_table_and_writes_json(tmp_path, fake, capsys, monke
     # the runs are a study: there, with their rows
     assert (out / "results.parquet").exists()
     # the default set, recorded as such
-    assert report["fsm_params"]["path"] == "flight_from_fall" and report["fsm_params"]["default"]
+    assert report["fsm_params"]["path"] == "rec_hip_cap" and report["fsm_params"]["default"]
 
 
 def test_flight_rows_count_the_recovered_window_trips_that_fly():

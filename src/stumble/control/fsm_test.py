@@ -447,11 +447,14 @@ def test_trunk_attitude_keeps_the_trunk_within_peoples_tilt_at_recovery_contact(
 def test_push_off_hip_limit_caps_the_support_hip_in_the_first_300_ms():
     """``push_off_hip_limit_nm`` (issue 11 experiment): an early-swing elevating trip's
     support hip extends with at most the cap until the recovery step, against ~290 N·m
-    by default (people: ~52 N·m, Pijnappels et al. 2005)."""
+    uncapped (``flight_from_fall``, the default until its recovery hip was capped;
+    people: ~52 N·m, Pijnappels et al. 2005)."""
     from dataclasses import replace
 
+    from stumble.control.fsm_params import load_params
+
     sc = Scenario(swing_fraction=0.15, speed_m_per_s=1.1, mechanism="obstacle")
-    base = simulate_trip(sc).summary
+    base = simulate_trip(sc, params=load_params("flight_from_fall")).summary
     capped = simulate_trip(sc, params=replace(FSMParams(), push_off_hip_limit_nm=150.0)).summary
     assert base["support_peak_moments_nm"]["hip_extension"] > 250.0
     assert capped["support_peak_moments_nm"]["hip_extension"] <= 150.5
@@ -874,7 +877,7 @@ def test_scan_fsm_counts_walk_ons_and_flights_as_validate_does():
 
 
 def test_a_trip_runs_the_default_set_of_its_strength_and_rule(monkeypatch):
-    """Without ``params`` a trip runs ``fsm_params.DEFAULT_SETS``' set: flight_from_fall
+    """Without ``params`` a trip runs ``fsm_params.DEFAULT_SETS``' set: rec_hip_cap
     on the fixed limits under either rule; on human strength the set searched walking on
     under the default rule, the 1 s rule's set under ``--recovery step``."""
     import stumble.pipeline as pipeline
@@ -897,7 +900,7 @@ def test_a_trip_runs_the_default_set_of_its_strength_and_rule(monkeypatch):
                 simulate_trip(Scenario(strength_model=strength, **kw))
     assert seen == [("fixed", "walk_on"), ("fixed", "step"), ("anderson2007", "walk_on"),
                     ("anderson2007", "step")]
-    up = load_params("flight_from_fall")
+    up = load_params("rec_hip_cap")
     assert default_params() == default_params("fixed", "step") == up
     assert human_strength_params() == default_params("anderson2007", "walk_on") == \
         load_params("anderson2007_walk_on")
@@ -998,7 +1001,60 @@ def test_the_flight_from_fall_set_lands_from_a_flight_at_fast_walking_only():
     assert start["params"]["kc_lowering_fast"] == 480.0
     assert start["settings"]["flight_from_fall"] is True
     assert start["settings"]["push_off_sup_knee_limit_nm"] == 80.0
-    assert DEFAULT_SET == "flight_from_fall"  # the default since 2026-12-07
+    assert DEFAULT_SET == "rec_hip_cap"  # searched from it; flight_from_fall the default
+    # earlier on 2026-12-07
+
+
+def test_the_rec_hip_cap_set_unloads_the_support_hip_and_keeps_the_trunk_within_26():
+    """The shipped ``rec_hip_cap`` set, the default (issue 11): ``flight_from_fall``
+    searched with the recovery hip's servo capped in the push-off, then the cap raised to
+    230 N·m. After a mid-swing obstacle trip the recovery hip stays within the cap in the
+    push-off states and the support hip, which holds the pelvis against that hip's
+    reaction, pushes off far below flight_from_fall's (~270 N·m; people ~52 N·m,
+    Pijnappels et al. 2005). The 1.50 m, 45 kg woman's force trip at 0.45 of swing,
+    which walked on with the trunk 26.6° from vertical under the search's 200 N·m cap,
+    walks on within van den Bogert et al. 2002's 26° at 230. Its fit starts from files of
+    the repository."""
+    from dataclasses import replace
+    from pathlib import Path
+
+    import mujoco
+
+    from stumble.control.fsm import PUSH_OFF_STATES
+    from stumble.control.fsm_params import DEFAULT_SET, REC_HIP_CAP_FILE, load_params
+
+    p = load_params("rec_hip_cap")
+    assert DEFAULT_SET == "rec_hip_cap"
+    assert p.push_off_rec_hip_limit_nm == 230.0 and p.push_off_sup_knee_limit_nm == 80.0
+    assert p.flight_from_fall
+    sc = Scenario(swing_fraction=0.35, speed_m_per_s=1.2, mechanism="obstacle")
+    run = simulate_trip(sc, params=p)
+    before = simulate_trip(sc, params=load_params("flight_from_fall")).summary
+    m, rec = run.body.model, run.recording
+    i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"hip_flexion_{sc.side}")
+    push = np.isin(np.asarray(rec.state), PUSH_OFF_STATES) & (rec.time_s >= 0.0)
+    assert push.sum() > 20
+    # the cap is applied at each 2 ms control update; the servo acts at every step
+    assert rec.actuator_force[push, i].max() <= 230.0 * 1.1
+    hip = run.summary["support_peak_moments_nm"]["hip_extension"]
+    assert before["support_peak_moments_nm"]["hip_extension"] > 250.0
+    assert hip < 220.0 and run.summary["recovered"]
+    small = Scenario(swing_fraction=0.45, speed_m_per_s=1.2, mechanism="force",
+                     height_m=1.5, mass_kg=45.0, sex="female")
+    s = simulate_trip(small, params=p).summary
+    assert s["recovered"] and s["trunk_tilt_at_recovery_contact_deg"] < 26.0
+    capped200 = simulate_trip(small, params=replace(p, push_off_rec_hip_limit_nm=200.0))
+    assert capped200.summary["trunk_tilt_at_recovery_contact_deg"] > 26.0
+    # its fit: two searches, the second from the first's --out, the first from the
+    # repository's start (flight_from_fall with the cap at 200 N·m), then a scan of the cap
+    commands = json.loads(REC_HIP_CAP_FILE.read_text())["fit"]["commands"]
+    arounds = [re.search(r"--around (\S+)", c).group(1) for c in commands[:2]]
+    outs = [re.search(r"--out (\S+)", c).group(1) for c in commands[:2]]
+    assert arounds[1] == outs[0] and "--params " + outs[1] in commands[2]
+    start = json.loads((Path(__file__).resolve().parents[3] / arounds[0]).read_text())
+    assert start["settings"]["push_off_rec_hip_limit_nm"] == 200.0
+    ff = load_params("flight_from_fall").values()
+    assert start["params"] and all(ff[k] == v for k, v in start["params"].items())
 
 
 def test_the_flight_set_pushes_off_the_lowered_foot_at_fast_walking_only():

@@ -84,7 +84,8 @@ def add_study_parser(sub) -> None:
     p.add_argument("--params", metavar="FILE|NAME",
                    help="state-machine parameters for every trip (--controller fsm): a JSON "
                    "file as scripts/tune_fsm.py --out writes it, or a shipped set "
-                   "(flight_from_fall, the default; knee_cap; flight; upright; step; "
+                   "(rec_hip_cap, the default; flight_from_fall; knee_cap; flight; "
+                   "upright; step; "
                    "anderson2007_walk_on and anderson2007, the defaults with --strength "
                    "anderson2007; hip_cap); "
                    "recorded in "

@@ -497,10 +497,10 @@ def test_params_go_to_every_run_and_are_recorded(tmp_path, monkeypatch, capsys):
     from stumble.control.fsm_params import read_params
 
     assert {k: v["name"] for k, v in meta["fsm_default_params"].items()} == {
-        "fixed walk_on": "flight_from_fall", "fixed step": "flight_from_fall",
+        "fixed walk_on": "rec_hip_cap", "fixed step": "rec_hip_cap",
         "anderson2007 walk_on": "anderson2007_walk_on", "anderson2007 step": "anderson2007"}
     assert meta["fsm_default_params"]["fixed walk_on"]["sha256"] == read_params(
-        "flight_from_fall").sha256
+        "rec_hip_cap").sha256
     assert "params_sha256" not in pq.read_table(tmp_path / "b" / "results.parquet").schema.names
     # a shipped set by name
     assert main([*argv, "--out", str(tmp_path / "c"), "--params", "anderson2007"]) == 0
