@@ -14,6 +14,7 @@ Run:  python scripts/tune_fsm.py [--candidates N] [--workers N] [--seed S]
       [--grid-floor N] [--walk-on S] [--walk-on-gait W] [--flight W]
       [--rec-hip-cap NM] [--sup-hip-cap NM] [--sup-knee-cap NM] [--push-off W]
       [--push-off-knee K] [--bodies-floor N] [--flight-from-fall] [--flight-targets]
+      [--over-tilt W]
 ``--method cma``: CMA-ES (the ``cmaes`` package, seeded) over the targets scaled to
 their ranges, from the defaults, maximising recoveries + the fraction of the grid's
 time survived; the best so far is written to ``--out`` as it goes, and every
@@ -28,6 +29,9 @@ extension and knee flexion moments in the first 300 ms exceed 1.5 times Pijnappe
 al. 2005's means (52 and 54 N·m): max(0, hip/78 − 1) + K·max(0, knee/81 − 1), K 1
 unless ``--push-off-knee K``. ``--bodies-floor N`` (``full+bodies``): the objective
 loses 2 per body trip recovered below N, as ``--grid-floor`` does for the grid's.
+``--over-tilt W`` (with ``--max-tilt DEG``): the objective loses W per trip that walks
+on with the trunk past DEG at recovery-foot contact (such a trip already does not count
+as recovered; the term pushes the search away from it too).
 ``--flight-from-fall``: every candidate enters Flight when its support foot leaves the
 floor in Fall (``FSMParams.flight_from_fall``, written to the ``--out`` file's settings);
 ``--flight-targets`` searches both Flight tables' targets too (``ELEV_FLIGHT`` and the
@@ -202,7 +206,7 @@ def out_record(best: tuple, generation: int, argv: list[str]) -> dict:
     return {"recovered": best[1][0], "of": len(GRID), "grid_recovered": best[1][2],
             "survived_s": round(best[1][1], 3), "generation": generation,
             "gait_bonus": round(best[1][3], 3), "flight_score": best[1][4],
-            "push_off_excess": round(best[1][5], 3),
+            "push_off_excess": round(best[1][5], 3), "over_tilt": best[1][6],
             "command": " ".join(["python scripts/tune_fsm.py", *argv]),
             "params": best[0], "settings": settings()}
 
@@ -372,8 +376,8 @@ def penalised(score: tuple) -> tuple[float, float]:
     """(recoveries less the grid floor's penalty plus ``GAIT_WEIGHT`` times the recovered
     trips' summed ``gait_bonus`` and ``FLIGHT_WEIGHT`` times their ``flight_score``, less
     ``PUSH_WEIGHT`` times the summed ``push_off_excess`` and ``OVER_TILT_WEIGHT`` times
-    the walks on past ``MAX_TILT``; time survived): compared as a
-    tuple; without ``--grid-floor``, ``--walk-on-gait``, ``--flight`` and ``--push-off``
+    the walks on past ``MAX_TILT``; time survived): compared as a tuple; without
+    ``--grid-floor``, ``--walk-on-gait``, ``--flight``, ``--push-off`` and ``--over-tilt``
     the plain (recoveries, time survived). ``BODIES_FLOOR`` penalises the body trips (those
     after the first 48) recovered below it as the grid floor does the grid's."""
     rec, survived, rec_grid, gait, flight, push, over = score
@@ -601,7 +605,7 @@ def _init_args() -> tuple:
 def _worker_init(strength: str, grid: list, walk_on_s: float | None,
                  attitude_damping: str = "joint", trunk_attitude: float = 0.0,
                  max_tilt: float | None = None, active=None,
-                 fixed: tuple = (0, 0.0, 0, 0.0, 0, 0.0), gait_weight: float = 0.0,
+                 fixed: tuple = (0, 0.0, 0, 0.0, 0, 0.0, 0), gait_weight: float = 0.0,
                  flight_weight: float = 0.0, rec_hip_cap: float | None = None,
                  push_weight: float = 0.0, sup_hip_cap: float | None = None,
                  knee_weight: float = 1.0, sup_knee_cap: float | None = None,

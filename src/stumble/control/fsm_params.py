@@ -881,7 +881,7 @@ def read_params(path_or_name) -> ParamsFile:
 
 def default_params(strength_model: str = "fixed", recovery: str = "walk_on") -> FSMParams:
     """The state machines' parameters when none are given, for a strength model and a
-    recovery rule (``DEFAULT_SETS``; ``flight_from_fall`` on fixed torque limits); a copy:
+    recovery rule (``DEFAULT_SETS``; ``rec_hip_cap`` on fixed torque limits); a copy:
     each file is read once."""
     return copy.deepcopy(_shipped(DEFAULT_SETS[(strength_model, recovery)]))
 

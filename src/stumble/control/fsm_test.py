@@ -319,9 +319,11 @@ def test_tune_fsm_out_carries_its_settings_to_around_and_load_params(tmp_path, m
     monkeypatch.setattr(tune, "TRUNK_ATTITUDE", 0.4)
     monkeypatch.setattr(tune, "ATTITUDE_DAMPING", "pelvis")
     monkeypatch.setattr(tune, "REC_HIP_CAP", 60.0)
-    best = ({"kp_knee": 250.0, "elev_sup_ankle": -30.0}, (40, 100.0, 40, 0.0, 0, 0.0))
+    best = ({"kp_knee": 250.0, "elev_sup_ankle": -30.0}, (40, 100.0, 40, 0.0, 0, 0.0, 2))
     out = tmp_path / "best.json"
-    out.write_text(json.dumps(tune.out_record(best, 3, ["--trunk-attitude", "0.4"]), indent=1))
+    rec = tune.out_record(best, 3, ["--trunk-attitude", "0.4"])
+    assert rec["over_tilt"] == 2  # the walks on past --max-tilt, counted in the record
+    out.write_text(json.dumps(rec, indent=1))
     # the search's file is a parameter file: the values and the trunk attitude it ran with
     p = load_params(out)
     assert p.trunk_attitude == 0.4 and p.kp_passive["knee"] == 250.0
@@ -381,10 +383,11 @@ def test_walks_on_for_six_seconds_after_the_trip(swing, strategy):
 def test_slow_walkers_walk_on_at_the_walk_ons_slowest_aim(swing, aimed_walks_on):
     """At 0.8 m/s, below the 1.0-1.4 m/s the sets were tuned on, the walk on aims at
     ``walk_on_speed_floor_m_per_s`` (1.0 m/s), not at the speed before the trip: with the
-    default ``flight_from_fall`` the force trips at 0.4 and 0.6 of swing then walk on 6 s
-    at about 1.03-1.06 m/s (``knee_cap``: 0.86-1.03; ``flight``: 0.94-1.07); aimed at
-    0.8 m/s the trip at 0.6 falls (the one at 0.4 walks on at 0.83 m/s; with
-    ``knee_cap`` neither walks on)."""
+    default ``rec_hip_cap`` the force trips at 0.4 and 0.6 of swing then walk on 6 s
+    at about 1.03-1.06 m/s (``flight_from_fall`` the same; ``knee_cap``: 0.86-1.03;
+    ``flight``: 0.94-1.07); aimed at 0.8 m/s the trip at 0.6 falls (the one at 0.4 walks
+    on at 0.73 m/s, ``flight_from_fall``'s at 0.83; with ``knee_cap`` neither walks
+    on)."""
     from dataclasses import replace
 
     from stumble.control.fsm_params import default_params
@@ -464,7 +467,7 @@ def test_push_off_hip_limit_caps_the_support_hip_in_the_first_300_ms():
 def test_push_off_rec_hip_limit_caps_the_recovery_hip_and_unloads_the_support_hip():
     """``push_off_rec_hip_limit_nm`` (issue 11): a mid-swing obstacle trip's recovery hip
     flexes with at most the cap in the push-off, and the support hip, which holds the
-    pelvis against that hip's reaction, pushes off with far less (the default set:
+    pelvis against that hip's reaction, pushes off with far less (``flight`` uncapped:
     ~250 N·m; people ~52 N·m, Pijnappels et al. 2005)."""
     from dataclasses import replace
 
@@ -855,9 +858,11 @@ def test_scan_fsm_counts_walk_ons_and_flights_as_validate_does():
             row(0.15, 1.2, "elevating", "double_support", tilt=22.0,
                 body=(1.5, 45.0, "female")),
             row(0.25, 1.2, "elevating", "double_support", rec=False, tilt=40.0,
-                body=(1.5, 45.0, "female"))]  # a fall's tilt is not a recovery's
+                body=(1.5, 45.0, "female")),  # a fall's tilt is not a recovery's
+            # a force trip in the push-off's swing window: not one of validate's nine
+            row(0.35, 1.2, "elevating", "double_support", push={"hip_extension": 999.0})]
     fig = scan.figures(-5.0, rows)
-    assert fig["grid_walked_on"] == 7 and fig["of"] == 8 and fig["grid_within_26"] == 6
+    assert fig["grid_walked_on"] == 8 and fig["of"] == 9 and fig["grid_within_26"] == 7
     assert fig["flight_1.4_elevating"] == [2, 3] and fig["flight_1.4_lowering"] == [1, 2]
     assert fig["lowering_flight_contact_s"] == pytest.approx(0.61)  # the one that recovered
     assert fig["flight_1.0"] == [1, 1] and fig["largest_tilt_deg"] == 27.0
@@ -865,6 +870,9 @@ def test_scan_fsm_counts_walk_ons_and_flights_as_validate_does():
     assert fig["bodies_walked_on"] == 1 and fig["bodies_of"] == 2
     assert fig["bodies_largest_tilt_deg"] == 22.0
     assert fig["bodies_within_26"] == 1
+    past = row(0.35, 1.2, "elevating", "double_support", tilt=27.0, body=(1.9, 90.0, "male"))
+    more = scan.figures(-5.0, [*rows, past])
+    assert more["bodies_walked_on"] == 2 and more["bodies_within_26"] == 1
     # the push-off: validate's nine trips (obstacle, 0.25-0.45 of swing), medians in N·m
     assert fig["push_off_median_nm"]["hip_extension"] is None  # no obstacle trip
     push = [{"hip_extension": h, "knee_flexion": 80.0, "ankle_plantarflexion": 250.0}
