@@ -162,7 +162,8 @@ def _parser() -> argparse.ArgumentParser:
                    "step (tuned for --recovery step), "
                    "anderson2007_walk_on and anderson2007 (the defaults with --strength "
                    "anderson2007, walking on and with --recovery step), hip_cap (the "
-                   "recovery hip capped at 60 N·m in the push-off)")
+                   "recovery hip capped at 60 N·m in the push-off), sup_hip_cap "
+                   "(rec_hip_cap with the support hip capped at 150 N·m too)")
     t.add_argument("--network", type=Path, metavar="FILE",
                    help="reflex controller: a network.npz from `stumble reflex fit`, or a "
                    "shipped network: past-support (the default: past-swing with the "

@@ -222,7 +222,7 @@ def _one_line_error(r: subprocess.CompletedProcess, *words: str) -> None:
     (["study", "--out", "OUT", "--params", "missing.json"],
      ["missing.json: no such file, nor a shipped state-machine set (flight, upright, "
       "step, anderson2007_walk_on, anderson2007, hip_cap, knee_cap, flight_from_fall, "
-      "rec_hip_cap)"]),
+      "rec_hip_cap, sup_hip_cap)"]),
     (["study", "--out", "OUT", "--controller", "reflex", "--params", "anderson2007"],
      ["--params is for --controller fsm"]),
 ])

@@ -813,7 +813,8 @@ def add_validate_parser(sub) -> None:
                    help="the state machines' targets and gains: a JSON file as "
                    "scripts/tune_fsm.py --out writes it, or a shipped set "
                    "(rec_hip_cap, the default; flight_from_fall; knee_cap; flight; "
-                   "upright; step; anderson2007_walk_on; anderson2007; hip_cap); a "
+                   "upright; step; anderson2007_walk_on; anderson2007; hip_cap; "
+                   "sup_hip_cap); a "
                    "directory "
                    "holds the runs of one set")
     from stumble.study.cli import timeout_arg

@@ -1065,6 +1065,45 @@ def test_the_rec_hip_cap_set_unloads_the_support_hip_and_keeps_the_trunk_within_
     assert start["params"] and all(ff[k] == v for k, v in start["params"].items())
 
 
+def test_the_sup_hip_cap_set_pushes_off_within_its_hip_cap_and_still_flies():
+    """The shipped ``sup_hip_cap`` set (issue 11, not the default): ``rec_hip_cap`` with
+    the support hip's attitude servo capped at 150 N·m and the recovery hip's at 160 N·m
+    in the push-off, searched under those caps. After a mid-swing obstacle trip the
+    support hip pushes off with at most its cap (``rec_hip_cap`` ~204 N·m, people ~52,
+    Pijnappels et al. 2005) and the person walks on with the trunk within 26°; at
+    1.4 m/s a lowering obstacle trip and an elevating force trip still land the recovery
+    foot from a flight. Its fit starts from a file of the repository."""
+    from pathlib import Path
+
+    from stumble.control.fsm_params import DEFAULT_SET, SUP_HIP_CAP_FILE, load_params
+
+    p = load_params("sup_hip_cap")
+    assert DEFAULT_SET != "sup_hip_cap"
+    assert (p.push_off_hip_limit_nm, p.push_off_rec_hip_limit_nm,
+            p.push_off_sup_knee_limit_nm) == (150.0, 160.0, 80.0)
+    s = simulate_trip(Scenario(swing_fraction=0.35, speed_m_per_s=1.2, mechanism="obstacle"),
+                      params=p).summary
+    before = simulate_trip(Scenario(swing_fraction=0.35, speed_m_per_s=1.2,
+                                    mechanism="obstacle"),
+                           params=load_params("rec_hip_cap")).summary
+    assert s["recovered"] and s["trunk_tilt_at_recovery_contact_deg"] < 24.0
+    assert s["support_peak_moments_nm"]["hip_extension"] <= 150.5
+    assert before["support_peak_moments_nm"]["hip_extension"] > 190.0
+    for mech, swing, strategy in (("obstacle", 0.65, "lowering"), ("force", 0.25, "elevating")):
+        fast = simulate_trip(Scenario(mechanism=mech, swing_fraction=swing,
+                                      speed_m_per_s=1.4), params=p).summary
+        assert fast["recovered"] and fast["strategy"] == strategy
+        assert fast["variant"] == "flight"
+    commands = json.loads(SUP_HIP_CAP_FILE.read_text())["fit"]["commands"]
+    arounds = [re.search(r"--around (\S+)", c).group(1) for c in commands[:2]]
+    outs = [re.search(r"--out (\S+)", c).group(1) for c in commands[:2]]
+    assert arounds[1] == outs[0] and "--params " + outs[1] in commands[2]
+    start = json.loads((Path(__file__).resolve().parents[3] / arounds[0]).read_text())
+    assert start["settings"]["push_off_hip_limit_nm"] == 150.0
+    rhc = load_params("rec_hip_cap").values()
+    assert all(rhc[k] == v for k, v in start["params"].items())
+
+
 def test_the_flight_set_pushes_off_the_lowered_foot_at_fast_walking_only():
     """The flight set, the default from 2026-12-05 to 2026-12-06 (issue 11; ``knee_cap``,
     the default from 2026-12-06 to 2026-12-07, was searched from it under a support-knee

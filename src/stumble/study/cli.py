@@ -87,7 +87,7 @@ def add_study_parser(sub) -> None:
                    "(rec_hip_cap, the default; flight_from_fall; knee_cap; flight; "
                    "upright; step; "
                    "anderson2007_walk_on and anderson2007, the defaults with --strength "
-                   "anderson2007; hip_cap); "
+                   "anderson2007; hip_cap; sup_hip_cap); "
                    "recorded in "
                    "DIR/study.json "
                    "with its SHA-256")
