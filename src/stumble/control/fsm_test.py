@@ -1013,6 +1013,19 @@ def test_the_flight_from_fall_set_lands_from_a_flight_at_fast_walking_only():
     # earlier on 2026-12-07
 
 
+def _two_searches_and_a_scan(path) -> dict:
+    """A shipped set's fit of two searches and a scan: the second search starts from the
+    first's --out and the scan reads the second's; the first starts from a file of the
+    repository, returned (read)."""
+    from pathlib import Path
+
+    commands = json.loads(path.read_text())["fit"]["commands"]
+    arounds = [re.search(r"--around (\S+)", c).group(1) for c in commands[:2]]
+    outs = [re.search(r"--out (\S+)", c).group(1) for c in commands[:2]]
+    assert arounds[1] == outs[0] and "--params " + outs[1] in commands[2]
+    return json.loads((Path(__file__).resolve().parents[3] / arounds[0]).read_text())
+
+
 def test_the_rec_hip_cap_set_unloads_the_support_hip_and_keeps_the_trunk_within_26():
     """The shipped ``rec_hip_cap`` set, the default (issue 11): ``flight_from_fall``
     searched with the recovery hip's servo capped in the push-off, then the cap raised to
@@ -1024,7 +1037,6 @@ def test_the_rec_hip_cap_set_unloads_the_support_hip_and_keeps_the_trunk_within_
     walks on within van den Bogert et al. 2002's 26° at 230. Its fit starts from files of
     the repository."""
     from dataclasses import replace
-    from pathlib import Path
 
     import mujoco
 
@@ -1053,13 +1065,8 @@ def test_the_rec_hip_cap_set_unloads_the_support_hip_and_keeps_the_trunk_within_
     assert s["recovered"] and s["trunk_tilt_at_recovery_contact_deg"] < 26.0
     capped200 = simulate_trip(small, params=replace(p, push_off_rec_hip_limit_nm=200.0))
     assert capped200.summary["trunk_tilt_at_recovery_contact_deg"] > 26.0
-    # its fit: two searches, the second from the first's --out, the first from the
-    # repository's start (flight_from_fall with the cap at 200 N·m), then a scan of the cap
-    commands = json.loads(REC_HIP_CAP_FILE.read_text())["fit"]["commands"]
-    arounds = [re.search(r"--around (\S+)", c).group(1) for c in commands[:2]]
-    outs = [re.search(r"--out (\S+)", c).group(1) for c in commands[:2]]
-    assert arounds[1] == outs[0] and "--params " + outs[1] in commands[2]
-    start = json.loads((Path(__file__).resolve().parents[3] / arounds[0]).read_text())
+    # its fit: from the repository's start, flight_from_fall with the cap at 200 N·m
+    start = _two_searches_and_a_scan(REC_HIP_CAP_FILE)
     assert start["settings"]["push_off_rec_hip_limit_nm"] == 200.0
     ff = load_params("flight_from_fall").values()
     assert start["params"] and all(ff[k] == v for k, v in start["params"].items())
@@ -1073,7 +1080,6 @@ def test_the_sup_hip_cap_set_pushes_off_within_its_hip_cap_and_still_flies():
     Pijnappels et al. 2005) and the person walks on with the trunk within 26°; at
     1.4 m/s a lowering obstacle trip and an elevating force trip still land the recovery
     foot from a flight. Its fit starts from a file of the repository."""
-    from pathlib import Path
 
     from stumble.control.fsm_params import DEFAULT_SET, SUP_HIP_CAP_FILE, load_params
 
@@ -1094,11 +1100,7 @@ def test_the_sup_hip_cap_set_pushes_off_within_its_hip_cap_and_still_flies():
                                       speed_m_per_s=1.4), params=p).summary
         assert fast["recovered"] and fast["strategy"] == strategy
         assert fast["variant"] == "flight"
-    commands = json.loads(SUP_HIP_CAP_FILE.read_text())["fit"]["commands"]
-    arounds = [re.search(r"--around (\S+)", c).group(1) for c in commands[:2]]
-    outs = [re.search(r"--out (\S+)", c).group(1) for c in commands[:2]]
-    assert arounds[1] == outs[0] and "--params " + outs[1] in commands[2]
-    start = json.loads((Path(__file__).resolve().parents[3] / arounds[0]).read_text())
+    start = _two_searches_and_a_scan(SUP_HIP_CAP_FILE)  # from rec_hip_cap, both hips capped
     assert start["settings"]["push_off_hip_limit_nm"] == 150.0
     rhc = load_params("rec_hip_cap").values()
     assert all(rhc[k] == v for k, v in start["params"].items())
