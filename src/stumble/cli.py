@@ -163,7 +163,8 @@ def _parser() -> argparse.ArgumentParser:
                    "anderson2007_walk_on and anderson2007 (the defaults with --strength "
                    "anderson2007, walking on and with --recovery step), hip_cap (the "
                    "recovery hip capped at 60 N·m in the push-off), sup_hip_cap "
-                   "(rec_hip_cap with the support hip capped at 150 N·m too)")
+                   "(rec_hip_cap with the support hip capped at 150 N·m and the "
+                   "recovery hip at 160 in the push-off, searched)")
     t.add_argument("--network", type=Path, metavar="FILE",
                    help="reflex controller: a network.npz from `stumble reflex fit`, or a "
                    "shipped network: past-support (the default: past-swing with the "
