@@ -104,6 +104,8 @@ def _motion_file_args(p: argparse.ArgumentParser) -> None:
 
 
 def _parser() -> argparse.ArgumentParser:
+    from stumble.control.fsm_params import shipped_sets_text
+
     p = _Parser(
         prog="stumble",
         description="Simulate tripping while walking and the balance-recovery response.")
@@ -151,20 +153,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="gh2010 controller: a gh2010.json, or a shipped set by name: "
                    f"{GH2010_NAMES}; fsm: a JSON of tuned "
                    "targets and gains (scripts/tune_fsm.py --out) or a shipped set by "
-                   "name: rec_hip_cap (the default: flight_from_fall with the recovery "
-                   "hip capped at 230 N·m in the push-off, the support hip pushing off "
-                   "at 204 N·m against 275), flight_from_fall (the recovery foot lands "
-                   "from a flight at fast walking in both strategies; the default until "
-                   "rec_hip_cap, 2026-12-07), knee_cap (flight's, "
-                   "searched with the support knee capped at 80 N·m in the push-off; "
-                   "the default until 2026-12-07), flight (its push-off foot hops at "
-                   "fast walking; the default until 2026-12-06), upright, "
-                   "step (tuned for --recovery step), "
-                   "anderson2007_walk_on and anderson2007 (the defaults with --strength "
-                   "anderson2007, walking on and with --recovery step), hip_cap (the "
-                   "recovery hip capped at 60 N·m in the push-off), sup_hip_cap "
-                   "(rec_hip_cap with the support hip capped at 150 N·m and the "
-                   "recovery hip at 160 in the push-off, searched)")
+                   f"name: {shipped_sets_text()} (with --strength anderson2007 the "
+                   "default is anderson2007_walk_on, or anderson2007 under --recovery "
+                   "step; docs/trips.md, 'Parameter sets', says what each is)")
     t.add_argument("--network", type=Path, metavar="FILE",
                    help="reflex controller: a network.npz from `stumble reflex fit`, or a "
                    "shipped network: past-support (the default: past-swing with the "

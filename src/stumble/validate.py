@@ -787,6 +787,8 @@ def format_table(rows: list[dict]) -> str:
 
 def add_validate_parser(sub) -> None:
     """Register ``stumble validate`` on the ``stumble`` subparsers."""
+    from stumble.control.fsm_params import shipped_sets_text
+
     trips = len({run_key(sc) for _, sc in validation_scenarios()})  # the study's runs
     p = sub.add_parser(
         "validate", help="a fixed study beside the published figures",
@@ -812,11 +814,7 @@ def add_validate_parser(sub) -> None:
     p.add_argument("--params", metavar="FILE|NAME",
                    help="the state machines' targets and gains: a JSON file as "
                    "scripts/tune_fsm.py --out writes it, or a shipped set "
-                   "(rec_hip_cap, the default; flight_from_fall; knee_cap; flight; "
-                   "upright; step; anderson2007_walk_on; anderson2007; hip_cap; "
-                   "sup_hip_cap); a "
-                   "directory "
-                   "holds the runs of one set")
+                   f"({shipped_sets_text()}); a directory holds the runs of one set")
     from stumble.study.cli import timeout_arg
     from stumble.study.runner import RUN_TIMEOUT_S
 

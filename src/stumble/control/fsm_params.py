@@ -887,6 +887,14 @@ def read_params(path_or_name) -> ParamsFile:
     return ParamsFile(str(path_or_name), path, hashlib.sha256(data).hexdigest(), p)
 
 
+def shipped_sets_text() -> str:
+    """The shipped sets' names for a help text, the default first: "rec_hip_cap (the
+    default), flight, ..." (``SHIPPED``, ``DEFAULT_SET``; each set's file says what it
+    is, docs/trips.md "Parameter sets" compares them)."""
+    rest = [n for n in SHIPPED if n != DEFAULT_SET]
+    return ", ".join([f"{DEFAULT_SET} (the default)", *rest])
+
+
 def default_params(strength_model: str = "fixed", recovery: str = "walk_on") -> FSMParams:
     """The state machines' parameters when none are given, for a strength model and a
     recovery rule (``DEFAULT_SETS``; ``rec_hip_cap`` on fixed torque limits); a copy:

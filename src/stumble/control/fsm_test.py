@@ -1233,3 +1233,21 @@ def test_tune_fsm_lateral_searches_the_frontal_plane_too():
     p = FSMParams().with_values({"kp_stance_hip_roll": 1500.0, "balance_cv_lat": 0.4})
     assert (p.kp_stance_hip_roll, p.balance_cv_lat_rad_s_per_m) == (1500.0, 0.4)
     assert p.kp_hip_out_of_plane == FSMParams().kp_hip_out_of_plane
+
+
+def test_the_help_texts_name_every_shipped_set_the_default_first(capsys):
+    """``shipped_sets_text``: every name of ``SHIPPED`` once, the default first; the
+    ``--params`` help of trip, study and validate is built from it, so a set added to
+    ``SHIPPED`` is listed in each."""
+    from stumble.cli import main
+    from stumble.control.fsm_params import DEFAULT_SET, SHIPPED, shipped_sets_text
+
+    text = shipped_sets_text()
+    assert text.startswith(f"{DEFAULT_SET} (the default), ")
+    names = [n.removesuffix(" (the default)") for n in text.split(", ")]
+    assert sorted(names) == sorted(SHIPPED) and len(names) == len(SHIPPED)
+    for command in ("trip", "study", "validate"):
+        with pytest.raises(SystemExit):
+            main([command, "--help"])
+        out = " ".join(capsys.readouterr().out.split())
+        assert all(n in out for n in SHIPPED), command

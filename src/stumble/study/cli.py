@@ -58,6 +58,7 @@ def timeout_arg(text: str) -> float:
 def add_study_parser(sub) -> None:
     """Register ``stumble study`` on the ``stumble`` subparsers."""
     from stumble.cli import out_dir_arg
+    from stumble.control.fsm_params import shipped_sets_text
 
     p = sub.add_parser(
         "study", help="many trips over a grid: results table, strategy and outcome maps",
@@ -84,12 +85,8 @@ def add_study_parser(sub) -> None:
     p.add_argument("--params", metavar="FILE|NAME",
                    help="state-machine parameters for every trip (--controller fsm): a JSON "
                    "file as scripts/tune_fsm.py --out writes it, or a shipped set "
-                   "(rec_hip_cap, the default; flight_from_fall; knee_cap; flight; "
-                   "upright; step; "
-                   "anderson2007_walk_on and anderson2007, the defaults with --strength "
-                   "anderson2007; hip_cap; sup_hip_cap); "
-                   "recorded in "
-                   "DIR/study.json "
+                   f"({shipped_sets_text()}; anderson2007_walk_on and anderson2007 the "
+                   "defaults with --strength anderson2007); recorded in DIR/study.json "
                    "with its SHA-256")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG maps")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
