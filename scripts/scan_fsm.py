@@ -18,8 +18,11 @@ grid (force and obstacle, swing 0.05-0.75, 1.0/1.2/1.4 m/s) walking on 6 s after
 - the support limb's push-off over the grid's nine mid-swing obstacle trips (as
   ``stumble validate`` reads it: peak hip extension, knee flexion and ankle plantarflexion
   in the first 300 ms, medians in N·m; Pijnappels et al. 2005: 52, 54 and 204);
+- the walks on that never settle (``tune_fsm.unsettled``: no steady gait within the 6 s,
+  or a heading more than 20° from the walk before);
 - with ``--bodies``, the six bodies' 96 trips at 1.2 m/s walked on (issue 11: at least
-  90 %), those within 26°, and the largest trunk tilt at recovery-foot contact among them.
+  90 %), those within 26°, the largest trunk tilt at recovery-foot contact among them,
+  and their walks on that never settle.
 
 Each value's figures are appended to ``--out`` (JSON lines) as soon as they are measured.
 Deterministic: the same set, name and values give the same figures.
@@ -53,7 +56,7 @@ from stumble.validate import (
 )
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from tune_fsm import BODY_GRID, FULL_GRID  # the searches' own grids
+from tune_fsm import BODY_GRID, FULL_GRID, unsettled  # the searches' own grids and test
 
 WALK_ON_S = 6.0
 _JOB: dict = {}
@@ -79,7 +82,8 @@ def _trip(job: tuple) -> dict:
             "variant": s["variant"], "tilt": s["trunk_tilt_at_recovery_contact_deg"],
             "recovery_step_s": s["durations_s"]["recovery_step"],
             "trip_to_recovery_contact_s": s["durations_s"]["trip_to_recovery_contact"],
-            "push_off_nm": s.get("support_peak_moments_nm") or {}}
+            "push_off_nm": s.get("support_peak_moments_nm") or {},
+            "unsettled": unsettled(s)}
 
 
 def figures(value: float, rows: list[dict]) -> dict:
@@ -89,7 +93,8 @@ def figures(value: float, rows: list[dict]) -> dict:
     within = [r for r in rec if r["tilt"] is not None and r["tilt"] <= TRUNK_TILT_MAX_DEG]
     out = {"value": value, "grid_walked_on": len(rec), "grid_within_26": len(within),
            "of": len(grid), "largest_tilt_deg": max((r["tilt"] or 0.0 for r in rec),
-                                                    default=None)}
+                                                    default=None),
+           "grid_unsettled": sum(r["unsettled"] for r in rec)}
     for strategy in ("elevating", "lowering"):
         win = [r for r in rec if r["strategy"] == strategy
                and people_fly(r["speed"], strategy, r["swing"])]
@@ -120,6 +125,7 @@ def figures(value: float, rows: list[dict]) -> dict:
         out["bodies_of"] = len(bodies)
         out["bodies_largest_tilt_deg"] = max((r["tilt"] or 0.0 for r in bodies
                                               if r["recovered"]), default=None)
+        out["bodies_unsettled"] = sum(r["unsettled"] for r in bodies)
     return out
 
 

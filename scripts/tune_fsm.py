@@ -14,7 +14,7 @@ Run:  python scripts/tune_fsm.py [--candidates N] [--workers N] [--seed S]
       [--grid-floor N] [--walk-on S] [--walk-on-gait W] [--flight W]
       [--rec-hip-cap NM] [--sup-hip-cap NM] [--sup-knee-cap NM] [--push-off W]
       [--push-off-knee K] [--bodies-floor N] [--flight-from-fall] [--flight-targets]
-      [--over-tilt W]
+      [--over-tilt W] [--unsettled W]
 ``--method cma``: CMA-ES (the ``cmaes`` package, seeded) over the targets scaled to
 their ranges, from the defaults, maximising recoveries + the fraction of the grid's
 time survived; the best so far is written to ``--out`` as it goes, and every
@@ -32,6 +32,10 @@ loses 2 per body trip recovered below N, as ``--grid-floor`` does for the grid's
 ``--over-tilt W`` (with ``--max-tilt DEG``): the objective loses W per trip that walks
 on with the trunk past DEG at recovery-foot contact (such a trip already does not count
 as recovered; the term pushes the search away from it too).
+``--unsettled W`` (with ``--walk-on S``): the objective loses W per recovered trip whose
+walk on never settles (``unsettled``: no steady gait in the time budget, or a heading
+more than ``HEADING_LIMIT_DEG`` from the walk before; issue 11: the person "settles into
+a steady gait").
 ``--flight-from-fall``: every candidate enters Flight when its support foot leaves the
 floor in Fall (``FSMParams.flight_from_fall``, written to the ``--out`` file's settings);
 ``--flight-targets`` searches both Flight tables' targets too (``ELEV_FLIGHT`` and the
@@ -207,6 +211,7 @@ def out_record(best: tuple, generation: int, argv: list[str]) -> dict:
             "survived_s": round(best[1][1], 3), "generation": generation,
             "gait_bonus": round(best[1][3], 3), "flight_score": best[1][4],
             "push_off_excess": round(best[1][5], 3), "over_tilt": best[1][6],
+            "unsettled": best[1][7],
             "command": " ".join(["python scripts/tune_fsm.py", *argv]),
             "params": best[0], "settings": settings()}
 
@@ -237,6 +242,10 @@ PUSH_WEIGHT = 0.0  # --push-off W: the objective loses W × push_off_excess of e
 KNEE_WEIGHT = 1.0  # --push-off-knee K: the knee's term of push_off_excess counts K times
 BODIES_FLOOR = None  # --bodies-floor N: 2 lost per body trip recovered below N
 OVER_TILT_WEIGHT = 0.0  # --over-tilt W: W lost per trip walking on past MAX_TILT
+UNSETTLED_WEIGHT = 0.0  # --unsettled W: W lost per recovered trip whose walk on is unsettled
+# a walk on heading further than this from the walk before has not settled (--unsettled);
+# our choice: the default set's 47 grid walks on turn at most 16.1° (2026-12-07)
+HEADING_LIMIT_DEG = 20.0
 
 
 def counts(s: dict) -> bool:
@@ -253,6 +262,17 @@ def over_tilt(s: dict) -> bool:
     tilt = s.get("trunk_tilt_at_recovery_contact_deg")
     return bool(s["recovered"] and MAX_TILT is not None and tilt is not None
                 and tilt > MAX_TILT)
+
+
+def unsettled(s: dict) -> bool:
+    """Whether a recovered trip's walk on never settles: no steady gait within the time
+    budget (``steps_to_steady_gait`` None) or a heading more than ``HEADING_LIMIT_DEG``
+    from the walk before (``walk_on_heading_deg``)."""
+    if not s["recovered"]:
+        return False
+    heading = s.get("walk_on_heading_deg")
+    return bool(s.get("steps_to_steady_gait") is None
+                or (heading is not None and abs(heading) > HEADING_LIMIT_DEG))
 
 
 def gait_mismatch(s: dict) -> float:
@@ -306,10 +326,10 @@ def push_off_excess(s: dict, f: float, mech: str, body: list) -> float:
     return out
 
 
-def trip_counts(x: dict, i: int) -> tuple[bool, float, float, int, float, bool]:
+def trip_counts(x: dict, i: int) -> tuple[bool, float, float, int, float, bool, bool]:
     """Whether ``GRID[i]`` recovers under ``x`` (``counts``), the time it survived, its
-    walk on's ``gait_bonus``, its ``flight_score``, its ``push_off_excess`` and whether it
-    walks on past ``MAX_TILT`` (``over_tilt``)."""
+    walk on's ``gait_bonus``, its ``flight_score``, its ``push_off_excess``, whether it
+    walks on past ``MAX_TILT`` (``over_tilt``) and whether its walk on is ``unsettled``."""
     from stumble.pipeline import simulate_trip
     from stumble.trip import Scenario
 
@@ -322,34 +342,37 @@ def trip_counts(x: dict, i: int) -> tuple[bool, float, float, int, float, bool]:
                                strength_model=STRENGTH, **walk_on),
                       params=params_from(x)).summary
     return (counts(s), s["sim_time_s"] if not s["fell"] else (s["fall_time_s"] or 0.0),
-            gait_bonus(s), flight_score(s), push_off_excess(s, f, mech, body), over_tilt(s))
+            gait_bonus(s), flight_score(s), push_off_excess(s, f, mech, body), over_tilt(s),
+            unsettled(s))
 
 
 # --only lowering: the trips the searched targets act on (those the start sends to the
 # lowering strategy; no target of ``LOWERING`` is used by an elevating trip), and the
 # score of the others, run once with the start's values (``fixed_part``); None: all
 ACTIVE = None
-FIXED = (0, 0.0, 0, 0.0, 0, 0.0, 0)
+FIXED = (0, 0.0, 0, 0.0, 0, 0.0, 0, 0)
 
 
-def score_of(x: dict, indices) -> tuple[int, float, int, float, int, float, int]:
+def score_of(x: dict, indices) -> tuple[int, float, int, float, int, float, int, int]:
     """(recoveries, total time survived, recoveries among the first 48, the recovered
     trips' summed ``gait_bonus`` and ``flight_score``, every trip's summed
-    ``push_off_excess``, the walks on past ``MAX_TILT``) of GRID[indices]."""
-    rec, survived, rec_grid, gait, flight, push, over = 0, 0.0, 0, 0.0, 0, 0.0, 0
+    ``push_off_excess``, the walks on past ``MAX_TILT``, the ``unsettled`` walks on) of
+    GRID[indices]."""
+    rec, survived, rec_grid, gait, flight, push, over, loose = 0, 0.0, 0, 0.0, 0, 0.0, 0, 0
     for i in indices:
-        ok, t, m, fl, po, ov = trip_counts(x, i)
+        ok, t, m, fl, po, ov, un = trip_counts(x, i)
         push += po
         over += int(ov)
+        loose += int(un)
         rec += int(ok)
         rec_grid += int(ok and i < FLOOR_N)
         survived += t
         gait += m if ok else 0.0
         flight += fl if ok else 0
-    return rec, survived, rec_grid, gait, flight, push, over
+    return rec, survived, rec_grid, gait, flight, push, over, loose
 
 
-def evaluate(x: dict) -> tuple[int, float, int, float, int, float, int]:
+def evaluate(x: dict) -> tuple[int, float, int, float, int, float, int, int]:
     """``score_of`` over the grid: with ``--only lowering`` its lowering trips run and the
     others' ``FIXED`` score is added (the same figures as running them: they do not use
     the searched targets)."""
@@ -368,24 +391,25 @@ def fixed_part(base: dict, ex=None) -> tuple[list[int], tuple]:
     parts = ([ex.submit(score_of, base, rest[:half]), ex.submit(score_of, base, rest[half:])]
              if ex else None)
     a, b = ([q.result() for q in parts] if parts else
-            (score_of(base, rest), (0, 0.0, 0, 0.0, 0, 0.0, 0)))
+            (score_of(base, rest), (0, 0.0, 0, 0.0, 0, 0.0, 0, 0)))
     return active, tuple(p + q for p, q in zip(a, b, strict=True))
 
 
 def penalised(score: tuple) -> tuple[float, float]:
     """(recoveries less the grid floor's penalty plus ``GAIT_WEIGHT`` times the recovered
     trips' summed ``gait_bonus`` and ``FLIGHT_WEIGHT`` times their ``flight_score``, less
-    ``PUSH_WEIGHT`` times the summed ``push_off_excess`` and ``OVER_TILT_WEIGHT`` times
-    the walks on past ``MAX_TILT``; time survived): compared as a tuple; without
-    ``--grid-floor``, ``--walk-on-gait``, ``--flight``, ``--push-off`` and ``--over-tilt``
-    the plain (recoveries, time survived). ``BODIES_FLOOR`` penalises the body trips (those
+    ``PUSH_WEIGHT`` times the summed ``push_off_excess``, ``OVER_TILT_WEIGHT`` times
+    the walks on past ``MAX_TILT`` and ``UNSETTLED_WEIGHT`` times the ``unsettled`` walks
+    on; time survived): compared as a tuple; without ``--grid-floor``, ``--walk-on-gait``,
+    ``--flight``, ``--push-off``, ``--over-tilt`` and ``--unsettled`` the plain
+    (recoveries, time survived). ``BODIES_FLOOR`` penalises the body trips (those
     after the first 48) recovered below it as the grid floor does the grid's."""
-    rec, survived, rec_grid, gait, flight, push, over = score
+    rec, survived, rec_grid, gait, flight, push, over, loose = score
     short = 0 if GRID_FLOOR is None else max(0, GRID_FLOOR - rec_grid)
     if BODIES_FLOOR is not None:
         short += max(0, BODIES_FLOOR - (rec - rec_grid))
     return (rec - FLOOR_PENALTY * short + GAIT_WEIGHT * gait + FLIGHT_WEIGHT * flight
-            - PUSH_WEIGHT * push - OVER_TILT_WEIGHT * over, survived)
+            - PUSH_WEIGHT * push - OVER_TILT_WEIGHT * over - UNSETTLED_WEIGHT * loose, survived)
 
 
 def main() -> None:
@@ -476,6 +500,10 @@ def main() -> None:
                     help="with --max-tilt: the objective loses W per trip that walks on with "
                     "the trunk past DEG at recovery-foot contact (such a trip already does "
                     "not count as recovered; this also pushes the search away from it)")
+    ap.add_argument("--unsettled", type=float, default=None, metavar="W",
+                    help="with --walk-on: the objective loses W per recovered trip whose walk "
+                    "on never reaches a steady gait or turns more than "
+                    f"{HEADING_LIMIT_DEG:g} deg from the walk before")
     args = ap.parse_args()
     if args.trunk_attitude is not None and not (np.isfinite(args.trunk_attitude)
                                                 and args.trunk_attitude >= 0):
@@ -510,6 +538,9 @@ def main() -> None:
     if args.over_tilt is not None and (args.max_tilt is None or not (
             np.isfinite(args.over_tilt) and args.over_tilt > 0)):
         ap.error("--over-tilt needs --max-tilt DEG and a weight > 0")
+    if args.unsettled is not None and (args.walk_on is None or not (
+            np.isfinite(args.unsettled) and args.unsettled > 0)):
+        ap.error("--unsettled needs --walk-on S and a weight > 0")
     if args.walk_on_gait is not None and (args.walk_on is None or not (
             np.isfinite(args.walk_on_gait) and args.walk_on_gait > 0)):
         ap.error("--walk-on-gait needs --walk-on S and a weight > 0")
@@ -536,8 +567,8 @@ def main() -> None:
     SUP_KNEE_CAP, FLIGHT_FROM_FALL = sup_knee_cap, flight_from_fall
     KNEE_WEIGHT = 1.0 if args.push_off_knee is None else args.push_off_knee
     BODIES_FLOOR = args.bodies_floor
-    global OVER_TILT_WEIGHT
-    OVER_TILT_WEIGHT = args.over_tilt or 0.0
+    global OVER_TILT_WEIGHT, UNSETTLED_WEIGHT
+    OVER_TILT_WEIGHT, UNSETTLED_WEIGHT = args.over_tilt or 0.0, args.unsettled or 0.0
     GAIT_WEIGHT, FLIGHT_WEIGHT = args.walk_on_gait or 0.0, args.flight or 0.0
     REC_HIP_CAP, SUP_HIP_CAP, PUSH_WEIGHT = rec_hip_cap, sup_hip_cap, args.push_off or 0.0
     GRID = {"small": GRID, "full": FULL_GRID, "lowering": LOWERING_GRID,
@@ -605,7 +636,7 @@ def _init_args() -> tuple:
 def _worker_init(strength: str, grid: list, walk_on_s: float | None,
                  attitude_damping: str = "joint", trunk_attitude: float = 0.0,
                  max_tilt: float | None = None, active=None,
-                 fixed: tuple = (0, 0.0, 0, 0.0, 0, 0.0, 0), gait_weight: float = 0.0,
+                 fixed: tuple = (0, 0.0, 0, 0.0, 0, 0.0, 0, 0), gait_weight: float = 0.0,
                  flight_weight: float = 0.0, rec_hip_cap: float | None = None,
                  push_weight: float = 0.0, sup_hip_cap: float | None = None,
                  knee_weight: float = 1.0, sup_knee_cap: float | None = None,
@@ -626,7 +657,8 @@ def _gait(score: tuple) -> str:
     return ((f", gait {score[3]:.1f}" if GAIT_WEIGHT else "")
             + (f", flight {score[4]:+d}" if FLIGHT_WEIGHT else "")
             + (f", push-off excess {score[5]:.2f}" if PUSH_WEIGHT else "")
-            + (f", past the tilt {score[6]}" if OVER_TILT_WEIGHT else ""))
+            + (f", past the tilt {score[6]}" if OVER_TILT_WEIGHT else "")
+            + (f", unsettled {score[7]}" if UNSETTLED_WEIGHT else ""))
 
 
 def generations_path(out: str) -> str:

@@ -319,10 +319,11 @@ def test_tune_fsm_out_carries_its_settings_to_around_and_load_params(tmp_path, m
     monkeypatch.setattr(tune, "TRUNK_ATTITUDE", 0.4)
     monkeypatch.setattr(tune, "ATTITUDE_DAMPING", "pelvis")
     monkeypatch.setattr(tune, "REC_HIP_CAP", 60.0)
-    best = ({"kp_knee": 250.0, "elev_sup_ankle": -30.0}, (40, 100.0, 40, 0.0, 0, 0.0, 2))
+    best = ({"kp_knee": 250.0, "elev_sup_ankle": -30.0}, (40, 100.0, 40, 0.0, 0, 0.0, 2, 1))
     out = tmp_path / "best.json"
     rec = tune.out_record(best, 3, ["--trunk-attitude", "0.4"])
     assert rec["over_tilt"] == 2  # the walks on past --max-tilt, counted in the record
+    assert rec["unsettled"] == 1  # the walks on that never settle (--unsettled)
     out.write_text(json.dumps(rec, indent=1))
     # the search's file is a parameter file: the values and the trunk attitude it ran with
     p = load_params(out)
@@ -578,9 +579,9 @@ def test_tune_fsm_gait_mismatch_compares_the_walk_on_with_the_walk_before(monkey
     assert tune.gait_bonus(s) == 0.0  # 0.45 off: no bonus
     monkeypatch.setattr(tune, "GAIT_WEIGHT", 2.0)
     monkeypatch.setattr(tune, "GRID_FLOOR", None)
-    assert tune.penalised((40, 100.0, 40, 12.5, 0, 0.0, 0)) == pytest.approx((65.0, 100.0))
+    assert tune.penalised((40, 100.0, 40, 12.5, 0, 0.0, 0, 0)) == pytest.approx((65.0, 100.0))
     monkeypatch.setattr(tune, "GAIT_WEIGHT", 0.0)
-    assert tune.penalised((40, 100.0, 40, 12.0, 0, 0.0, 0)) == (40, 100.0)
+    assert tune.penalised((40, 100.0, 40, 12.0, 0, 0.0, 0, 0)) == (40, 100.0)
 
 
 def test_tune_fsm_flight_score_rewards_flight_where_people_fly(monkeypatch):
@@ -600,7 +601,7 @@ def test_tune_fsm_flight_score_rewards_flight_where_people_fly(monkeypatch):
     monkeypatch.setattr(tune, "GAIT_WEIGHT", 0.0)
     monkeypatch.setattr(tune, "GRID_FLOOR", None)
     monkeypatch.setattr(tune, "FLIGHT_WEIGHT", 0.5)
-    assert tune.penalised((40, 100.0, 40, 0.0, 4, 0.0, 0)) == pytest.approx((42.0, 100.0))
+    assert tune.penalised((40, 100.0, 40, 0.0, 4, 0.0, 0, 0)) == pytest.approx((42.0, 100.0))
 
 
 def test_tune_fsm_out_names_the_generation_that_found_its_best(tmp_path, monkeypatch):
@@ -612,7 +613,7 @@ def test_tune_fsm_out_names_the_generation_that_found_its_best(tmp_path, monkeyp
     calls = iter(range(100))
     # the start scores 10, generation 0's candidates 21-24, every later one less
     monkeypatch.setattr(tune, "evaluate", lambda x: (
-        (lambda n: (10 if n == 0 else 20 + n if n <= 4 else 5, 0.0, 0, 0.0, 0, 0.0, 0))(
+        (lambda n: (10 if n == 0 else 20 + n if n <= 4 else 5, 0.0, 0, 0.0, 0, 0.0, 0, 0))(
             next(calls))))
     monkeypatch.setattr(tune, "GRID", [(0.35, 1.2, "obstacle")])
     out = tmp_path / "best.json"
@@ -642,7 +643,7 @@ def test_tune_fsm_push_off_excess_measures_validates_nine_trips_against_pijnappe
     monkeypatch.setattr(tune, "GRID_FLOOR", None)
     monkeypatch.setattr(tune, "FLIGHT_WEIGHT", 0.0)
     monkeypatch.setattr(tune, "PUSH_WEIGHT", 2.0)
-    assert tune.penalised((40, 100.0, 40, 0.0, 0, 3.0, 0)) == pytest.approx((34.0, 100.0))
+    assert tune.penalised((40, 100.0, 40, 0.0, 0, 3.0, 0, 0)) == pytest.approx((34.0, 100.0))
 
 
 def test_tune_fsm_knee_weight_and_bodies_floor(monkeypatch):
@@ -656,11 +657,11 @@ def test_tune_fsm_knee_weight_and_bodies_floor(monkeypatch):
                         ("PUSH_WEIGHT", 0.0), ("BODIES_FLOOR", 87)):
         monkeypatch.setattr(tune, name, value)
     # 46 of the grid and 82 of the bodies: 5 body trips short of 87
-    assert tune.penalised((128, 800.0, 46, 0.0, 0, 0.0, 0)) == pytest.approx((118.0, 800.0))
+    assert tune.penalised((128, 800.0, 46, 0.0, 0, 0.0, 0, 0)) == pytest.approx((118.0, 800.0))
     # the grid short by one as well
-    assert tune.penalised((127, 800.0, 45, 0.0, 0, 0.0, 0)) == pytest.approx((115.0, 800.0))
+    assert tune.penalised((127, 800.0, 45, 0.0, 0, 0.0, 0, 0)) == pytest.approx((115.0, 800.0))
     monkeypatch.setattr(tune, "BODIES_FLOOR", None)
-    assert tune.penalised((128, 800.0, 46, 0.0, 0, 0.0, 0)) == pytest.approx((128.0, 800.0))
+    assert tune.penalised((128, 800.0, 46, 0.0, 0, 0.0, 0, 0)) == pytest.approx((128.0, 800.0))
 
 
 def test_tune_fsm_over_tilt_loses_the_walks_on_past_the_tilt(monkeypatch):
@@ -680,7 +681,27 @@ def test_tune_fsm_over_tilt_loses_the_walks_on_past_the_tilt(monkeypatch):
                         ("PUSH_WEIGHT", 0.0), ("BODIES_FLOOR", None),
                         ("OVER_TILT_WEIGHT", 3.0)):
         monkeypatch.setattr(tune, name, value)
-    assert tune.penalised((135, 800.0, 47, 0.0, 0, 0.0, 2)) == pytest.approx((129.0, 800.0))
+    assert tune.penalised((135, 800.0, 47, 0.0, 0, 0.0, 2, 0)) == pytest.approx((129.0, 800.0))
+
+
+def test_tune_fsm_unsettled_loses_the_walks_on_that_never_settle(monkeypatch):
+    """--unsettled W: a recovered trip whose walk on never reaches a steady gait, or turns
+    more than HEADING_LIMIT_DEG (20°) from the walk before, loses W (``unsettled``, the
+    score's eighth field); a settled walk on or a fall loses nothing."""
+    tune = _tune_fsm()
+    settled = {"recovered": True, "steps_to_steady_gait": 5, "walk_on_heading_deg": -15.3}
+    never = {**settled, "steps_to_steady_gait": None}
+    turned = {**settled, "walk_on_heading_deg": 40.7}
+    fell = {"recovered": False, "steps_to_steady_gait": None, "walk_on_heading_deg": None}
+    assert [tune.unsettled(s) for s in (settled, never, turned, fell)] == [
+        False, True, True, False]
+    for name, value in (("GAIT_WEIGHT", 0.0), ("GRID_FLOOR", None), ("FLIGHT_WEIGHT", 0.0),
+                        ("PUSH_WEIGHT", 0.0), ("BODIES_FLOOR", None),
+                        ("OVER_TILT_WEIGHT", 0.0), ("UNSETTLED_WEIGHT", 4.0)):
+        monkeypatch.setattr(tune, name, value)
+    assert tune.penalised((135, 800.0, 47, 0.0, 0, 0.0, 0, 2)) == pytest.approx((127.0, 800.0))
+    monkeypatch.setattr(tune, "UNSETTLED_WEIGHT", 0.0)
+    assert tune.penalised((135, 800.0, 47, 0.0, 0, 0.0, 0, 2)) == (135, 800.0)
 
 
 def test_walk_on_with_double_support_takes_longer_steps():
@@ -831,7 +852,7 @@ def test_scan_fsm_counts_walk_ons_and_flights_as_validate_does():
     """scripts/scan_fsm.py's figures of one value: trips walked on (and within 26°),
     the recovered window trips at 1.4 m/s that fly by strategy, flights at 1.0 m/s, the
     elevating flights' median recovery step, the lowering flights' trip to recovery
-    contact and the bodies walked on."""
+    contact, the bodies walked on and the walks on that never settle."""
     import importlib.util
     from pathlib import Path
 
@@ -841,15 +862,15 @@ def test_scan_fsm_counts_walk_ons_and_flights_as_validate_does():
     spec.loader.exec_module(scan)
 
     def row(f, v, strategy, variant, rec=True, tilt=20.0, step=0.6, body=(),
-            contact=None, mech="force", push=None):
+            contact=None, mech="force", push=None, loose=False):
         return {"swing": f, "speed": v, "mechanism": mech, "body": list(body),
                 "recovered": rec, "strategy": strategy, "variant": variant, "tilt": tilt,
                 "recovery_step_s": step, "trip_to_recovery_contact_s": contact,
-                "push_off_nm": push or {}}
+                "push_off_nm": push or {}, "unsettled": loose}
 
     rows = [row(0.15, 1.4, "elevating", "flight", step=0.58),
             row(0.25, 1.4, "elevating", "flight", step=0.62),
-            row(0.05, 1.4, "elevating", "double_support"),
+            row(0.05, 1.4, "elevating", "double_support", loose=True),
             row(0.35, 1.4, "elevating", "flight", step=0.9),  # outside the window
             row(0.65, 1.4, "lowering", "double_support", contact=0.5),
             row(0.75, 1.4, "lowering", "flight", contact=0.61),
@@ -870,6 +891,7 @@ def test_scan_fsm_counts_walk_ons_and_flights_as_validate_does():
     assert fig["bodies_walked_on"] == 1 and fig["bodies_of"] == 2
     assert fig["bodies_largest_tilt_deg"] == 22.0
     assert fig["bodies_within_26"] == 1
+    assert fig["grid_unsettled"] == 1 and fig["bodies_unsettled"] == 0
     past = row(0.35, 1.2, "elevating", "double_support", tilt=27.0, body=(1.9, 90.0, "male"))
     more = scan.figures(-5.0, [*rows, past])
     assert more["bodies_walked_on"] == 2 and more["bodies_within_26"] == 1
