@@ -19,7 +19,7 @@ grid (force and obstacle, swing 0.05-0.75, 1.0/1.2/1.4 m/s) walking on 6 s after
   ``stumble validate`` reads it: peak hip extension, knee flexion and ankle plantarflexion
   in the first 300 ms, medians in N·m; Pijnappels et al. 2005: 52, 54 and 204);
 - the walks on that never settle (``tune_fsm.unsettled``: no steady gait within the 6 s,
-  or a heading more than 20° from the walk before);
+  or a heading more than ``tune_fsm.HEADING_LIMIT_DEG`` from the walk before);
 - with ``--bodies``, the six bodies' 96 trips at 1.2 m/s walked on (issue 11: at least
   90 %), those within 26°, the largest trunk tilt at recovery-foot contact among them,
   and their walks on that never settle.

@@ -32,10 +32,10 @@ loses 2 per body trip recovered below N, as ``--grid-floor`` does for the grid's
 ``--over-tilt W`` (with ``--max-tilt DEG``): the objective loses W per trip that walks
 on with the trunk past DEG at recovery-foot contact (such a trip already does not count
 as recovered; the term pushes the search away from it too).
-``--unsettled W`` (with ``--walk-on S``): the objective loses W per recovered trip whose
-walk on never settles (``unsettled``: no steady gait in the time budget, or a heading
-more than ``HEADING_LIMIT_DEG`` from the walk before; issue 11: the person "settles into
-a steady gait").
+``--unsettled W`` (with ``--walk-on S``): the objective loses W per trip that walks on
+(within ``--max-tilt`` or not) and never settles (``unsettled``: no steady gait in the
+time budget, or a heading more than ``HEADING_LIMIT_DEG`` from the walk before; issue
+11: the person "settles into a steady gait").
 ``--flight-from-fall``: every candidate enters Flight when its support foot leaves the
 floor in Fall (``FSMParams.flight_from_fall``, written to the ``--out`` file's settings);
 ``--flight-targets`` searches both Flight tables' targets too (``ELEV_FLIGHT`` and the
@@ -242,9 +242,10 @@ PUSH_WEIGHT = 0.0  # --push-off W: the objective loses W × push_off_excess of e
 KNEE_WEIGHT = 1.0  # --push-off-knee K: the knee's term of push_off_excess counts K times
 BODIES_FLOOR = None  # --bodies-floor N: 2 lost per body trip recovered below N
 OVER_TILT_WEIGHT = 0.0  # --over-tilt W: W lost per trip walking on past MAX_TILT
-UNSETTLED_WEIGHT = 0.0  # --unsettled W: W lost per recovered trip whose walk on is unsettled
+UNSETTLED_WEIGHT = 0.0  # --unsettled W: W lost per trip walking on that never settles
 # a walk on heading further than this from the walk before has not settled (--unsettled);
-# our choice: the default set's 47 grid walks on turn at most 16.1° (2026-12-07)
+# our choice: the default set's 47 grid walks on turn at most 16.1° (2026-12-07); two of
+# its 90 body walks on turn 23.8° and 24.1°, so it scores 2 unsettled over full+bodies
 HEADING_LIMIT_DEG = 20.0
 
 
@@ -265,13 +266,14 @@ def over_tilt(s: dict) -> bool:
 
 
 def unsettled(s: dict) -> bool:
-    """Whether a recovered trip's walk on never settles: no steady gait within the time
-    budget (``steps_to_steady_gait`` None) or a heading more than ``HEADING_LIMIT_DEG``
-    from the walk before (``walk_on_heading_deg``)."""
-    if not s["recovered"]:
+    """Whether a trip that walks on (``recovered`` under the walk-on rule, whatever its
+    tilt) never settles: no steady gait within the time budget (``steps_to_steady_gait``
+    None) or a heading more than ``HEADING_LIMIT_DEG`` from the walk before
+    (``walk_on_heading_deg``). False for a fall and under the 1 s rule (no walk on)."""
+    if not s["recovered"] or s.get("recovery") != "walk_on":
         return False
-    heading = s.get("walk_on_heading_deg")
-    return bool(s.get("steps_to_steady_gait") is None
+    heading = s["walk_on_heading_deg"]
+    return bool(s["steps_to_steady_gait"] is None
                 or (heading is not None and abs(heading) > HEADING_LIMIT_DEG))
 
 
@@ -501,8 +503,8 @@ def main() -> None:
                     "the trunk past DEG at recovery-foot contact (such a trip already does "
                     "not count as recovered; this also pushes the search away from it)")
     ap.add_argument("--unsettled", type=float, default=None, metavar="W",
-                    help="with --walk-on: the objective loses W per recovered trip whose walk "
-                    "on never reaches a steady gait or turns more than "
+                    help="with --walk-on: the objective loses W per trip that walks on and "
+                    "never reaches a steady gait or turns more than "
                     f"{HEADING_LIMIT_DEG:g} deg from the walk before")
     args = ap.parse_args()
     if args.trunk_attitude is not None and not (np.isfinite(args.trunk_attitude)
@@ -652,8 +654,8 @@ def _worker_init(strength: str, grid: list, walk_on_s: float | None,
 
 
 def _gait(score: tuple) -> str:
-    """The recovered trips' summed gait bonus and flight score, for the log (with
-    --walk-on-gait, --flight)."""
+    """The recovered trips' summed gait bonus and flight score, the push-off excess, the
+    walks on past the tilt and those unsettled, for the log (each with its option)."""
     return ((f", gait {score[3]:.1f}" if GAIT_WEIGHT else "")
             + (f", flight {score[4]:+d}" if FLIGHT_WEIGHT else "")
             + (f", push-off excess {score[5]:.2f}" if PUSH_WEIGHT else "")

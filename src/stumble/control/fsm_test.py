@@ -687,14 +687,25 @@ def test_tune_fsm_over_tilt_loses_the_walks_on_past_the_tilt(monkeypatch):
 def test_tune_fsm_unsettled_loses_the_walks_on_that_never_settle(monkeypatch):
     """--unsettled W: a recovered trip whose walk on never reaches a steady gait, or turns
     more than HEADING_LIMIT_DEG (20°) from the walk before, loses W (``unsettled``, the
-    score's eighth field); a settled walk on or a fall loses nothing."""
+    score's eighth field, where ``score_of`` puts it); a settled walk on, a fall or a
+    recovery under the 1 s rule (no walk on) loses nothing."""
     tune = _tune_fsm()
-    settled = {"recovered": True, "steps_to_steady_gait": 5, "walk_on_heading_deg": -15.3}
+    settled = {"recovered": True, "recovery": "walk_on", "steps_to_steady_gait": 5,
+               "walk_on_heading_deg": -15.3}
     never = {**settled, "steps_to_steady_gait": None}
     turned = {**settled, "walk_on_heading_deg": 40.7}
-    fell = {"recovered": False, "steps_to_steady_gait": None, "walk_on_heading_deg": None}
-    assert [tune.unsettled(s) for s in (settled, never, turned, fell)] == [
-        False, True, True, False]
+    turned_right = {**settled, "walk_on_heading_deg": -40.7}
+    at_limit = {**settled, "walk_on_heading_deg": 20.0}
+    fell = {**never, "recovered": False, "walk_on_heading_deg": None}
+    step_rule = {**never, "recovery": "step", "walk_on_heading_deg": None}
+    assert [tune.unsettled(s) for s in (settled, never, turned, turned_right, at_limit,
+                                        fell, step_rule)] == [
+        False, True, True, True, False, False, False]
+    # score_of: the walks on past the tilt in the seventh field, the unsettled in the eighth
+    outcomes = [(True, 6.0, 0.5, 0, 0.0, False, True), (True, 6.0, 0.5, 0, 0.0, True, False),
+                (True, 6.0, 0.5, 0, 0.0, False, True)]
+    monkeypatch.setattr(tune, "trip_counts", lambda x, i: outcomes[i])
+    assert tune.score_of({}, range(3))[6:] == (1, 2)
     for name, value in (("GAIT_WEIGHT", 0.0), ("GRID_FLOOR", None), ("FLIGHT_WEIGHT", 0.0),
                         ("PUSH_WEIGHT", 0.0), ("BODIES_FLOOR", None),
                         ("OVER_TILT_WEIGHT", 0.0), ("UNSETTLED_WEIGHT", 4.0)):
@@ -877,7 +888,7 @@ def test_scan_fsm_counts_walk_ons_and_flights_as_validate_does():
             row(0.55, 1.4, "lowering", "flight", rec=False, contact=0.4),  # fell: not counted
             row(0.15, 1.0, "elevating", "flight", tilt=27.0),
             row(0.15, 1.2, "elevating", "double_support", tilt=22.0,
-                body=(1.5, 45.0, "female")),
+                body=(1.5, 45.0, "female"), loose=True),
             row(0.25, 1.2, "elevating", "double_support", rec=False, tilt=40.0,
                 body=(1.5, 45.0, "female")),  # a fall's tilt is not a recovery's
             # a force trip in the push-off's swing window: not one of validate's nine
@@ -891,7 +902,7 @@ def test_scan_fsm_counts_walk_ons_and_flights_as_validate_does():
     assert fig["bodies_walked_on"] == 1 and fig["bodies_of"] == 2
     assert fig["bodies_largest_tilt_deg"] == 22.0
     assert fig["bodies_within_26"] == 1
-    assert fig["grid_unsettled"] == 1 and fig["bodies_unsettled"] == 0
+    assert fig["grid_unsettled"] == 1 and fig["bodies_unsettled"] == 1
     past = row(0.35, 1.2, "elevating", "double_support", tilt=27.0, body=(1.9, 90.0, "male"))
     more = scan.figures(-5.0, [*rows, past])
     assert more["bodies_walked_on"] == 2 and more["bodies_within_26"] == 1
