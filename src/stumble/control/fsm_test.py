@@ -685,10 +685,10 @@ def test_tune_fsm_over_tilt_loses_the_walks_on_past_the_tilt(monkeypatch):
 
 
 def test_tune_fsm_unsettled_loses_the_walks_on_that_never_settle(monkeypatch):
-    """--unsettled W: a recovered trip whose walk on never reaches a steady gait, or turns
-    more than HEADING_LIMIT_DEG (20°) from the walk before, loses W (``unsettled``, the
-    score's eighth field, where ``score_of`` puts it); a settled walk on, a fall or a
-    recovery under the 1 s rule (no walk on) loses nothing."""
+    """--unsettled W: a trip that walks on (within the tilt or not) and never reaches a
+    steady gait, or turns more than HEADING_LIMIT_DEG (20°) from the walk before, loses W
+    (``unsettled``, the score's eighth field, where ``score_of`` puts it); a settled walk
+    on, a fall or a recovery under the 1 s rule (no walk on) loses nothing."""
     tune = _tune_fsm()
     settled = {"recovered": True, "recovery": "walk_on", "steps_to_steady_gait": 5,
                "walk_on_heading_deg": -15.3}
