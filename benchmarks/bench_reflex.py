@@ -13,14 +13,16 @@ times the whole ``sim.run`` loop and a bare loop that replays the recorded contr
 the same model from the same state after the controller's start, doing nothing else
 (``mj_step`` per control row): the physical limit of this engine for that motion. CPU
 time of this process, best of N, so that other work on the machine matters less.
-With ``--parts`` it prints instead where a block's time goes, for the network's CASE 1
-trip and 10 s walk and Geyer & Herr's: wall time per block (µs, over all blocks) of the
-network's blocks run natively (``ReflexController.run_blocks``: several blocks, the
-physics included, in one compiled call), and of the blocks run one by one: the
-controller's update and its one compiled call in it (``kernels.net_update`` /
-``gh_update``), its sensing (``observe``), the physics block (``sim._Stepper.advance``);
-then the recording (``_Buffers.extend``), the stop rule, and the whole loop (each part
-timed around its call, which adds about a microsecond a call).
+With ``--broad-phase`` it prints instead the bare replay of 10 s walks on the model as
+built against its twin whose floor contacts go through MuJoCo's broad phase
+(``broad_phase``). With ``--parts`` it prints instead where a block's time goes, for the
+network's CASE 1 trip and 10 s walk and Geyer & Herr's: wall time per block (µs, over
+all blocks) of the network's blocks run natively (``ReflexController.run_blocks``:
+several blocks, the physics included, in one compiled call), and of the blocks run one
+by one: the controller's update and its one compiled call in it (``kernels.net_update``
+/ ``gh_update``), its sensing (``observe``), the physics block
+(``sim._Stepper.advance``); then the recording (``_Buffers.extend``), the stop rule, and
+the whole loop (each part timed around its call, which adds about a microsecond a call).
 Prints per run: steps (of 1 or 2 ms: the network runs at 2 ms by default since
 2026-12-04, at 1 ms for comparison; the default GH2010 set was fitted at 2 ms),
 simulated seconds, µs per step of each, their ratio (the
@@ -47,9 +49,9 @@ def _logged(*a, **k):
     return sim_run(*a, **k)
 
 
-def replay_cpu_s(result, rec=None) -> float:
+def replay_cpu_s(result, rec=None, end_qpos: list | None = None) -> float:
     """CPU seconds of a bare loop replaying the recorded controls (of ``rec``, default the
-    result's recording)."""
+    result's recording); appends the end state's ``qpos`` to ``end_qpos`` if given."""
     rec, m = rec or result.recording, result.body.model
     d = mujoco.MjData(m)
     mujoco.mj_setState(m, d, rec.initial_state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
@@ -62,7 +64,10 @@ def replay_cpu_s(result, rec=None) -> float:
         for k in range(end - first):
             d.ctrl[:] = rows[min(k, len(rows) - 1)]
             mujoco.mj_step(m, d)
-    return time.process_time() - t0
+    took = time.process_time() - t0
+    if end_qpos is not None:
+        end_qpos.append(d.qpos.copy())
+    return took
 
 
 def measure(label: str, make, repeats: int, whole: bool = False) -> None:
@@ -164,14 +169,50 @@ def parts() -> None:
         setter(owner, name, f)
 
 
+def broad_phase(repeats: int) -> None:
+    """The bare replay of 10 s walks on the model as built (the feet's and segments'
+    collisions with the floor as explicit pairs) and on its twin that leaves them to
+    MuJoCo's broad phase (``compile_body(world_pairs=False)``): µs per step, best of N,
+    the two alternating; the end states must agree to the bit."""
+    import dataclasses
+    import sys
+
+    compile_body = sys.modules["stumble.body.build"].compile_body
+    pipeline.run = _logged
+    for kind, kw in (("network", {"speed_m_per_s": 1.2}), ("gh2010", {})):
+        result = pipeline.simulate_walk(kind, 10.0, **kw)
+        b = result.body
+        twin = compile_body(b.planar, b.height_m, b.mass_kg, b.sex, b.contact,
+                            float(b.model.opt.timestep), actuation="muscles",
+                            muscle_set=b.muscle_set, world_pairs=False)
+        masks = dataclasses.replace(result, body=twin)
+        best = {"pairs": float("inf"), "broad phase": float("inf")}
+        ends: list = []
+        for _ in range(repeats):
+            for key, res in (("pairs", result), ("broad phase", masks)):
+                best[key] = min(best[key], replay_cpu_s(res, end_qpos=ends))
+        if not all(np.array_equal(e, ends[0]) for e in ends):
+            raise SystemExit(f"{kind}: the two models' end states differ")
+        steps = result.recording.steps
+        print(f"10 s walk ({kind}), {steps} steps of {1e3 * b.model.opt.timestep:g} ms: "
+              + ", ".join(f"{k} {1e6 * v / steps:5.2f} us/step" for k, v in best.items())
+              + f"; the pairs take {best['pairs'] / best['broad phase']:.3f} of the time")
+    pipeline.run = sim_run
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--parts", action="store_true",
                     help="where a block's time goes (see the module docstring)")
+    ap.add_argument("--broad-phase", action="store_true",
+                    help="the bare replay with the floor's contacts as explicit pairs "
+                         "(as built) against MuJoCo's broad phase (see broad_phase)")
     args = ap.parse_args()
     if args.parts:
         return parts()
+    if args.broad_phase:
+        return broad_phase(max(args.repeats, 5))
     print("CPU time of this process, best of", args.repeats, "(the run includes building "
           "the body and the walk's set-up; the walk before is cached)")
     sc = Scenario(controller="reflex", start="playback", mechanism="obstacle", swing_fraction=0.13,

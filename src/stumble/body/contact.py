@@ -210,14 +210,18 @@ def add_foot(spec: mujoco.MjSpec, foot, toes, side: str, mode: str, heel_x: floa
 
 def configure(model: mujoco.MjModel, weights: np.ndarray | None = None) -> None:
     """Calibrate every floor-sphere pair of a compiled model to the SCA 2009 §4.2 law:
-    pair i carries ``weights[i]`` reference points' stiffness and damping (default 1)."""
+    the i-th such pair (in the model's order) carries ``weights[i]`` reference points'
+    stiffness and damping (default 1). The model's other pairs (segments and feet with
+    the floor and obstacle, ``build._world_pairs``) keep MuJoCo's own contact law."""
     d = IMPEDANCE
-    w = np.ones(model.npair) if weights is None else np.asarray(weights, dtype=float)
-    if w.shape != (model.npair,):
-        raise ValueError(f"{len(w)} contact weights for {model.npair} pairs")
-    for i in range(model.npair):
+    spheres = [i for i in range(model.npair)
+               if model.geom_type[model.pair_geom2[i]] == mujoco.mjtGeom.mjGEOM_SPHERE]
+    w = np.ones(len(spheres)) if weights is None else np.asarray(weights, dtype=float)
+    if w.shape != (len(spheres),):
+        raise ValueError(f"{len(w)} contact weights for {len(spheres)} sole pairs")
+    for j, i in enumerate(spheres):
         a = float(model.body_invweight0[model.geom_bodyid[model.pair_geom2[i]], 0])
-        k, c = STIFFNESS_N_PER_M * w[i], DAMPING_NS_PER_M * w[i]
+        k, c = STIFFNESS_N_PER_M * w[j], DAMPING_NS_PER_M * w[j]
         model.pair_solimp[i] = (d, d, 0.001, 0.5, 2.0)
         model.pair_solref[i] = (-k * (1 - d) * a, -c * (1 - d) * a)
         model.pair_solreffriction[i] = (0.0, -STICK_RATE_PER_S * d)  # direct: B = -s1/d

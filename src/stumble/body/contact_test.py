@@ -67,13 +67,18 @@ def test_each_foot_has_96_points_on_foot_and_toes():
     m = body.model
     on_toes = sum(m.site_bodyid[m.site(n).id] == m.body("toes_r").id for n in body.foot_points["r"])
     assert 0 < on_toes < 96
-    assert m.npair == 192  # one floor pair per point sphere
+    assert _sole_pairs(m) == 192  # one floor pair per point sphere
+
+
+def _sole_pairs(m) -> int:
+    """The floor-sphere pairs (the model's other pairs: segments with the floor)."""
+    return int((m.geom_type[m.pair_geom2] == mujoco.mjtGeom.mjGEOM_SPHERE).sum())
 
 
 def test_lumped_is_the_default_and_has_few_pairs():
     assert build().contact == "lumped"
-    assert build().model.npair == 24  # 3D: 2 × 3 along × 2 across per foot segment
-    assert build(planar=True).model.npair == 32  # planar: one row of 16 per foot
+    assert _sole_pairs(build().model) == 24  # 3D: 2 × 3 along × 2 across per foot segment
+    assert _sole_pairs(build(planar=True).model) == 32  # planar: one row of 16 per foot
 
 
 def _moments(x: np.ndarray, w: np.ndarray) -> tuple[float, float, float]:
@@ -175,9 +180,10 @@ def test_points_hold_the_feet_under_a_push(contact):
 def test_soft_mode_has_boxes_that_touch_the_floor():
     body = build(contact="soft")
     m = body.model
-    g = m.geom("foot_r_geom").id
-    assert m.geom_conaffinity[g] & m.geom_contype[m.geom("floor").id]
-    assert m.npair == 0
+    g, floor = m.geom("foot_r_geom").id, m.geom("floor").id
+    # no sole spheres: the boxes meet the floor through a pair of their own
+    assert not (m.geom_type[m.pair_geom2] == mujoco.mjtGeom.mjGEOM_SPHERE).any()
+    assert m.pair("floor_foot_r_geom").geom1 == floor and m.pair("floor_foot_r_geom").geom2 == g
     d = mujoco.MjData(m)
     mujoco.mj_forward(m, d)
     d.qpos[2] -= 0.01
