@@ -205,3 +205,26 @@ def test_lumped_feet_carry_the_reference_ground_force_through_a_trip():
         a, b = (r.foot_force[:n, side] for r in recs)
         assert np.corrcoef(a, b)[0, 1] >= 0.95
         assert abs(a.max() - b.max()) <= 0.1 * b.max()
+
+
+def test_planar_markers_share_a_site_across_and_keep_x_and_z_to_the_bit():
+    """Planar ``lumped``: 22 sole sites a foot stand for the 96 points; every point's x
+    and z match the full grid's (``points`` mode) to the bit in any pose."""
+    from stumble.body.sensors import CORNER_SITES
+
+    lean, full = build(planar=True), build(planar=True, contact="points")
+    assert lean.model.nsite == 2 * 22 + 1 and full.model.nsite == 2 * 96 + 1
+    rng = np.random.default_rng(3)
+    d_lean, d_full = mujoco.MjData(lean.model), mujoco.MjData(full.model)
+    for _ in range(20):
+        q = rng.uniform(-0.6, 0.6, lean.model.nq)
+        for b, d in ((lean, d_lean), (full, d_full)):
+            d.qpos[:] = q
+            mujoco.mj_kinematics(b.model, d)
+        for side in ("r", "l"):
+            ids = [[b.model.site(n).id for n in b.foot_points[side]] for b in (lean, full)]
+            a, f = d_lean.site_xpos[ids[0]], d_full.site_xpos[ids[1]]
+            assert np.array_equal(a[:, [0, 2]], f[:, [0, 2]])
+            own = sorted(CORNER_SITES + tuple(range(90, 96)))  # their y is read too
+            assert np.array_equal(a[own], f[own])
+            assert not np.array_equal(a[:, 1], f[:, 1])  # shared: the others' y is not

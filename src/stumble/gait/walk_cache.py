@@ -7,7 +7,7 @@ key is a SHA-256 of everything the kinematics depend on: the body's model family
 height, mass and sex, the speed and duration, and the code and data that compute it (the
 source of ``stumble.gait`` and ``stumble.body``, the reference gait, the versions of
 stumble, MuJoCo and NumPy). The foot-contact mode, time step and muscles do not enter:
-the sole sites and segment lengths are the same in every mode. Files are written
+the sole points and segment lengths are the same in every mode. Files are written
 atomically (a temporary file, then a rename), so parallel workers never read half a
 file; an unreadable file is recomputed and replaced.
 
