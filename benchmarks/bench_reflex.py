@@ -175,9 +175,9 @@ def broad_phase(repeats: int) -> None:
     MuJoCo's broad phase (``compile_body(world_pairs=False)``): µs per step, best of N,
     the two alternating; the end states must agree to the bit."""
     import dataclasses
-    import sys
 
-    compile_body = sys.modules["stumble.body.build"].compile_body
+    from stumble.body.build import compile_body
+
     pipeline.run = _logged
     for kind, kw in (("network", {"speed_m_per_s": 1.2}), ("gh2010", {})):
         result = pipeline.simulate_walk(kind, 10.0, **kw)
@@ -212,7 +212,7 @@ def main() -> None:
     if args.parts:
         return parts()
     if args.broad_phase:
-        return broad_phase(max(args.repeats, 5))
+        return broad_phase(args.repeats)
     print("CPU time of this process, best of", args.repeats, "(the run includes building "
           "the body and the walk's set-up; the walk before is cached)")
     sc = Scenario(controller="reflex", start="playback", mechanism="obstacle", swing_fraction=0.13,

@@ -449,7 +449,14 @@ def check_clear_of_stance(body: Body, qpos: np.ndarray, side: str, box) -> None:
     """InputError if the obstacle's footprint would overlap the stance foot."""
     m = body.model
     d = posed(m, qpos)
-    pts = d.site_xpos[[m.site(n).id for n in body.foot_points[side]], :2]
+    ids = [m.site(n).id for n in body.foot_points[side]]
+    pts = d.site_xpos[ids, :2].copy()
+    if body.planar:  # a column's points may share a site (contact.MARKERS_PLANAR): their
+        # y across is the toe row's, the same in every column of the planar foot to the bit
+        from stumble.body.contact import POINTS_ACROSS
+
+        across = d.site_xpos[ids[-POINTS_ACROSS:], 1]
+        pts[:, 1] = np.tile(across, len(ids) // len(across))
     x0, _h, depth, width, y0 = box
     inside = ((pts[:, 0] > x0) & (pts[:, 0] < x0 + depth)
               & (np.abs(pts[:, 1] - y0) < 0.5 * width))

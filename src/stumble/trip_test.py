@@ -182,3 +182,38 @@ def test_a_seed_perturbs_joints_alone_and_the_same_seed_the_same_way():
     assert np.array_equal(v1[va], rng.normal(0.0, SEED_VELOCITY_SD_RAD_S, 36))
     assert SEED_ANGLE_SD_RAD == pytest.approx(np.radians(0.5)) and SEED_VELOCITY_SD_RAD_S == 0.05
     assert np.array_equal(q1, state(7)[0]) and not np.array_equal(q1, state(8)[0])
+
+
+def test_obstacle_under_the_stance_foot_is_found_with_shared_planar_markers():
+    """``check_clear_of_stance`` on the planar model: the same verdict for boxes across
+    the stance foot with shared sole markers (``lumped``) as with the full grid
+    (``points``), narrow boxes between the grid's rows among them."""
+    import mujoco
+
+    from stumble.body import build
+    from stumble.errors import TripNotSet
+    from stumble.trip import check_clear_of_stance
+
+    lean, full = build(planar=True), build(planar=True, contact="points")
+    q = np.zeros(lean.model.nq)
+    q[1] = 0.93  # standing height, both feet flat
+    m = lean.model
+    d = mujoco.MjData(m)
+    d.qpos[:] = q
+    mujoco.mj_kinematics(m, d)
+    x_foot, y_foot = d.xpos[m.body("foot_l").id, :2]
+    verdicts = []
+    for dy in np.linspace(-0.06, 0.06, 25):  # lanes from beside the foot to across it
+        # 1 cm wide, over the heel and mid-foot (the toe row, whose points are all
+        # sites, out of it)
+        box = (x_foot - 0.15, 0.1, 0.2, 0.01, y_foot + dy)
+        got = []
+        for body in (lean, full):
+            try:
+                check_clear_of_stance(body, q, "l", box)
+                got.append(False)
+            except TripNotSet:
+                got.append(True)
+        assert got[0] == got[1], dy
+        verdicts.append(got[0])
+    assert any(verdicts) and not all(verdicts)  # both verdicts were tested

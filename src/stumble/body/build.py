@@ -422,47 +422,68 @@ def _bodies(body) -> list:
     return out
 
 
+def _welded_to_world(s: mujoco.MjSpec, body) -> bool:
+    """Whether no joint lies between a spec's body and the world (MuJoCo does not collide
+    such a body with the world's geoms)."""
+    while body is not s.worldbody:
+        if body.joints:
+            return False
+        body = body.parent
+    return True
+
+
 def _world_pairs(s: mujoco.MjSpec) -> None:
     """Turn each collision of a world geom (the floor, an obstacle) with a body's geom
     that the bit masks allow into an explicit pair, then clear every bit mask.
 
     Why (ours, for speed): the segments only ever touch the world's geoms, but while
     their masks let them collide MuJoCo's broad phase bounds and sorts every body every
-    step. Pairs skip it: the planar model's walking step (2 ms) takes about 7 % less,
-    23.2 → 21.5 µs (``benchmarks/bench_reflex.py --broad-phase``).
+    step. With pairs it only frames the geoms: the planar model's walking step (2 ms)
+    takes about 7 % less (``benchmarks/bench_reflex.py --broad-phase``).
     The contacts are the same, to the bit, in the same order: body by body (pairs are
     sorted by body pair when compiled, keeping the order added within one, so a foot's
     sole pairs come first, as MuJoCo takes predefined pairs before the broad phase's),
     within a body by (geom of the lower type, the other) as MuJoCo sorts a body pair's
     contacts, and with the parameters MuJoCo mixes for two geoms (``mj_contactParam``:
-    condim and friction the larger; solref and solimp, equal for every geom here, as
-    they are). ``build_test`` steps both models through a fall onto an obstacle and
+    condim and friction the larger; solref and solimp mixed, exact only for equal
+    values and weights, which are required here). ``build_test`` steps both models
+    through falls and an obstacle under a standing foot, in every contact mode, and
     compares every contact and state.
     """
-    world = [g for g in s.worldbody.geoms if g.contype or g.conaffinity]
-    for body in _bodies(s.worldbody)[1:]:
+    bodies = _bodies(s.worldbody)
+    masked = [(b, g) for b in bodies for g in b.geoms if g.contype or g.conaffinity]
+    for i, (b1, g1) in enumerate(masked):  # only the world's geoms may meet a body's
+        for b2, g2 in masked[i + 1:]:
+            if (b1 is not s.worldbody and b2 is not b1
+                    and (g1.contype & g2.conaffinity or g2.contype & g1.conaffinity)):
+                raise ValueError(f"geoms {g1.name} and {g2.name}: bodies that collide with "
+                                 "each other, which _world_pairs does not turn into pairs")
+    world = [g for b, g in masked if b is s.worldbody]
+    for body in bodies[1:]:
         pairs = []
         for gb in body.geoms:
             for gw in world:
                 if not (gw.contype & gb.conaffinity or gb.contype & gw.conaffinity):
                     continue
-                if (gw.priority != gb.priority or list(gw.solref) != list(gb.solref)
+                if (gw.priority != gb.priority or gw.solmix != gb.solmix
+                        or list(gw.solref) != list(gb.solref)
                         or list(gw.solimp) != list(gb.solimp) or gw.margin or gb.margin
-                        or gw.gap or gb.gap):
-                    raise ValueError(f"pair {gw.name}/{gb.name}: parameters MuJoCo would "
-                                     "mix, which an explicit pair does not copy")
+                        or gw.gap or gb.gap or _welded_to_world(s, body)):
+                    raise ValueError(f"pair {gw.name}/{gb.name}: a body welded to the world "
+                                     "or parameters MuJoCo would mix, which an explicit "
+                                     "pair does not copy")
                 fr = [max(a, b) for a, b in zip(gw.friction, gb.friction, strict=True)]
                 # geom ids, as compiled, rise in these ranks (the world's geoms first)
                 rw, rb = (0, world.index(gw)), (1, body.geoms.index(gb))
-                pairs.append(((rw, rb) if int(gw.type) <= int(gb.type) else (rb, rw), gw, gb, fr))
+                low_first = int(gw.type) <= int(gb.type)
+                pairs.append(((rw, rb) if low_first else (rb, rw), gw, gb, fr))
         for _key, gw, gb, fr in sorted(pairs, key=lambda p: p[0]):
             p = s.add_pair(name=f"{gw.name}_{gb.name}", geomname1=gw.name,
                            geomname2=gb.name, condim=max(gw.condim, gb.condim))
             p.friction = [fr[0], fr[0], fr[1], fr[2], fr[2]]
             p.solref, p.solimp = list(gw.solref), list(gw.solimp)
-    for body in _bodies(s.worldbody):
-        for g in body.geoms:
-            g.contype, g.conaffinity = 0, 0
+    for _body, g in masked:
+        g.contype, g.conaffinity = 0, 0
 
 
 def _Layout_spec(planar: bool, timestep_s: float) -> mujoco.MjSpec:

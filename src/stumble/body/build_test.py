@@ -114,28 +114,38 @@ def test_build_keeps_compiled_models_but_hands_out_copies():
         build(height_m=-1.0)
 
 
-@pytest.mark.parametrize("planar", [True, False])
-def test_world_pairs_give_the_broad_phase_contacts_bit_for_bit(planar):
-    """A body falling face down across an obstacle: the explicit pairs (the default) and
-    MuJoCo's broad phase over the bit masks make the same contacts, in the same order,
-    with the same parameters, and the same motion to the bit."""
-    import sys
+FALL = (0.3, 0.1, 0.05, 1.0, 0.0)  # a wide box ahead: the body falls face down across it
+UNDER_FOOT = (0.12, 0.03, 0.05, 0.14, -0.0851)  # a low box under the right forefoot
 
-    compile_body = sys.modules["stumble.body.build"].compile_body
-    kw = dict(planar=planar, obstacle=(0.3, 0.1, 0.05, 1.0, 0.0),
+
+@pytest.mark.parametrize(("planar", "contact"), [(True, "lumped"), (True, "points"),
+                                                 (True, "soft"), (False, "lumped"),
+                                                 (False, "soft")])  # 3D points: slow
+@pytest.mark.parametrize("scene", ["fall", "under_foot"])
+def test_world_pairs_give_the_broad_phase_contacts_bit_for_bit(planar, contact, scene):
+    """The explicit pairs (the default) and MuJoCo's broad phase over the bit masks make
+    the same contacts, in the same order, with the same parameters, and the same motion
+    to the bit: a body falling face down across an obstacle, and one standing with a
+    forefoot on a low box (the foot's sole and box against the floor and the box in one
+    step)."""
+    from stumble.body.build import compile_body
+
+    kw = dict(planar=planar, contact=contact, obstacle=FALL if scene == "fall" else UNDER_FOOT,
               **({"actuation": "muscles"} if planar else {}))
     pairs, masks = compile_body(**kw).model, compile_body(**kw, world_pairs=False).model
     assert pairs.npair > masks.npair and not pairs.geom_conaffinity.any()
     datas = [mujoco.MjData(m) for m in (pairs, masks)]
-    for m, d in zip((pairs, masks), datas, strict=True):
-        d.qpos[m.joint("pelvis_tx" if planar else "pelvis").qposadr[0]] += 0.2
-        pitch = "pelvis_tilt" if planar else None
-        if pitch:
-            d.qpos[m.joint(pitch).qposadr[0]] = -0.9  # leaning far forward: a fall
-        else:
-            d.qpos[3:7] = (np.cos(0.45), 0.0, np.sin(0.45), 0.0)
-    seen = set()
-    for _ in range(1500):
+    if scene == "fall":
+        for m, d in zip((pairs, masks), datas, strict=True):
+            d.qpos[m.joint("pelvis_tx" if planar else "pelvis").qposadr[0]] += 0.2
+            if planar:
+                d.qpos[m.joint("pelvis_tilt").qposadr[0]] = -0.9  # far forward: a fall
+            else:
+                d.qpos[3:7] = (np.cos(0.45), 0.0, np.sin(0.45), 0.0)
+    seen, both = set(), False
+    foot, floor, box = (pairs.body("foot_r").id, pairs.geom("floor").id,
+                        pairs.geom("obstacle").id)
+    for _ in range(1500 if scene == "fall" else 400):
         for m, d in zip((pairs, masks), datas, strict=True):
             mujoco.mj_step(m, d)
         a, b = datas
@@ -143,7 +153,12 @@ def test_world_pairs_give_the_broad_phase_contacts_bit_for_bit(planar):
         for field in ("geom", "pos", "frame", "dist", "dim", "friction", "solref",
                       "solimp", "solreffriction", "includemargin"):
             assert np.array_equal(getattr(a.contact, field), getattr(b.contact, field)), field
-        seen |= {pairs.geom(g).name for g in a.contact.geom.ravel()}
+        geoms = a.contact.geom
+        seen |= set(geoms.ravel().tolist())
+        on_foot = geoms[(pairs.geom_bodyid[geoms] == foot).any(axis=1)]
+        both |= bool((on_foot == floor).any() and (on_foot == box).any())
     assert np.array_equal(a.qpos, b.qpos) and np.array_equal(a.qvel, b.qvel)
-    # the fall touched the floor and the obstacle with segments, not only the soles
-    assert {"floor", "obstacle", "torso_geom"} <= seen, seen
+    if scene == "fall":  # segments touched the floor and the obstacle, not only the soles
+        assert {floor, box, pairs.geom("torso_geom").id} <= seen, seen
+    else:  # the right foot on the floor and on the box at once
+        assert both, seen

@@ -42,7 +42,7 @@ gait events), and the foot boxes collide with obstacles. On the planar model in 
 ``lumped`` and ``soft`` modes, where no force acts at them, the six points across a
 column share one site (``MARKERS_PLANAR``): in the sagittal plane they have the same x
 and z to the bit, and MuJoCo poses every site every step (about 6 % of the planar
-step's time for the 150 sites saved).
+step's time for the 148 sites saved).
 """
 
 from __future__ import annotations
@@ -163,15 +163,16 @@ def lumped_grid(heel_x: float, foot_len: float, foot_w: float, mtp_x: float | No
 def add_foot(spec: mujoco.MjSpec, foot, toes, side: str, mode: str, heel_x: float,
              mtp: np.ndarray, foot_len: float, foot_w: float, ankle_h: float,
              ) -> tuple[list[str], list[float]]:
-    """Add the sole of one foot: two boxes, 96 sites and the contact spheres of the mode.
+    """Add the sole of one foot: its boxes (one on the planar model, hind foot and toes
+    in 3D), its 96 points' sites and the contact spheres of the mode.
 
-    Returns the names of the 96 sole points' sites (planar ``lumped`` and ``soft``: 22
-    sites, the other points naming their column's first, ``MARKERS_PLANAR``) and, per
-    floor pair added (in order), the
-    number of reference points its sphere stands for (``points``: 1 each; ``lumped``: see
-    ``lumped_grid``; ``penalty``/``soft``: none). Sphere ``sole_r_07`` (``points``) has
-    geom ``sole_r_07_geom`` and pair ``sole_r_07_floor``; ``lumped`` spheres are
-    ``lump_r_03_geom``. ``toes`` is None for the planar model (toes lumped into the foot).
+    Returns the names of the 96 points' sites (planar ``lumped`` and ``soft``: 22 sites,
+    the other points naming their column's first, ``MARKERS_PLANAR``) and, per floor
+    pair added (in order), the number of reference points its sphere stands for
+    (``points``: 1 each; ``lumped``: see ``lumped_grid``; ``penalty``/``soft``: none).
+    Sphere ``sole_r_07`` (``points``) has geom ``sole_r_07_geom`` and pair
+    ``sole_r_07_floor``; ``lumped`` spheres are ``lump_r_03_geom``. ``toes`` is None for
+    the planar model (toes lumped into the foot).
     """
     from stumble.body.build import FOOT_OBSTACLE, FOOT_RGBA, SEGMENT
 

@@ -71,7 +71,8 @@ def test_each_foot_has_96_points_on_foot_and_toes():
 
 
 def _sole_pairs(m) -> int:
-    """The floor-sphere pairs (the model's other pairs: segments with the floor)."""
+    """The floor-sphere pairs (the model's other pairs: segments and foot boxes with the
+    floor and obstacle)."""
     return int((m.geom_type[m.pair_geom2] == mujoco.mjtGeom.mjGEOM_SPHERE).sum())
 
 
@@ -207,12 +208,13 @@ def test_lumped_feet_carry_the_reference_ground_force_through_a_trip():
         assert abs(a.max() - b.max()) <= 0.1 * b.max()
 
 
-def test_planar_markers_share_a_site_across_and_keep_x_and_z_to_the_bit():
-    """Planar ``lumped``: 22 sole sites a foot stand for the 96 points; every point's x
-    and z match the full grid's (``points`` mode) to the bit in any pose."""
+@pytest.mark.parametrize("contact", ["lumped", "soft"])
+def test_planar_markers_share_a_site_across_and_keep_x_and_z_to_the_bit(contact):
+    """Planar ``lumped`` and ``soft``: 22 sole sites a foot stand for the 96 points; every
+    point's x and z match the full grid's (``points`` mode) to the bit in any pose."""
     from stumble.body.sensors import CORNER_SITES
 
-    lean, full = build(planar=True), build(planar=True, contact="points")
+    lean, full = build(planar=True, contact=contact), build(planar=True, contact="points")
     assert lean.model.nsite == 2 * 22 + 1 and full.model.nsite == 2 * 96 + 1
     rng = np.random.default_rng(3)
     d_lean, d_full = mujoco.MjData(lean.model), mujoco.MjData(full.model)

@@ -30,7 +30,7 @@ import numpy as np
 
 SIDES = ("r", "l")
 LEG_JOINTS = ("hip_flexion", "knee_angle", "ankle_angle")
-# sole corners among the 96 reference sites (16 along × 6 across, heel first)
+# sole corners among the 96 reference points (16 along × 6 across, heel first)
 CORNER_SITES = (0, 5, 90, 95)
 
 
