@@ -185,9 +185,9 @@ def test_a_seed_perturbs_joints_alone_and_the_same_seed_the_same_way():
 
 
 def test_obstacle_under_the_stance_foot_is_found_with_shared_planar_markers():
-    """``check_clear_of_stance`` on the planar model: the same verdict for boxes across
-    the stance foot with shared sole markers (``lumped``) as with the full grid
-    (``points``), narrow boxes between the grid's rows among them."""
+    """``check_clear_of_stance`` on the planar model with shared sole markers
+    (``lumped``): the verdict the full grid's own 96 sites give (``points``) for boxes
+    narrow across and along the stance foot, between its rows and columns."""
     import mujoco
 
     from stumble.body import build
@@ -195,25 +195,22 @@ def test_obstacle_under_the_stance_foot_is_found_with_shared_planar_markers():
     from stumble.trip import check_clear_of_stance
 
     lean, full = build(planar=True), build(planar=True, contact="points")
-    q = np.zeros(lean.model.nq)
-    q[1] = 0.93  # standing height, both feet flat
-    m = lean.model
-    d = mujoco.MjData(m)
+    q = np.zeros(lean.model.nq)  # the zero pose stands both feet on the floor
+    d = mujoco.MjData(full.model)
     d.qpos[:] = q
-    mujoco.mj_kinematics(m, d)
-    x_foot, y_foot = d.xpos[m.body("foot_l").id, :2]
+    mujoco.mj_kinematics(full.model, d)
+    pts = d.site_xpos[[full.model.site(n).id for n in full.foot_points["l"]], :2]
     verdicts = []
-    for dy in np.linspace(-0.06, 0.06, 25):  # lanes from beside the foot to across it
-        # 1 cm wide, over the heel and mid-foot (the toe row, whose points are all
-        # sites, out of it)
-        box = (x_foot - 0.15, 0.1, 0.2, 0.01, y_foot + dy)
-        got = []
-        for body in (lean, full):
+    for x0 in np.linspace(pts[:, 0].min() - 0.01, pts[:, 0].max() - 0.01, 9):
+        for y0 in np.linspace(pts[:, 1].min() - 0.01, pts[:, 1].max() + 0.01, 9):
+            box = (x0, 0.1, 0.02, 0.01, y0)  # 2 cm along, 1 cm across
+            want = bool(((pts[:, 0] > x0) & (pts[:, 0] < x0 + 0.02)
+                         & (np.abs(pts[:, 1] - y0) < 0.005)).any())
             try:
-                check_clear_of_stance(body, q, "l", box)
-                got.append(False)
+                check_clear_of_stance(lean, q, "l", box)
+                got = False
             except TripNotSet:
-                got.append(True)
-        assert got[0] == got[1], dy
-        verdicts.append(got[0])
+                got = True
+            assert got == want, (x0, y0)
+            verdicts.append(got)
     assert any(verdicts) and not all(verdicts)  # both verdicts were tested

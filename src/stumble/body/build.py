@@ -447,8 +447,9 @@ def _world_pairs(s: mujoco.MjSpec) -> None:
     contacts, and with the parameters MuJoCo mixes for two geoms (``mj_contactParam``:
     condim and friction the larger; solref and solimp mixed, exact only for equal
     values and weights, which are required here). ``build_test`` steps both models
-    through falls and an obstacle under a standing foot, in every contact mode, and
-    compares every contact and state.
+    through falls and an obstacle under a standing foot (``lumped`` and ``soft``, planar
+    and 3D; planar ``points``) and compares every contact and state. The guards are
+    stricter than MuJoCo (they ignore its weld, parent and exclude filters).
     """
     bodies = _bodies(s.worldbody)
     masked = [(b, g) for b in bodies for g in b.geoms if g.contype or g.conaffinity]

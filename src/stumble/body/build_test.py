@@ -162,3 +162,36 @@ def test_world_pairs_give_the_broad_phase_contacts_bit_for_bit(planar, contact, 
         assert {floor, box, pairs.geom("torso_geom").id} <= seen, seen
     else:  # the right foot on the floor and on the box at once
         assert both, seen
+
+
+def test_world_pairs_refuse_what_an_explicit_pair_cannot_copy():
+    """``_world_pairs`` raises for geoms MuJoCo would mix inexactly, bodies that collide
+    with each other and a body welded to the world; a jointed body's floor pair copies
+    the larger friction."""
+    import mujoco
+
+    from stumble.body.build import _world_pairs
+
+    def spec(solmix=1.0, body_masks=False, joint=True):
+        s = mujoco.MjSpec()
+        floor = s.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE,
+                                     size=[1, 1, 0.1])
+        floor.contype, floor.conaffinity = 1, 0
+        for name in ("a", "b"):
+            b = s.worldbody.add_body(name=name, pos=[0, 0, 1])
+            if joint:
+                b.add_freejoint()
+            g = b.add_geom(name=f"{name}_geom", size=[0.1, 0, 0])
+            g.contype, g.conaffinity = (1 if body_masks else 0), 1
+            g.solmix, g.friction = solmix if name == "b" else 1.0, [1.2, 0.005, 0.0001]
+        return s
+
+    s = spec()
+    _world_pairs(s)
+    m = s.compile()
+    assert m.npair == 2 and not m.geom_conaffinity.any()
+    assert m.pair_friction[0, 0] == 1.2  # the larger of the floor's 1 and the geom's
+    for bad, word in ((spec(solmix=2.0), "mix"), (spec(body_masks=True), "each other"),
+                      (spec(joint=False), "welded")):
+        with pytest.raises(ValueError, match=word):
+            _world_pairs(bad)

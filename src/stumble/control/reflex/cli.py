@@ -393,7 +393,8 @@ def add_reflex_parser(sub, parser_class=argparse.ArgumentParser) -> None:
                     "default: five fits from the paper's gains, about 16-32 min on 2 "
                     "workers) or network (e.g. past-support, the default: thirteen fits "
                     "from the paper's gains through its expert and DAgger, about "
-                    "65-110 min; 66.5 re-run on an Intel Xeon)")
+                    "66-73 min on 2 workers: 66.5 on an Intel Xeon, 2026-12-07; 73.0 "
+                    "on an AMD EPYC before that day's faster physics step)")
     rp.add_argument("--out", required=True, type=out_dir_arg, metavar="DIR",
                     help="output directory")
     rp.add_argument("--from", dest="start_after", metavar="NAME",
