@@ -195,3 +195,55 @@ def test_world_pairs_refuse_what_an_explicit_pair_cannot_copy():
                       (spec(joint=False), "welded")):
         with pytest.raises(ValueError, match=word):
             _world_pairs(bad)
+
+
+def test_world_pairs_order_a_body_of_mixed_geom_types_as_mujoco_does():
+    """A body with a capsule and a box landing on a world box: the pairs (ordered within
+    the body by the geom of the lower type, as MuJoCo sorts) and the broad phase make the
+    same contacts, in the same order, and the same motion."""
+    import mujoco
+
+    from stumble.body.build import _world_pairs
+
+    def spec():
+        s = mujoco.MjSpec()
+        for name, typ, size, pos in (("floor", mujoco.mjtGeom.mjGEOM_PLANE, [2, 2, 0.1],
+                                      [0, 0, 0]),
+                                     ("box", mujoco.mjtGeom.mjGEOM_BOX, [0.5, 0.5, 0.1],
+                                      [0, 0, 0.1])):
+            g = s.worldbody.add_geom(name=name, type=typ, size=size, pos=pos)
+            g.contype, g.conaffinity = 1, 0
+        b = s.worldbody.add_body(name="b", pos=[0, 0, 0.3], euler=[0, 0.05, 0])
+        b.add_freejoint()
+        for name, typ, size, pos in (("b_cap", mujoco.mjtGeom.mjGEOM_CAPSULE, [0.04, 0.1, 0],
+                                      [-0.05, 0, 0]),
+                                     ("b_box", mujoco.mjtGeom.mjGEOM_BOX, [0.05, 0.05, 0.05],
+                                      [0.1, 0, 0])):
+            g = b.add_geom(name=name, type=typ, size=size, pos=pos)
+            g.contype, g.conaffinity = 0, 1
+        return s
+
+    s = spec()
+    _world_pairs(s)
+    pairs, masks = s.compile(), spec().compile()
+    names = [(pairs.geom(pairs.pair_geom1[i]).name, pairs.geom(pairs.pair_geom2[i]).name)
+             for i in range(pairs.npair)]
+    # geom ids: floor 0, box 1, b_cap 2, b_box 3. MuJoCo sorts a body pair's contacts by
+    # (the geom of the lower type, the other): (0, 2), (0, 3), (1, 3) for box/b_box, and
+    # (2, 1) for b_cap/box, a capsule's type being below a box's; world geom first would
+    # put box/b_cap before box/b_box
+    assert names == [("floor", "b_cap"), ("floor", "b_box"), ("box", "b_box"),
+                     ("box", "b_cap")]
+    datas = [mujoco.MjData(m) for m in (pairs, masks)]
+    together = False
+    for _ in range(300):
+        for m, d in zip((pairs, masks), datas, strict=True):
+            mujoco.mj_step(m, d)
+        a, b = datas
+        assert a.ncon == b.ncon
+        for field in ("geom", "pos", "frame", "dist", "dim", "friction"):
+            assert np.array_equal(getattr(a.contact, field), getattr(b.contact, field)), field
+        kinds = {tuple(g) for g in a.contact.geom.tolist()}
+        together |= {(1, 3), (2, 1)} <= kinds  # both geoms on the world's box at once
+    assert np.array_equal(a.qpos, b.qpos)
+    assert together
