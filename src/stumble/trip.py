@@ -449,14 +449,9 @@ def check_clear_of_stance(body: Body, qpos: np.ndarray, side: str, box) -> None:
     """InputError if the obstacle's footprint would overlap the stance foot."""
     m = body.model
     d = posed(m, qpos)
-    ids = [m.site(n).id for n in body.foot_points[side]]
-    pts = d.site_xpos[ids, :2].copy()
-    if body.planar:  # a column's points may share a site (contact.MARKERS_PLANAR): their
-        # y across is the toe row's, the same in every column of the planar foot to the bit
-        from stumble.body.contact import POINTS_ACROSS
+    from stumble.body.contact import sole_positions  # (``Scenario`` alone stays light)
 
-        across = d.site_xpos[ids[-POINTS_ACROSS:], 1]
-        pts[:, 1] = np.tile(across, len(ids) // len(across))
+    pts = sole_positions(m, d, body.foot_points[side], body.planar)[:, :2]
     x0, _h, depth, width, y0 = box
     inside = ((pts[:, 0] > x0) & (pts[:, 0] < x0 + depth)
               & (np.abs(pts[:, 1] - y0) < 0.5 * width))

@@ -461,7 +461,7 @@ def _world_pairs(s: mujoco.MjSpec) -> None:
                                  "each other, which _world_pairs does not turn into pairs")
     world = [g for b, g in masked if b is s.worldbody]
     for body in bodies[1:]:
-        pairs = []
+        pairs, welded = [], _welded_to_world(s, body)
         for gb in body.geoms:
             for gw in world:
                 if not (gw.contype & gb.conaffinity or gb.contype & gw.conaffinity):
@@ -469,7 +469,7 @@ def _world_pairs(s: mujoco.MjSpec) -> None:
                 if (gw.priority != gb.priority or gw.solmix != gb.solmix
                         or list(gw.solref) != list(gb.solref)
                         or list(gw.solimp) != list(gb.solimp) or gw.margin or gb.margin
-                        or gw.gap or gb.gap or _welded_to_world(s, body)):
+                        or gw.gap or gb.gap or welded):
                     raise ValueError(f"pair {gw.name}/{gb.name}: a body welded to the world "
                                      "or parameters MuJoCo would mix, which an explicit "
                                      "pair does not copy")

@@ -229,6 +229,19 @@ def add_foot(spec: mujoco.MjSpec, foot, toes, side: str, mode: str, heel_x: floa
     return names, weights
 
 
+def sole_positions(model: mujoco.MjModel, data: mujoco.MjData, names: list[str],
+                   planar: bool) -> np.ndarray:
+    """World positions (96, 3), m, of one foot's sole points (``names``: its
+    ``Body.foot_points``) in ``data``'s pose; on the planar model a point whose column
+    shares a site (``MARKERS_PLANAR``) takes its y across from the toe row's own site,
+    the same in every column of the planar foot to the bit."""
+    ids = [model.site(n).id for n in names]
+    pts = data.site_xpos[ids].copy()
+    if planar:
+        pts[:, 1] = np.tile(pts[-POINTS_ACROSS:, 1], len(ids) // POINTS_ACROSS)
+    return pts
+
+
 def configure(model: mujoco.MjModel, weights: np.ndarray | None = None) -> None:
     """Calibrate every floor-sphere pair of a compiled model to the SCA 2009 §4.2 law:
     the i-th such pair (in the model's order) carries ``weights[i]`` reference points'
